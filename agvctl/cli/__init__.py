@@ -1,0 +1,74 @@
+"""The ``agvctl`` command line: a thin layer over the Python API.
+
+Each subcommand lives in its own module with ``register(subparsers)`` adding its parser and setting
+``func=run``, where ``run(args) -> int`` calls the public API and prints. Exit codes: 0 success, 1 a failed
+check, 2 bad input (one line on stderr naming the file and key; no traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import NoReturn
+
+from agvctl import __version__
+from agvctl.errors import AgvctlError, ConfigError
+
+__all__ = ["main"]
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class _UsageError(Exception):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line and exit code 2 (no usage dump)."""
+
+    def error(self, message: str) -> NoReturn:
+        raise _UsageError(f"{self.prog}: {message}")
+
+
+def add_vehicle_options(parser: argparse.ArgumentParser) -> None:
+    """``--vehicle FILE`` and repeatable ``--set KEY=VALUE``, shared by every command that takes a vehicle."""
+    parser.add_argument("--vehicle", metavar="FILE", default=None, help="vehicle TOML (default: the report's IAU AGV)")
+    parser.add_argument(
+        "--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
+        help="override one vehicle value by its dotted key, e.g. wheels.radius_right_m=0.101 (repeatable)",
+    )
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from agvctl.cli import params_cmd, simulate_cmd
+
+    parser = _Parser(prog="agvctl", description="Control design and trajectory planning for the IAU AGV.")
+    parser.add_argument("--version", action="version", version=f"agvctl {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for module in (params_cmd, simulate_cmd):
+        module.register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI with ``argv`` (default ``sys.argv[1:]``) and return the exit code."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        if not getattr(args, "func", None):
+            parser.print_help()
+            return EXIT_BAD_INPUT
+        return int(args.func(args))
+    except _UsageError as exc:
+        print(f"{exc} (see --help)", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except ConfigError as exc:
+        print(f"agvctl: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except AgvctlError as exc:
+        print(f"agvctl: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    except KeyboardInterrupt:
+        print("agvctl: interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,315 @@
+"""Strict loading of TOML files into frozen dataclasses, with one-line errors.
+
+The public file formats (vehicles, trajectories, experiments) are all read through :func:`build`: unknown keys
+are rejected with a "did you mean", missing keys and wrong types are named, numbers are checked for the bounds a
+field declares with :func:`number`. Every problem raises :class:`~agvctl.errors.ConfigError` whose message is
+``"<file>: <key.path>: <problem>"``.
+
+We use plain dataclasses rather than pydantic: the schemas are small, the runtime dependencies are fixed by the
+project, and the loader gives exactly the one-line messages the CLI promises.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+import tomllib
+import types
+import typing
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any, Literal, TypeVar, Union, get_args, get_origin, get_type_hints
+
+from agvctl.errors import ConfigError
+
+T = TypeVar("T")
+
+__all__ = [
+    "apply_overrides",
+    "build",
+    "dump_toml",
+    "load_toml",
+    "number",
+    "parse_override",
+    "to_dict",
+]
+
+
+def number(
+    *,
+    gt: float | None = None,
+    ge: float | None = None,
+    le: float | None = None,
+    default: Any = dataclasses.MISSING,
+    doc: str = "",
+) -> Any:
+    """A dataclass field holding a finite number with optional bounds (``gt``: strictly greater, ``ge``, ``le``)."""
+    metadata = {"gt": gt, "ge": ge, "le": le, "doc": doc}
+    if default is dataclasses.MISSING:
+        return dataclasses.field(metadata=metadata)
+    return dataclasses.field(default=default, metadata=metadata)
+
+
+def load_toml(path: str | Path) -> dict[str, Any]:
+    """Read a TOML file; an unreadable or malformed file raises a one-line :class:`ConfigError`."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(str(path), "", "file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(str(path), "", f"cannot read: {exc}") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(str(path), "", f"malformed TOML: {exc}") from None
+
+
+def parse_override(text: str, source: str = "--set") -> tuple[str, Any]:
+    """Split ``"a.b.c=VALUE"`` into the dotted key and a TOML-typed value (bare words become strings)."""
+    key, sep, value_text = text.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise ConfigError(source, text, "expected KEY=VALUE, e.g. wheels.radius_right_m=0.101")
+    value_text = value_text.strip()
+    try:
+        value = tomllib.loads(f"v = {value_text}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = value_text
+    return key, value
+
+
+def apply_overrides(
+    raw: Mapping[str, Any], overrides: Iterable[tuple[str, Any]], schema: type, source: str = "--set"
+) -> dict[str, Any]:
+    """Return a deep copy of ``raw`` with each dotted ``key = value`` set; keys are checked against ``schema``."""
+    result = _deep_copy(raw)
+    for key, value in overrides:
+        parts = key.split(".")
+        _check_path(schema, parts, source, key)
+        node = result
+        for part in parts[:-1]:
+            child = node.get(part)
+            if not isinstance(child, dict):
+                child = {}
+                node[part] = child
+            node = child
+        node[parts[-1]] = value
+    return result
+
+
+def _deep_copy(raw: Mapping[str, Any]) -> dict[str, Any]:
+    return {k: _deep_copy(v) if isinstance(v, Mapping) else v for k, v in raw.items()}
+
+
+def _check_path(schema: type, parts: list[str], source: str, key: str) -> None:
+    cls: Any = schema
+    for depth, part in enumerate(parts):
+        if not (isinstance(cls, type) and dataclasses.is_dataclass(cls)):
+            raise ConfigError(source, key, f"'{'.'.join(parts[:depth])}' is a value, not a table")
+        names = _file_keys(cls)
+        if part not in names:
+            raise ConfigError(source, key, "unknown key" + _did_you_mean(part, names, parts[:depth]))
+        cls = names[part]
+    if isinstance(cls, type) and dataclasses.is_dataclass(cls):
+        raise ConfigError(source, key, "is a table; set one of its keys")
+
+
+def _file_keys(cls: type) -> dict[str, Any]:
+    """Map of the keys a dataclass accepts in a file to their types (``file_key`` metadata renames a field)."""
+    hints = get_type_hints(cls)
+    keys: dict[str, Any] = {}
+    for f in dataclasses.fields(cls):
+        if f.metadata.get("derived"):
+            continue
+        keys[f.metadata.get("file_key", f.name)] = hints[f.name]
+    extra = getattr(cls, "__extra_file_keys__", None)
+    if extra:
+        keys.update(extra())
+    return keys
+
+
+def _did_you_mean(word: str, choices: Iterable[str], prefix: list[str]) -> str:
+    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+    if not close:
+        return ""
+    return f" (did you mean {'.'.join([*prefix, close[0]])}?)"
+
+
+def build(cls: type[T], data: Any, *, source: str, prefix: str = "") -> T:
+    """Build dataclass ``cls`` from the mapping ``data`` strictly; errors name ``source`` and the dotted key."""
+    value = _convert(cls, data, source, prefix)
+    return typing.cast(T, value)
+
+
+def _join(prefix: str, key: str) -> str:
+    return f"{prefix}.{key}" if prefix else key
+
+
+def _type_name(tp: Any) -> str:
+    if tp is float:
+        return "a number"
+    if tp is int:
+        return "an integer"
+    if tp is str:
+        return "a string"
+    if tp is bool:
+        return "true or false"
+    if dataclasses.is_dataclass(tp):
+        return "a table"
+    return str(tp)
+
+
+def _describe(value: Any) -> str:
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return "an array"
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, str):
+        return f"the string {value!r}"
+    return repr(value)
+
+
+def _convert(tp: Any, value: Any, source: str, key: str, meta: Mapping[str, Any] | None = None) -> Any:
+    origin = get_origin(tp)
+    if origin in (Union, types.UnionType):
+        args = [a for a in get_args(tp) if a is not type(None)]
+        if value is None:
+            return None
+        last: ConfigError | None = None
+        for arg in args:
+            try:
+                return _convert(arg, value, source, key, meta)
+            except ConfigError as exc:
+                last = exc
+        assert last is not None
+        raise last
+    if origin is Literal:
+        choices = get_args(tp)
+        if value not in choices:
+            raise ConfigError(source, key, f"must be one of {', '.join(repr(c) for c in choices)} (got {_describe(value)})")
+        return value
+    if origin in (tuple, list):
+        (item_tp, *_rest) = get_args(tp)
+        if not isinstance(value, list):
+            raise ConfigError(source, key, f"expected an array (got {_describe(value)})")
+        items = [_convert(item_tp, v, source, f"{key}[{i}]") for i, v in enumerate(value)]
+        return tuple(items) if origin is tuple else items
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
+        if not isinstance(value, Mapping):
+            raise ConfigError(source, key, f"expected a table (got {_describe(value)})")
+        return _build_dataclass(tp, value, source, key)
+    if tp is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(source, key, f"expected a number (got {_describe(value)})")
+        value = float(value)
+        if not math.isfinite(value):
+            raise ConfigError(source, key, f"must be finite (got {value})")
+        _check_bounds(value, meta, source, key)
+        return value
+    if tp is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(source, key, f"expected an integer (got {_describe(value)})")
+        _check_bounds(value, meta, source, key)
+        return value
+    if tp is str:
+        if not isinstance(value, str):
+            raise ConfigError(source, key, f"expected a string (got {_describe(value)})")
+        return value
+    if tp is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(source, key, f"expected true or false (got {_describe(value)})")
+        return value
+    if tp is Any:
+        return value
+    raise TypeError(f"config: unsupported field type {tp!r} at {key}")  # a programming error, not user input
+
+
+def _check_bounds(value: float, meta: Mapping[str, Any] | None, source: str, key: str) -> None:
+    if not meta:
+        return
+    gt, ge, le = meta.get("gt"), meta.get("ge"), meta.get("le")
+    if gt is not None and not value > gt:
+        raise ConfigError(source, key, f"must be > {gt:g} (got {value:g})")
+    if ge is not None and not value >= ge:
+        raise ConfigError(source, key, f"must be >= {ge:g} (got {value:g})")
+    if le is not None and not value <= le:
+        raise ConfigError(source, key, f"must be <= {le:g} (got {value:g})")
+
+
+def _build_dataclass(cls: type, data: Mapping[str, Any], source: str, prefix: str) -> Any:
+    pre = getattr(cls, "__from_file__", None)
+    if pre is not None:
+        return pre(data, source=source, prefix=prefix)
+    hints = get_type_hints(cls)
+    fields = {f.metadata.get("file_key", f.name): f for f in dataclasses.fields(cls) if not f.metadata.get("derived")}
+    for k in data:
+        if k not in fields:
+            raise ConfigError(source, _join(prefix, k), "unknown key" + _did_you_mean(k, fields, prefix.split(".") if prefix else []))
+    kwargs: dict[str, Any] = {}
+    for file_key, f in fields.items():
+        key = _join(prefix, file_key)
+        if file_key in data:
+            kwargs[f.name] = _convert(hints[f.name], data[file_key], source, key, f.metadata)
+        elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+            raise ConfigError(source, key, "missing key")
+    obj = cls(**kwargs)
+    check = getattr(obj, "validate", None)
+    if check is not None:
+        check(source=source, prefix=prefix)
+    return obj
+
+
+def to_dict(obj: Any) -> Any:
+    """The nested plain-data form of a config dataclass (keys as in the file), for JSON and TOML output."""
+    to_file = getattr(obj, "__to_file__", None)
+    if to_file is not None:
+        return to_file()
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        out: dict[str, Any] = {}
+        for f in dataclasses.fields(obj):
+            if f.metadata.get("derived"):
+                continue
+            value = getattr(obj, f.name)
+            if value is None:
+                continue
+            out[f.metadata.get("file_key", f.name)] = to_dict(value)
+        return out
+    if isinstance(obj, (list, tuple)):
+        return [to_dict(v) for v in obj]
+    return obj
+
+
+def dump_toml(data: Mapping[str, Any], header: str = "") -> str:
+    """Write nested plain data as TOML (scalars first, then sub-tables), numbers at full precision."""
+    lines: list[str] = [f"# {line}" if line else "#" for line in header.splitlines()]
+
+    def scalar(v: Any) -> str:
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, float):
+            return repr(v)
+        if isinstance(v, int):
+            return str(v)
+        if isinstance(v, str):
+            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(scalar(x) for x in v) + "]"
+        raise TypeError(f"cannot write {v!r} to TOML")
+
+    def table(prefix: str, d: Mapping[str, Any]) -> None:
+        plain = [(k, v) for k, v in d.items() if not isinstance(v, Mapping)]
+        subs = [(k, v) for k, v in d.items() if isinstance(v, Mapping)]
+        if prefix:
+            lines.append("")
+            lines.append(f"[{prefix}]")
+        for k, v in plain:
+            lines.append(f"{k} = {scalar(v)}")
+        for k, v in subs:
+            table(_join(prefix, k), v)
+
+    table("", data)
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,460 @@
+"""Vehicle parameters (the report's appendix A) and the constants derived from them.
+
+A vehicle file is TOML with the tables ``frame``, ``battery``, ``body``, ``wheels``, ``motor`` (with optional
+``motor.left`` / ``motor.right`` overrides), ``amplifier``, ``da``, ``friction_model`` and ``control``; see
+``agvctl/vehicles/iau_agv.toml``. :func:`load_vehicle` reads one (or the default), applies ``--set`` style
+overrides and returns a frozen :class:`VehicleParams`. :func:`derive` computes every derived constant, each
+from the report's equation it names.
+
+Units are SI throughout and are part of every key's name.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from agvctl.config import _convert, _did_you_mean, _join, apply_overrides, build, load_toml, number, parse_override
+from agvctl.errors import ConfigError
+
+__all__ = [
+    "AmplifierParams",
+    "BatteryParams",
+    "BodyParams",
+    "ControlParams",
+    "DAParams",
+    "DerivedConstants",
+    "FrameParams",
+    "FrictionModelParams",
+    "MotorPair",
+    "MotorParams",
+    "VehicleParams",
+    "WheelParams",
+    "center_of_mass_from_scales",
+    "default_vehicle_path",
+    "derive",
+    "inertia_from_dimensions",
+    "load_vehicle",
+]
+
+InertiaAbout = Literal["rotation_point", "center_of_mass"]
+Num = Any  # a float or a CasADi symbol: the equations below serve both
+
+
+@dataclass(frozen=True)
+class FrameParams:
+    """The vehicle frame (appendix A, "Frame dimensions")."""
+
+    length_m: float = number(gt=0)
+    width_m: float = number(gt=0)
+    height_m: float = number(gt=0)
+    mass_kg: float = number(gt=0)
+    front_to_rotation_point_m: float = number(ge=0, doc="d_of (l_of in eq 64)")
+    wheel_axis_to_castor_m: float = number(gt=0, doc="d_wc (eq 63)")
+
+
+@dataclass(frozen=True)
+class BatteryParams:
+    """The battery block, centred over the point of rotation (appendix A.1)."""
+
+    length_m: float = number(gt=0)
+    width_m: float = number(gt=0)
+    height_m: float = number(gt=0)
+    mass_kg: float = number(gt=0)
+
+
+@dataclass(frozen=True)
+class BodyParams:
+    """Total mass M, moment of inertia I and centre of mass h behind the wheel axle."""
+
+    mass_kg: float = number(gt=0)
+    inertia_kg_m2: float = number(gt=0)
+    com_behind_axle_m: float = number()
+    inertia_about: InertiaAbout = "rotation_point"
+
+
+@dataclass(frozen=True)
+class WheelParams:
+    """Driving wheels: separation b and the two radii r_l, r_r."""
+
+    separation_m: float = number(gt=0)
+    radius_left_m: float = number(gt=0)
+    radius_right_m: float = number(gt=0)
+
+
+@dataclass(frozen=True)
+class MotorParams:
+    """One armature-controlled DC motor with its gear (eqs 1-4, appendix A "Actuator characteristics")."""
+
+    inertia_kg_m2: float = number(gt=0, doc="J")
+    resistance_ohm: float = number(gt=0, doc="R")
+    voltage_constant_v_s_rad: float = number(gt=0, doc="k_e")
+    torque_constant_n_m_a: float = number(gt=0, doc="k_t")
+    viscous_friction_n_m_s_rad: float = number(ge=0, doc="f_m")
+    coulomb_friction_n_m: float = number(ge=0, doc="tau_c")
+    stiction_n_m: float = number(ge=0, doc="tau_s, the break-away torque")
+    gear_ratio: float = number(gt=0, doc="N")
+
+    def validate(self, *, source: str, prefix: str) -> None:
+        if self.coulomb_friction_n_m > self.stiction_n_m:
+            raise ConfigError(
+                source,
+                _join(prefix, "coulomb_friction_n_m"),
+                f"Coulomb friction {self.coulomb_friction_n_m:g} N m exceeds stiction {self.stiction_n_m:g} N m; "
+                "the break-away torque must be at least the sliding friction",
+            )
+
+
+_MOTOR_KEYS = tuple(f.name for f in dataclasses.fields(MotorParams))
+
+
+@dataclass(frozen=True)
+class MotorPair:
+    """The left and right motors. In a file, ``[motor]`` holds the common values and ``[motor.left]`` /
+    ``[motor.right]`` override any of them for one side."""
+
+    left: MotorParams
+    right: MotorParams
+
+    @classmethod
+    def __extra_file_keys__(cls) -> dict[str, Any]:
+        return {k: float for k in _MOTOR_KEYS}
+
+    @classmethod
+    def __from_file__(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> MotorPair:
+        allowed = [*_MOTOR_KEYS, "left", "right"]
+        for k in data:
+            if k not in allowed:
+                raise ConfigError(source, _join(prefix, k), "unknown key" + _did_you_mean(k, allowed, [prefix]))
+        meta = {f.name: f.metadata for f in dataclasses.fields(MotorParams)}
+        base = {k: _convert(float, v, source, _join(prefix, k), meta[k]) for k, v in data.items() if k in meta}
+        sides: dict[str, MotorParams] = {}
+        for side in ("left", "right"):
+            side_prefix = _join(prefix, side)
+            override = data.get(side, {})
+            if not isinstance(override, Mapping):
+                raise ConfigError(source, side_prefix, "expected a table")
+            for k in override:
+                if k not in meta:
+                    raise ConfigError(source, _join(side_prefix, k), "unknown key" + _did_you_mean(k, meta, [side_prefix]))
+            merged = dict(base)
+            merged.update({k: _convert(float, v, source, _join(side_prefix, k), meta[k]) for k, v in override.items()})
+            for k in _MOTOR_KEYS:
+                if k not in merged:
+                    raise ConfigError(source, _join(prefix, k), "missing key")
+            motor = MotorParams(**merged)
+            motor.validate(source=source, prefix=side_prefix if override else prefix)
+            sides[side] = motor
+        return cls(left=sides["left"], right=sides["right"])
+
+    def __to_file__(self) -> dict[str, Any]:
+        left, right = dataclasses.asdict(self.left), dataclasses.asdict(self.right)
+        out: dict[str, Any] = {k: left[k] for k in _MOTOR_KEYS if left[k] == right[k]}
+        for side, values in (("left", left), ("right", right)):
+            diff = {k: values[k] for k in _MOTOR_KEYS if left[k] != right[k]}
+            if diff:
+                out[side] = diff
+        return out
+
+    def side(self, name: Literal["left", "right"]) -> MotorParams:
+        return self.left if name == "left" else self.right
+
+
+@dataclass(frozen=True)
+class AmplifierParams:
+    """Power amplifier: gain k_pow, and its voltage and current limits (ERRATA, actuator chain)."""
+
+    gain: float = number(gt=0, doc="k_pow")
+    current_limit_a: float = number(gt=0, doc="I_max")
+    voltage_limit_v: float = number(gt=0, doc="u_max")
+
+
+@dataclass(frozen=True)
+class DAParams:
+    """DA converter: output range and resolution."""
+
+    min_v: float = number()
+    max_v: float = number()
+    bits: int = number(gt=0, le=32)
+
+    def validate(self, *, source: str, prefix: str) -> None:
+        if not self.min_v < self.max_v:
+            raise ConfigError(source, _join(prefix, "min_v"), f"must be below max_v (got {self.min_v:g} >= {self.max_v:g})")
+
+    @property
+    def volts_per_code(self) -> float:
+        """alpha_DA = (max_v - min_v) / 2**bits (10 V / 4096 = 2.44140625e-3 V for the default)."""
+        return (self.max_v - self.min_v) / 2**self.bits
+
+    @property
+    def code_min(self) -> int:
+        return -(2 ** (self.bits - 1))
+
+    @property
+    def code_max(self) -> int:
+        return 2 ** (self.bits - 1) - 1
+
+    @property
+    def mid_v(self) -> float:
+        return 0.5 * (self.min_v + self.max_v)
+
+
+@dataclass(frozen=True)
+class FrictionModelParams:
+    """The pre-velocity friction model's gain factor: P = p_factor * (k_e k_t + f_m R) / R (eq 62)."""
+
+    p_factor: float = number(gt=0, default=10.0)
+
+
+@dataclass(frozen=True)
+class ControlParams:
+    """Digital control: the sample period T_s."""
+
+    sample_period_s: float = number(gt=0)
+
+
+@dataclass(frozen=True)
+class VehicleParams:
+    """Every constant of one vehicle, as in its TOML file. Immutable and hashable."""
+
+    name: str
+    frame: FrameParams
+    battery: BatteryParams
+    body: BodyParams
+    wheels: WheelParams
+    motor: MotorPair
+    amplifier: AmplifierParams
+    da: DAParams
+    control: ControlParams
+    friction_model: FrictionModelParams = dataclasses.field(default_factory=FrictionModelParams)
+
+    def validate(self, *, source: str, prefix: str) -> None:
+        for side in ("left", "right"):
+            m = self.motor.side(side)  # type: ignore[arg-type]
+            stall = self.amplifier.current_limit_a * m.torque_constant_n_m_a
+            if stall <= m.stiction_n_m:
+                raise ConfigError(
+                    source,
+                    "amplifier.current_limit_a",
+                    f"motor torque at the current limit ({stall:g} N m, {side}) does not exceed the stiction "
+                    f"({m.stiction_n_m:g} N m): the vehicle cannot move",
+                )
+
+    @property
+    def derived(self) -> DerivedConstants:
+        """The derived constants (cached)."""
+        return derive(self)
+
+    def with_overrides(self, overrides: Iterable[str | tuple[str, Any]], source: str = "--set") -> VehicleParams:
+        """A copy with dotted-key overrides applied, e.g. ``["wheels.radius_right_m=0.101"]``."""
+        from agvctl.config import to_dict
+
+        pairs = [parse_override(o, source) if isinstance(o, str) else o for o in overrides]
+        raw = apply_overrides(to_dict(self), pairs, VehicleParams, source)
+        return build(VehicleParams, raw, source=source)
+
+
+def default_vehicle_path() -> Path:
+    """Path of the shipped default vehicle file (the report's appendix A)."""
+    return Path(__file__).resolve().parent / "vehicles" / "iau_agv.toml"
+
+
+def load_vehicle(
+    path: str | Path | None = None, overrides: Iterable[str | tuple[str, Any]] = (), *, override_source: str = "--set"
+) -> VehicleParams:
+    """Load a vehicle file (``None`` or ``"default"``: the shipped IAU AGV) and apply dotted-key overrides.
+
+    Raises :class:`ConfigError` with a one-line message naming the file (or ``--set``) and the key.
+    """
+    if path is None or str(path) == "default":
+        path = default_vehicle_path()
+    raw = load_toml(path)
+    pairs = [parse_override(o, override_source) if isinstance(o, str) else o for o in overrides]
+    if pairs:
+        raw = apply_overrides(raw, pairs, VehicleParams, override_source)
+        source = f"{path} (with {override_source})"
+    else:
+        source = str(path)
+    return build(VehicleParams, raw, source=source)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Derived constants
+
+
+def inertia_from_dimensions(frame: FrameParams, battery: BatteryParams) -> float:
+    """Moment of inertia about the point of rotation from the frame and battery dimensions, eq 64.
+
+    I = M_f (l² + w²)/12 + M_f (l/2 − l_of)² + M_b (l_b² + w_b²)/12: frame mass spread over its floor, battery
+    mass over its bottom sheet and centred above the point of rotation. 5.46 kg m² for the IAU AGV.
+    """
+    m_f, l, w, l_of = frame.mass_kg, frame.length_m, frame.width_m, frame.front_to_rotation_point_m
+    m_b, l_b, w_b = battery.mass_kg, battery.length_m, battery.width_m
+    return m_f * (l**2 + w**2) / 12.0 + m_f * (l / 2.0 - l_of) ** 2 + m_b * (l_b**2 + w_b**2) / 12.0
+
+
+def center_of_mass_from_scales(
+    mass_left_kg: float, mass_right_kg: float, mass_castor_kg: float, wheel_axis_to_castor_m: float
+) -> tuple[float, float]:
+    """Total mass M and centre of mass h behind the wheel axle from three scale readings, eq 63.
+
+    h = M_c / (M_l + M_r + M_c) · d_wc (moment balance about the wheel axle). Returns ``(M, h)``.
+    """
+    for name, value in (("mass_left_kg", mass_left_kg), ("mass_right_kg", mass_right_kg), ("mass_castor_kg", mass_castor_kg)):
+        if not (math.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a finite, non-negative mass (got {value})")
+    total = mass_left_kg + mass_right_kg + mass_castor_kg
+    if total <= 0:
+        raise ValueError("the three scale readings sum to zero")
+    return total, mass_castor_kg / total * wheel_axis_to_castor_m
+
+
+def coupling_constants(M: Num, i_o: Num, h: Num, b: Num, r_l: Num, r_r: Num, n_l: Num, n_r: Num) -> tuple[Num, ...]:
+    """k_ll, k_rr, k_lr, k_llr, k_lrr of eqs 47-51, with ``i_o`` = I + M h² (about the point of rotation).
+
+    Written for numbers and CasADi symbols alike. With different gear ratios per side the report's N² and N³
+    become N_l², N_r², N_l N_r, N_l² N_r and N_l N_r² (from eqs 29-30 applied per side).
+    """
+    trans, rot = M / 4.0, i_o / b**2
+    k_ll = r_l**2 / n_l**2 * (trans + rot)  # eq 47
+    k_rr = r_r**2 / n_r**2 * (trans + rot)  # eq 48
+    k_lr = r_l * r_r / (n_l * n_r) * (trans - rot)  # eq 49
+    k_llr = M * h * r_l**2 * r_r / (b**2 * n_l**2 * n_r)  # eq 50
+    k_lrr = M * h * r_l * r_r**2 / (b**2 * n_l * n_r**2)  # eq 51
+    return k_ll, k_rr, k_lr, k_llr, k_lrr
+
+
+def equivalent_inertias(j_l: Num, j_r: Num, k_ll: Num, k_rr: Num, k_lr: Num) -> tuple[Num, Num]:
+    """J̃_l, J̃_r of eqs 60-61 (the left-hand-side coefficients of eqs 58-59)."""
+    j_eq_l = j_l + k_ll - k_lr**2 / (j_r + k_rr)  # eq 60
+    j_eq_r = j_r + k_rr - k_lr**2 / (j_l + k_ll)  # eq 61
+    return j_eq_l, j_eq_r
+
+
+def inertia_rotation_point(body: BodyParams) -> float:
+    """I + M h², the inertia about the point of rotation used by eqs 16-28 (ERRATA: 'Moment of inertia')."""
+    if body.inertia_about == "rotation_point":
+        return body.inertia_kg_m2  # the table's 5.46 kg m² is about O: it already is I + M h²
+    return body.inertia_kg_m2 + body.mass_kg * body.com_behind_axle_m**2  # literal eq 12: I about the CoM
+
+
+@dataclass(frozen=True)
+class SideConstants:
+    """Constants of one side (motor, gear, wheel)."""
+
+    radius_m: float
+    inertia_equivalent_kg_m2: float
+    """J̃, eqs 60-61."""
+    friction_gain_p: float
+    """P, eq 62 (N m s/rad)."""
+    mechanical_time_constant_s: float
+    """J̃ R / (k_e k_t + f_m R), of the decoupled model (60-61)."""
+    max_motor_speed_rad_s: float
+    """Steady motor speed at full DA output, straight line: k_t u/R = (k_e k_t/R + f_m) ω + τ_c (eq 33)."""
+    max_wheel_speed_m_s: float
+    breakaway_amplifier_voltage_v: float
+    """Smallest amplifier voltage that starts the motor from rest: τ_s R / k_t."""
+    accel_limit_m_s2: float
+    """eq 5 with this side's constants."""
+
+
+@dataclass(frozen=True)
+class DerivedConstants:
+    """Constants computed from :class:`VehicleParams`, each from the report's equation it names."""
+
+    inertia_from_dimensions_kg_m2: float
+    """eq 64."""
+    inertia_rotation_point_kg_m2: float
+    """I + M h² of eqs 16-28, about the point of rotation (see ERRATA: 'Moment of inertia')."""
+    k_ll: float
+    """eq 47: r_l²/N_l² (M/4 + (I+Mh²)/b²)."""
+    k_rr: float
+    """eq 48: r_r²/N_r² (M/4 + (I+Mh²)/b²)."""
+    k_lr: float
+    """eq 49: r_l r_r/(N_l N_r) (M/4 − (I+Mh²)/b²)."""
+    k_llr: float
+    """eq 50: M h r_l² r_r / (b² N_l² N_r)."""
+    k_lrr: float
+    """eq 51: M h r_l r_r² / (b² N_l N_r²)."""
+    accel_limit_m_s2: float
+    """eq 5: (I_max k_t − τ_c)/J_tot · r/N, J_tot = J + M r²/(2N²); the smaller of the two sides."""
+    da_volts_per_bit: float
+    max_speed_m_s: float
+    """Steady straight-line speed at full DA output, friction included (the slower side's wheel speed)."""
+    mechanical_time_constant_s: float
+    """The larger of the two sides' J̃ R/(k_e k_t + f_m R)."""
+    left: SideConstants
+    right: SideConstants
+
+    def as_dict(self) -> dict[str, float]:
+        """Flat mapping used by ``agvctl params --json``."""
+        out: dict[str, float] = {
+            k: v for k, v in dataclasses.asdict(self).items() if not isinstance(v, dict)
+        }
+        for side in ("left", "right"):
+            sc: SideConstants = getattr(self, side)
+            out[f"inertia_equivalent_{side}_kg_m2"] = sc.inertia_equivalent_kg_m2
+            out[f"friction_gain_p_{side}"] = sc.friction_gain_p
+            out[f"mechanical_time_constant_{side}_s"] = sc.mechanical_time_constant_s
+            out[f"max_motor_speed_{side}_rad_s"] = sc.max_motor_speed_rad_s
+            out[f"max_wheel_speed_{side}_m_s"] = sc.max_wheel_speed_m_s
+            out[f"breakaway_amplifier_voltage_{side}_v"] = sc.breakaway_amplifier_voltage_v
+        return out
+
+
+def _full_scale_amplifier_voltage(v: VehicleParams) -> float:
+    """Amplifier output at the DA's largest code: min(k_pow · v_DA(code_max), u_max)."""
+    v_da = v.da.mid_v + v.da.code_max * v.da.volts_per_code
+    return min(v.amplifier.gain * abs(v_da), v.amplifier.voltage_limit_v)
+
+
+@functools.lru_cache(maxsize=256)
+def derive(v: VehicleParams) -> DerivedConstants:
+    """Compute the derived constants of a vehicle (cached per parameter set)."""
+    M, h, b = v.body.mass_kg, v.body.com_behind_axle_m, v.wheels.separation_m
+    r_l, r_r = v.wheels.radius_left_m, v.wheels.radius_right_m
+    ml, mr = v.motor.left, v.motor.right
+    n_l, n_r = ml.gear_ratio, mr.gear_ratio
+    i_o = inertia_rotation_point(v.body)
+    k_ll, k_rr, k_lr, k_llr, k_lrr = coupling_constants(M, i_o, h, b, r_l, r_r, n_l, n_r)
+    j_eq_l, j_eq_r = equivalent_inertias(ml.inertia_kg_m2, mr.inertia_kg_m2, k_ll, k_rr, k_lr)
+    u_full = _full_scale_amplifier_voltage(v)
+
+    def side(m: MotorParams, r: float, j_eq: float) -> SideConstants:
+        damping = m.voltage_constant_v_s_rad * m.torque_constant_n_m_a / m.resistance_ohm + m.viscous_friction_n_m_s_rad
+        p_gain = v.friction_model.p_factor * damping  # eq 62: P = p_factor (k_e k_t + f_m R)/R
+        omega_max = max(0.0, (m.torque_constant_n_m_a * u_full / m.resistance_ohm - m.coulomb_friction_n_m) / damping)
+        j_tot = m.inertia_kg_m2 + 0.5 * M * r**2 / m.gear_ratio**2  # eq 5
+        a_lim = (v.amplifier.current_limit_a * m.torque_constant_n_m_a - m.coulomb_friction_n_m) / j_tot * r / m.gear_ratio
+        return SideConstants(
+            radius_m=r,
+            inertia_equivalent_kg_m2=j_eq,
+            friction_gain_p=p_gain,
+            mechanical_time_constant_s=j_eq / damping,
+            max_motor_speed_rad_s=omega_max,
+            max_wheel_speed_m_s=omega_max * r / m.gear_ratio,
+            breakaway_amplifier_voltage_v=m.stiction_n_m * m.resistance_ohm / m.torque_constant_n_m_a,
+            accel_limit_m_s2=a_lim,
+        )
+
+    left, right = side(ml, r_l, j_eq_l), side(mr, r_r, j_eq_r)
+    return DerivedConstants(
+        inertia_from_dimensions_kg_m2=inertia_from_dimensions(v.frame, v.battery),
+        inertia_rotation_point_kg_m2=i_o,
+        k_ll=k_ll,
+        k_rr=k_rr,
+        k_lr=k_lr,
+        k_llr=k_llr,
+        k_lrr=k_lrr,
+        accel_limit_m_s2=min(left.accel_limit_m_s2, right.accel_limit_m_s2),
+        da_volts_per_bit=v.da.volts_per_code,
+        max_speed_m_s=min(left.max_wheel_speed_m_s, right.max_wheel_speed_m_s),
+        mechanical_time_constant_s=max(left.mechanical_time_constant_s, right.mechanical_time_constant_s),
+        left=left,
+        right=right,
+    )

@@ -1,0 +1,19 @@
+"""Plant models of three fidelities (the report's sections 2-4).
+
+* :mod:`agvctl.plant.full` — the nonlinear model (eqs 2-4, 39-43, 47-59), symbolic in CasADi.
+* :mod:`agvctl.plant.linear` — the simplified linear model (eqs 35-38) as ``control.StateSpace``.
+* :mod:`agvctl.plant.decoupled` — the per-wheel model (eqs 60-61) as ``control.TransferFunction``.
+"""
+
+from agvctl.plant.decoupled import decoupled_wheel_models
+from agvctl.plant.full import FullModel, PlantOptions, parameter_vector
+from agvctl.plant.linear import linear_model, linear_model_speed_yaw_rate
+
+__all__ = [
+    "FullModel",
+    "PlantOptions",
+    "decoupled_wheel_models",
+    "linear_model",
+    "linear_model_speed_yaw_rate",
+    "parameter_vector",
+]

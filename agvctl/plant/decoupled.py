@@ -1,0 +1,39 @@
+"""The decoupled per-wheel model (eqs 60-61) as python-control transfer functions.
+
+All nonlinear terms and the cross-coupling dropped; each motor sees the equivalent inertia J̃ of eqs 60-61:
+``J̃ ω̇ = k_t/R u − (k_e k_t/R + f_m) ω``, so ``ω(s)/u(s) = (k_t/R) / (J̃ s + k_e k_t/R + f_m)``.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import control
+
+from agvctl.params import VehicleParams
+
+__all__ = ["DecoupledModels", "decoupled_wheel_models"]
+
+
+class DecoupledModels(NamedTuple):
+    """Left and right motor: voltage (V) → motor speed (rad/s)."""
+
+    left: control.TransferFunction
+    right: control.TransferFunction
+
+
+def decoupled_wheel_models(vehicle: VehicleParams) -> DecoupledModels:
+    """The per-wheel transfer functions of eqs 60-61."""
+    d = vehicle.derived
+    out = []
+    for side, consts in (("left", d.left), ("right", d.right)):
+        m = vehicle.motor.side(side)  # type: ignore[arg-type]
+        k_u = m.torque_constant_n_m_a / m.resistance_ohm
+        damping = m.voltage_constant_v_s_rad * m.torque_constant_n_m_a / m.resistance_ohm + m.viscous_friction_n_m_s_rad
+        out.append(
+            control.tf(
+                [k_u], [consts.inertia_equivalent_kg_m2, damping],
+                inputs=f"voltage_{side}_v", outputs=f"omega_motor_{side}_rad_s", name=f"agv_wheel_{side}",
+            )
+        )
+    return DecoupledModels(*out)

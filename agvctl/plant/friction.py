@@ -1,0 +1,36 @@
+"""The pre-velocity friction model of the report's Fig. 3 (eqs 2-4), for numbers and CasADi symbols alike.
+
+The integrator state is the pre-velocity ω̃. The motor speed is a dead zone of it (eq 2 as corrected in the
+ERRATA), and the friction torque acting on the shaft is τ₁ − τ₂ (eqs 3-4):
+
+* sticking, |ω̃| ≤ τ_s/P: ω_mot = 0 and the friction is P ω̃, a stiff spring that holds any drive torque below
+  the break-away torque τ_s;
+* sliding: the friction falls from τ_s at ω_mot = 0 to τ_c at |ω_mot| = (τ_s − τ_c)/P and stays there.
+
+The friction is a continuous, piecewise-linear function of ω̃, which is what makes a fixed-step integrator
+accurate on it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import casadi as ca
+
+Num = Any
+
+
+def _clip(x: Num, limit: Num) -> Num:
+    return ca.fmin(ca.fmax(x, -limit), limit)
+
+
+def motor_speed(omega_pre: Num, tau_s: Num, P: Num) -> Num:
+    """ω_mot from the pre-velocity, eq 2 (corrected: a dead zone of half-width τ_s/P)."""
+    return omega_pre - _clip(omega_pre, tau_s / P)  # eq 2: ω̃ ∓ τ_s/P outside the zone, 0 inside
+
+
+def friction_torque(omega_pre: Num, omega_mot: Num, tau_s: Num, tau_c: Num, P: Num) -> Num:
+    """τ₁ − τ₂ (eqs 3-4), the friction torque opposing the motor, given ω̃ and ω_mot = :func:`motor_speed`."""
+    tau_1 = _clip(P * omega_pre, tau_s)  # eq 3: ±τ_s while sliding, P ω̃ while sticking (|P ω̃| ≤ τ_s there)
+    tau_2 = _clip(P * omega_mot, tau_s - tau_c)  # eq 4: ±(τ_s − τ_c) beyond the band, P ω_mot inside it
+    return tau_1 - tau_2
