@@ -192,7 +192,7 @@ class FullModel:
 
     def linearize(self, x0: np.ndarray, u0: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Jacobians ``(A, B)`` of the right-hand side at ``(x0, u0)``, computed symbolically by CasADi."""
-        jac = ca.Function("jac", [self.x, self.u, self.p], [ca.jacobian(self.xdot, self.x), ca.jacobian(self.xdot, self.u)])
+        jac = ca.Function("agv_jacobians", [self.x, self.u, self.p], [ca.jacobian(self.xdot, self.x), ca.jacobian(self.xdot, self.u)])
         A, B = jac(x0, u0, p)
         return np.asarray(A, dtype=float), np.asarray(B, dtype=float)
 

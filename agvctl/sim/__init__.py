@@ -1,0 +1,18 @@
+"""Simulation: the compiled integrator, open-loop runs, batches and the log."""
+
+from agvctl.sim.integrator import CompiledPlant, choose_substeps, compiled_plant, sample_splits
+from agvctl.sim.log import PLANT_LOG_COLUMNS, SimLog
+from agvctl.sim.open_loop import OpenLoopResult, load_input_profile, simulate_batch, simulate_open_loop
+
+__all__ = [
+    "PLANT_LOG_COLUMNS",
+    "CompiledPlant",
+    "OpenLoopResult",
+    "SimLog",
+    "choose_substeps",
+    "compiled_plant",
+    "sample_splits",
+    "load_input_profile",
+    "simulate_batch",
+    "simulate_open_loop",
+]

@@ -1,0 +1,39 @@
+"""The DA converter and amplifier exactly as ERRATA's actuator-chain specification."""
+
+import numpy as np
+import pytest
+
+from agvctl.actuator import Actuator
+
+ALPHA = 10.0 / 4096  # V per code
+
+
+def test_da_step_and_range(vehicle):
+    act = Actuator(vehicle)
+    assert act.volts_per_code == ALPHA
+    out = act.apply([0.0, ALPHA, -ALPHA, 5.0, -5.0, 7.0, -7.0])
+    assert list(out.da_code) == [0, 1, -1, 2047, -2048, 2047, -2048]
+    # +5 V is not reachable: code 2047 gives 4.9976 V
+    assert out.da_voltage_v[3] == pytest.approx(2047 * ALPHA) and out.da_voltage_v[3] < 5.0
+    assert out.da_voltage_v[4] == -5.0
+    assert list(out.da_clipped) == [False, False, False, True, False, True, True]
+
+
+def test_rounds_to_nearest_code(vehicle):
+    act = Actuator(vehicle)
+    out = act.apply([0.4 * ALPHA, 0.6 * ALPHA, -0.6 * ALPHA, 100.4 * ALPHA])
+    assert list(out.da_code) == [0, 1, -1, 100]
+
+
+def test_amplifier_gain_and_voltage_limit(vehicle):
+    out = Actuator(vehicle).apply([1.0])
+    assert out.motor_voltage_v[0] == pytest.approx(2.0 * round(1.0 / ALPHA) * ALPHA)
+    limited = Actuator(vehicle.with_overrides(["amplifier.voltage_limit_v=6.0"])).apply([4.0, -4.0, 2.0])
+    np.testing.assert_allclose(limited.motor_voltage_v, [6.0, -6.0, 2.0 * round(2.0 / ALPHA) * ALPHA])
+    assert list(limited.voltage_limited) == [True, True, False]
+
+
+def test_codes_directly(vehicle):
+    out = Actuator(vehicle).from_codes([100, 5000])
+    assert out.da_voltage_v[0] == pytest.approx(100 * ALPHA)
+    assert out.da_code[1] == 2047 and out.da_clipped[1]
