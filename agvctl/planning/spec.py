@@ -190,9 +190,9 @@ def load_path(path: str | Path) -> PathSpec:
     """Read and check a path file. Raises a one-line :class:`ConfigError` naming the file, segment and key."""
     source = str(path)
     raw = load_toml(path)
+    data = build(_PathFile, {"segments": [], **raw}, source=source)  # unknown keys are reported first
     if "segments" not in raw:
         raise ConfigError(source, "segments", "missing key (add at least one [[segments]] table)")
-    data = build(_PathFile, raw, source=source)
     segments: Sequence[Any] = data.segments
     return PathSpec(
         segments=tuple(segments),
