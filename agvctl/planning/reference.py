@@ -230,7 +230,7 @@ class Reference:
     def grid_times_s(self) -> FloatArray:
         """t_k = k·T_s for k = 0 … ⌈duration/T_s⌉ (computed as k·T_s, never by accumulation)."""
         n = math.ceil(self.duration_s / self.sample_period_s - 1e-9)
-        return np.arange(n + 1) * self.sample_period_s
+        return np.arange(n + 1, dtype=np.float64) * self.sample_period_s
 
     @functools.cached_property
     def grid(self) -> ReferenceSamples:
