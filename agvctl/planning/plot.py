@@ -1,0 +1,73 @@
+"""A picture of a reference: the path, and the wheel speeds and accelerations against their limits.
+
+matplotlib is imported only when a plot is drawn (Agg backend, no pyplot global state).
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agvctl.fileio import atomic_open
+from agvctl.planning.reference import Reference
+
+__all__ = ["plot_reference", "render_reference_png", "save_reference_plot"]
+
+
+def plot_reference(ref: Reference, *, dense_period_s: float = 0.005) -> Any:
+    """A matplotlib ``Figure`` with three panels: path (x, y), wheel speeds, wheel accelerations."""
+    from matplotlib.figure import Figure
+
+    n = max(2, int(np.ceil(ref.duration_s / dense_period_s)) + 1)
+    s = ref.sample(np.linspace(0.0, ref.duration_s, n))
+    lim = ref.limits
+    fig = Figure(figsize=(6.4, 8.0), layout="constrained")
+    ax_path, ax_v, ax_a = fig.subplots(3, 1, height_ratios=[1.4, 1.0, 1.0])
+
+    ax_path.plot(s.x_m, s.y_m, color="C0", lw=1.5)
+    ax_path.plot(s.x_m[0], s.y_m[0], "o", color="C2", label="start")
+    ax_path.plot(s.x_m[-1], s.y_m[-1], "x", color="C3", ms=9, label="end")
+    stops = np.array([[m.start_pose.x_m, m.start_pose.y_m] for m in ref.motions[1:]]).reshape(-1, 2)
+    if len(stops):
+        ax_path.plot(stops[:, 0], stops[:, 1], ".", color="0.3", label="stops")
+    ax_path.set_aspect("equal", adjustable="datalim")
+    ax_path.set_xlabel("x [m]")
+    ax_path.set_ylabel("y [m]")
+    ax_path.set_title(f"{ref.name}: {ref.path_length_m:.2f} m in {ref.duration_s:.2f} s")
+    ax_path.legend(loc="best", fontsize="small")
+    ax_path.grid(True, alpha=0.3)
+
+    for ax, left, right, limit, label in (
+        (ax_v, s.wheel_speed_left_m_s, s.wheel_speed_right_m_s, lim.wheel_speed_m_s, "wheel speed [m/s]"),
+        (ax_a, s.wheel_accel_left_m_s2, s.wheel_accel_right_m_s2, lim.wheel_accel_m_s2, "wheel accel [m/s²]"),
+    ):
+        ax.plot(s.t_s, left, color="C0", label="left")
+        ax.plot(s.t_s, right, color="C1", label="right", ls="--")
+        for sign in (1, -1):
+            ax.axhline(sign * limit, color="C3", lw=1, ls=":", label="limit" if sign > 0 else None)
+        ax.set_ylabel(label)
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="upper right", fontsize="small", ncol=3)
+    ax_a.set_xlabel("t [s]")
+    return fig
+
+
+def render_reference_png(ref: Reference, *, dpi: int = 80) -> bytes:
+    """:func:`plot_reference` as PNG bytes."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = plot_reference(ref)
+    FigureCanvasAgg(fig)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return buf.getvalue()
+
+
+def save_reference_plot(ref: Reference, path: str | Path, *, dpi: int = 80) -> None:
+    """Draw :func:`plot_reference` and write it as PNG, atomically (no half-written file)."""
+    png = render_reference_png(ref, dpi=dpi)
+    with atomic_open(path, "wb") as fh:
+        fh.write(png)

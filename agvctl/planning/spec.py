@@ -1,0 +1,242 @@
+"""Path files (``trajectories/*.toml``): the schema, strict loading, and the wheel limits they resolve to.
+
+A path file names a start pose, optional per-wheel limits and a list of segments::
+
+    name = "square-2m"
+    start = { x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }   # optional, default origin
+    [limits]                                             # per wheel; each optional, defaults from the vehicle
+    wheel_speed_m_s = 0.8
+    wheel_accel_m_s2 = 0.657
+    wheel_jerk_m_s3 = 3.0
+
+    [[segments]]
+    type = "line"        # straight, length_m (negative = reverse)
+    length_m = 2.0
+    [[segments]]
+    type = "turn"        # spin in place, angle_deg (positive = counter-clockwise)
+    angle_deg = 90
+    [[segments]]
+    type = "arc"         # radius_m > 0, angle_deg signed (positive = left turn)
+    radius_m = 1.0
+    angle_deg = 180
+
+Any segment may carry ``speed_m_s``: a cap on the path speed U of a line or an arc, and on the wheel speed
+(ω b/2) of a turn. Every problem raises a one-line :class:`~agvctl.errors.ConfigError` such as
+``trajectories/x.toml: segments[2].radius_m: must be > 0 (got 0)``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from agvctl.config import _did_you_mean, build, load_toml, number
+from agvctl.errors import ConfigError
+from agvctl.params import VehicleParams
+
+__all__ = [
+    "ArcSegment",
+    "LineSegment",
+    "PathLimits",
+    "PathSpec",
+    "PhysicalLimitWarning",
+    "Segment",
+    "StartPose",
+    "TurnSegment",
+    "WheelLimits",
+    "default_jerk_limit_m_s3",
+    "load_path",
+    "resolve_limits",
+]
+
+SEGMENT_TYPES = ("line", "turn", "arc")
+
+JERK_RAMP_SAMPLES = 5
+"""The default jerk limit lets the acceleration ramp from 0 to a_lim over this many control periods."""
+
+
+class PhysicalLimitWarning(UserWarning):
+    """A limit above what the vehicle can physically do was accepted because ``force=True``."""
+
+
+@dataclass(frozen=True)
+class StartPose:
+    """The start pose as written in a path file (degrees at the user's edge)."""
+
+    x_m: float = number(default=0.0)
+    y_m: float = number(default=0.0)
+    theta_deg: float = number(default=0.0)
+
+
+@dataclass(frozen=True)
+class PathLimits:
+    """Per-wheel limits as written in a path file; ``None`` takes the vehicle's value."""
+
+    wheel_speed_m_s: float | None = number(gt=0, default=None)
+    wheel_accel_m_s2: float | None = number(gt=0, default=None)
+    wheel_jerk_m_s3: float | None = number(gt=0, default=None)
+
+
+@dataclass(frozen=True)
+class WheelLimits:
+    """Resolved per-wheel limits: |wheel speed|, |wheel acceleration| and |wheel jerk| of either wheel."""
+
+    wheel_speed_m_s: float
+    wheel_accel_m_s2: float
+    wheel_jerk_m_s3: float
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"WheelLimits.{f.name} must be finite and > 0 (got {value})")
+
+
+def _nonzero(value: float, source: str, prefix: str, key: str) -> None:
+    if value == 0:
+        raise ConfigError(source, f"{prefix}.{key}" if prefix else key, "must not be zero")
+
+
+@dataclass(frozen=True, kw_only=True)
+class LineSegment:
+    """A straight line of ``length_m`` along the current heading; negative drives in reverse."""
+
+    length_m: float = number()
+    speed_m_s: float | None = number(gt=0, default=None)
+    type: Literal["line"] = "line"
+
+    def validate(self, *, source: str, prefix: str) -> None:
+        _nonzero(self.length_m, source, prefix, "length_m")
+
+
+@dataclass(frozen=True, kw_only=True)
+class TurnSegment:
+    """A spin in place by ``angle_deg`` (positive = counter-clockwise); ``speed_m_s`` caps the wheel speed."""
+
+    angle_deg: float = number()
+    speed_m_s: float | None = number(gt=0, default=None)
+    type: Literal["turn"] = "turn"
+
+    def validate(self, *, source: str, prefix: str) -> None:
+        _nonzero(self.angle_deg, source, prefix, "angle_deg")
+
+
+@dataclass(frozen=True, kw_only=True)
+class ArcSegment:
+    """A circular arc of ``radius_m`` > 0 through ``angle_deg`` (positive = left turn), driven forwards."""
+
+    radius_m: float = number(gt=0)
+    angle_deg: float = number()
+    speed_m_s: float | None = number(gt=0, default=None)
+    type: Literal["arc"] = "arc"
+
+    def validate(self, *, source: str, prefix: str) -> None:
+        _nonzero(self.angle_deg, source, prefix, "angle_deg")
+
+
+Segment = LineSegment | TurnSegment | ArcSegment
+_SEGMENT_CLASSES: dict[str, type[Any]] = {"line": LineSegment, "turn": TurnSegment, "arc": ArcSegment}
+
+
+@dataclass(frozen=True)
+class _AnySegment:
+    """Loader shim: dispatches one ``[[segments]]`` table on its ``type`` key."""
+
+    @classmethod
+    def __from_file__(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> Segment:
+        if "type" not in data:
+            raise ConfigError(source, f"{prefix}.type", f"missing key (one of {', '.join(SEGMENT_TYPES)})")
+        kind = data["type"]
+        if kind not in _SEGMENT_CLASSES:
+            hint = _did_you_mean(str(kind), SEGMENT_TYPES, []) if isinstance(kind, str) else ""
+            expected = ", ".join(SEGMENT_TYPES)
+            problem = f"unknown segment type {kind!r} (expected one of {expected})"
+            hint = hint.replace("did you mean ", "did you mean type = ")
+            raise ConfigError(source, f"{prefix}.type", problem + hint)
+        segment: Segment = build(_SEGMENT_CLASSES[kind], data, source=source, prefix=prefix)
+        return segment
+
+
+@dataclass(frozen=True)
+class _PathFile:
+    segments: tuple[_AnySegment, ...]
+    name: str | None = None
+    start: StartPose = dataclasses.field(default_factory=StartPose)
+    limits: PathLimits = dataclasses.field(default_factory=PathLimits)
+
+
+@dataclass(frozen=True)
+class PathSpec:
+    """A path: its segments, start pose, the limits the file sets, and where it came from (for messages)."""
+
+    segments: tuple[Segment, ...]
+    name: str = "path"
+    start: StartPose = dataclasses.field(default_factory=StartPose)
+    limits: PathLimits = dataclasses.field(default_factory=PathLimits)
+    source: str = "<path>"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "segments", tuple(self.segments))
+        if not self.segments:
+            raise ConfigError(self.source, "segments", "at least one segment is required")
+
+
+def load_path(path: str | Path) -> PathSpec:
+    """Read and check a path file. Raises a one-line :class:`ConfigError` naming the file, segment and key."""
+    source = str(path)
+    raw = load_toml(path)
+    data = build(_PathFile, {"segments": [], **raw}, source=source)  # unknown keys are reported first
+    if "segments" not in raw:
+        raise ConfigError(source, "segments", "missing key (add at least one [[segments]] table)")
+    segments: Sequence[Any] = data.segments
+    return PathSpec(
+        segments=tuple(segments),
+        name=data.name if data.name is not None else Path(path).stem,
+        start=data.start,
+        limits=data.limits,
+        source=source,
+    )
+
+
+def default_jerk_limit_m_s3(vehicle: VehicleParams) -> float:
+    """Default wheel jerk limit: a_lim reached in :data:`JERK_RAMP_SAMPLES` control periods (a planning
+    convention, not a physical limit: 0.657 / (5 · 0.04 s) = 3.29 m/s³ for the default vehicle)."""
+    return vehicle.derived.accel_limit_m_s2 / (JERK_RAMP_SAMPLES * vehicle.control.sample_period_s)
+
+
+def resolve_limits(spec: PathSpec, vehicle: VehicleParams, *, force: bool = False) -> WheelLimits:
+    """The wheel limits of ``spec`` with the vehicle's defaults filled in, checked against the vehicle.
+
+    Defaults: the no-load top speed, a_lim of eq 5 and :func:`default_jerk_limit_m_s3`. A wheel speed limit
+    (or a segment's ``speed_m_s``) above the no-load top speed, or an acceleration limit above a_lim, raises a
+    :class:`ConfigError` naming both values, unless ``force`` is true: then a :class:`PhysicalLimitWarning` is
+    issued instead.
+    """
+    top, a_lim = vehicle.derived.max_speed_m_s, vehicle.derived.accel_limit_m_s2
+    lim = spec.limits
+    checks: list[tuple[str, float | None, float, str, str]] = [
+        ("limits.wheel_speed_m_s", lim.wheel_speed_m_s, top, "m/s", "no-load top speed"),
+        ("limits.wheel_accel_m_s2", lim.wheel_accel_m_s2, a_lim, "m/s²", "acceleration limit a_lim (eq 5)"),
+    ]
+    checks += [
+        (f"segments[{i}].speed_m_s", seg.speed_m_s, top, "m/s", "no-load top speed")
+        for i, seg in enumerate(spec.segments)
+    ]
+    for key, value, physical, unit, what in checks:
+        if value is not None and value > physical:
+            problem = f"{value:g} {unit} is above the vehicle's {what} of {physical:.4g} {unit}"
+            if not force:
+                raise ConfigError(spec.source, key, problem + " (use --force to plan anyway)")
+            warnings.warn(f"{spec.source}: {key}: {problem}; planning anyway (--force)", PhysicalLimitWarning,
+                          stacklevel=2)
+    jerk = lim.wheel_jerk_m_s3 if lim.wheel_jerk_m_s3 is not None else default_jerk_limit_m_s3(vehicle)
+    return WheelLimits(
+        wheel_speed_m_s=lim.wheel_speed_m_s if lim.wheel_speed_m_s is not None else top,
+        wheel_accel_m_s2=lim.wheel_accel_m_s2 if lim.wheel_accel_m_s2 is not None else a_lim,
+        wheel_jerk_m_s3=jerk,
+    )
