@@ -64,9 +64,9 @@ class Actuator:
         if da_clipped is not None:
             clipped = clipped | np.asarray(da_clipped, dtype=bool)
         code_c = np.clip(raw, self.code_min, self.code_max)
-        v_da = self.mid_v + code_c * self.volts_per_code
+        v_da: NDArray[np.float64] = self.mid_v + code_c.astype(np.float64) * self.volts_per_code
         amplified = self.gain * v_da
-        u = np.clip(amplified, -self.voltage_limit_v, self.voltage_limit_v)
+        u: NDArray[np.float64] = np.clip(amplified, -self.voltage_limit_v, self.voltage_limit_v)
         return ActuatorOutput(
             da_code=code_c,
             da_voltage_v=v_da,

@@ -190,7 +190,9 @@ def _convert(tp: Any, value: Any, source: str, key: str, meta: Mapping[str, Any]
     if origin is Literal:
         choices = get_args(tp)
         if value not in choices:
-            raise ConfigError(source, key, f"must be one of {', '.join(repr(c) for c in choices)} (got {_describe(value)})")
+            raise ConfigError(
+                source, key, f"must be one of {', '.join(repr(c) for c in choices)} (got {_describe(value)})"
+            )
         return value
     if origin in (tuple, list):
         (item_tp, *_rest) = get_args(tp)
@@ -248,7 +250,9 @@ def _build_dataclass(cls: type, data: Mapping[str, Any], source: str, prefix: st
     fields = {f.metadata.get("file_key", f.name): f for f in dataclasses.fields(cls) if not f.metadata.get("derived")}
     for k in data:
         if k not in fields:
-            raise ConfigError(source, _join(prefix, k), "unknown key" + _did_you_mean(k, fields, prefix.split(".") if prefix else []))
+            raise ConfigError(
+                source, _join(prefix, k), "unknown key" + _did_you_mean(k, fields, prefix.split(".") if prefix else [])
+            )
     kwargs: dict[str, Any] = {}
     for file_key, f in fields.items():
         key = _join(prefix, file_key)

@@ -141,7 +141,9 @@ class MotorPair:
                 raise ConfigError(source, side_prefix, "expected a table")
             for k in override:
                 if k not in meta:
-                    raise ConfigError(source, _join(side_prefix, k), "unknown key" + _did_you_mean(k, meta, [side_prefix]))
+                    raise ConfigError(
+                        source, _join(side_prefix, k), "unknown key" + _did_you_mean(k, meta, [side_prefix])
+                    )
             merged = dict(base)
             merged.update({k: _convert(float, v, source, _join(side_prefix, k), meta[k]) for k, v in override.items()})
             for k in _MOTOR_KEYS:
@@ -184,20 +186,22 @@ class DAParams:
 
     def validate(self, *, source: str, prefix: str) -> None:
         if not self.min_v < self.max_v:
-            raise ConfigError(source, _join(prefix, "min_v"), f"must be below max_v (got {self.min_v:g} >= {self.max_v:g})")
+            raise ConfigError(
+                source, _join(prefix, "min_v"), f"must be below max_v (got {self.min_v:g} >= {self.max_v:g})"
+            )
 
     @property
     def volts_per_code(self) -> float:
         """alpha_DA = (max_v - min_v) / 2**bits (10 V / 4096 = 2.44140625e-3 V for the default)."""
-        return (self.max_v - self.min_v) / 2**self.bits
+        return float(self.max_v - self.min_v) / float(1 << self.bits)
 
     @property
     def code_min(self) -> int:
-        return -(2 ** (self.bits - 1))
+        return -(1 << (self.bits - 1))
 
     @property
     def code_max(self) -> int:
-        return 2 ** (self.bits - 1) - 1
+        return (1 << (self.bits - 1)) - 1
 
     @property
     def mid_v(self) -> float:
@@ -234,8 +238,7 @@ class VehicleParams:
     friction_model: FrictionModelParams = dataclasses.field(default_factory=FrictionModelParams)
 
     def validate(self, *, source: str, prefix: str) -> None:
-        for side in ("left", "right"):
-            m = self.motor.side(side)  # type: ignore[arg-type]
+        for side, m in (("left", self.motor.left), ("right", self.motor.right)):
             stall = self.amplifier.current_limit_a * m.torque_constant_n_m_a
             if stall <= m.stiction_n_m:
                 raise ConfigError(
@@ -293,9 +296,11 @@ def inertia_from_dimensions(frame: FrameParams, battery: BatteryParams) -> float
     I = M_f (l² + w²)/12 + M_f (l/2 − l_of)² + M_b (l_b² + w_b²)/12: frame mass spread over its floor, battery
     mass over its bottom sheet and centred above the point of rotation. 5.46 kg m² for the IAU AGV.
     """
-    m_f, l, w, l_of = frame.mass_kg, frame.length_m, frame.width_m, frame.front_to_rotation_point_m
+    m_f, length, w, l_of = frame.mass_kg, frame.length_m, frame.width_m, frame.front_to_rotation_point_m
     m_b, l_b, w_b = battery.mass_kg, battery.length_m, battery.width_m
-    return m_f * (l**2 + w**2) / 12.0 + m_f * (l / 2.0 - l_of) ** 2 + m_b * (l_b**2 + w_b**2) / 12.0
+    i_frame = m_f * (length**2 + w**2) / 12.0 + m_f * (length / 2.0 - l_of) ** 2  # eq 64, I_f
+    i_battery = m_b * (l_b**2 + w_b**2) / 12.0  # eq 64, I_b
+    return i_frame + i_battery
 
 
 def center_of_mass_from_scales(
@@ -305,7 +310,11 @@ def center_of_mass_from_scales(
 
     h = M_c / (M_l + M_r + M_c) · d_wc (moment balance about the wheel axle). Returns ``(M, h)``.
     """
-    for name, value in (("mass_left_kg", mass_left_kg), ("mass_right_kg", mass_right_kg), ("mass_castor_kg", mass_castor_kg)):
+    for name, value in (
+        ("mass_left_kg", mass_left_kg),
+        ("mass_right_kg", mass_right_kg),
+        ("mass_castor_kg", mass_castor_kg),
+    ):
         if not (math.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite, non-negative mass (got {value})")
     total = mass_left_kg + mass_right_kg + mass_castor_kg
@@ -393,9 +402,7 @@ class DerivedConstants:
 
     def as_dict(self) -> dict[str, float]:
         """Flat mapping used by ``agvctl params --json``."""
-        out: dict[str, float] = {
-            k: v for k, v in dataclasses.asdict(self).items() if not isinstance(v, dict)
-        }
+        out: dict[str, float] = {k: v for k, v in dataclasses.asdict(self).items() if not isinstance(v, dict)}
         for side in ("left", "right"):
             sc: SideConstants = getattr(self, side)
             out[f"inertia_equivalent_{side}_kg_m2"] = sc.inertia_equivalent_kg_m2
@@ -430,7 +437,9 @@ def derive(v: VehicleParams) -> DerivedConstants:
         p_gain = v.friction_model.p_factor * damping  # eq 62: P = p_factor (k_e k_t + f_m R)/R
         omega_max = max(0.0, (m.torque_constant_n_m_a * u_full / m.resistance_ohm - m.coulomb_friction_n_m) / damping)
         j_tot = m.inertia_kg_m2 + 0.5 * M * r**2 / m.gear_ratio**2  # eq 5
-        a_lim = (v.amplifier.current_limit_a * m.torque_constant_n_m_a - m.coulomb_friction_n_m) / j_tot * r / m.gear_ratio
+        a_lim = (
+            (v.amplifier.current_limit_a * m.torque_constant_n_m_a - m.coulomb_friction_n_m) / j_tot * r / m.gear_ratio
+        )
         return SideConstants(
             radius_m=r,
             inertia_equivalent_kg_m2=j_eq,

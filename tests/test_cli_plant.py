@@ -21,8 +21,19 @@ def test_params_json_report_figures(capsys):
     assert d["inertia_from_dimensions_kg_m2"] == pytest.approx(5.46, rel=5e-3)
     assert d["accel_limit_m_s2"] == pytest.approx(0.657, rel=5e-3)
     assert d["da_volts_per_bit"] == pytest.approx(2.44e-3, rel=1e-3)
-    for key in ("k_ll", "k_rr", "k_lr", "k_llr", "k_lrr", "inertia_equivalent_left_kg_m2", "inertia_equivalent_right_kg_m2",
-                "friction_gain_p_left", "friction_gain_p_right", "max_speed_m_s", "mechanical_time_constant_s"):
+    for key in (
+        "k_ll",
+        "k_rr",
+        "k_lr",
+        "k_llr",
+        "k_lrr",
+        "inertia_equivalent_left_kg_m2",
+        "inertia_equivalent_right_kg_m2",
+        "friction_gain_p_left",
+        "friction_gain_p_right",
+        "max_speed_m_s",
+        "mechanical_time_constant_s",
+    ):
         assert key in d
     assert data["vehicle"]["wheels"]["separation_m"] == 0.54
     assert data["vehicle"]["motor"]["gear_ratio"] == 36.0
@@ -35,7 +46,9 @@ def test_params_table(capsys):
 
 def test_simulate_json_and_csv(capsys, tmp_path):
     log = tmp_path / "log.csv"
-    code, out, _ = run(capsys, "simulate", "--da-left", "2", "--da-right", "2", "--duration", "4", "--json", "--out", str(log))
+    code, out, _ = run(
+        capsys, "simulate", "--da-left", "2", "--da-right", "2", "--duration", "4", "--json", "--out", str(log)
+    )
     assert code == 0
     data = json.loads(out)
     assert data["final"]["t_s"] == pytest.approx(4.0)
@@ -110,7 +123,11 @@ def _vehicle_file(tmp_path, text):
         (lambda t: t.replace('name = "IAU AGV"', "name = 3"), "name", "expected a string"),
         (lambda t: t.replace("mass_kg = 85.0", 'mass_kg = "85"'), "body.mass_kg", "expected a number"),
         (lambda t: t.replace("[motor]", "[motor]\n[motor.middle]"), "motor.middle", "unknown key"),
-        (lambda t: t + "\n[motor.right]\nstiction_n_m = 0.01\n", "motor.right.coulomb_friction_n_m", "exceeds stiction"),
+        (
+            lambda t: t + "\n[motor.right]\nstiction_n_m = 0.01\n",
+            "motor.right.coulomb_friction_n_m",
+            "exceeds stiction",
+        ),
         (lambda t: t.replace("[da]", "[da"), "", "malformed TOML"),
     ],
 )
@@ -123,7 +140,18 @@ def test_bad_vehicle_file_exit_2_with_one_line(capsys, tmp_path, edit, key, mess
 
 
 def test_missing_vehicle_file(capsys, tmp_path):
-    code, _, err = run(capsys, "simulate", "--vehicle", str(tmp_path / "none.toml"), "--da-left", "1", "--da-right", "1", "--duration", "1")
+    code, _, err = run(
+        capsys,
+        "simulate",
+        "--vehicle",
+        str(tmp_path / "none.toml"),
+        "--da-left",
+        "1",
+        "--da-right",
+        "1",
+        "--duration",
+        "1",
+    )
     assert code == 2 and "none.toml" in err and "file not found" in err
 
 

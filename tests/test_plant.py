@@ -47,8 +47,9 @@ def reference_solution(vehicle, da):
     x = np.zeros(5)
     states = [x]
     for k in range(len(u)):
-        sol = solve_ivp(lambda t, xx, uk=u[k]: np.asarray(f(xx, uk, p)).ravel(), (0, TS), x,
-                        method="DOP853", rtol=1e-10, atol=1e-12)
+        sol = solve_ivp(
+            lambda t, xx, uk=u[k]: np.asarray(f(xx, uk, p)).ravel(), (0, TS), x, method="DOP853", rtol=1e-10, atol=1e-12
+        )
         assert sol.success
         x = sol.y[:, -1]
         states.append(x)

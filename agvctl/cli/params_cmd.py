@@ -12,8 +12,11 @@ from agvctl.params import VehicleParams, load_vehicle
 
 
 def register(sub: Any) -> None:
-    p = sub.add_parser("params", help="show the vehicle's parameters and derived constants",
-                       description="Show a vehicle's parameters and the constants derived from them (eq numbers).")
+    p = sub.add_parser(
+        "params",
+        help="show the vehicle's parameters and derived constants",
+        description="Show a vehicle's parameters and the constants derived from them (eq numbers).",
+    )
     add_vehicle_options(p)
     p.add_argument("--json", action="store_true", help='print {"vehicle": {...}, "derived": {...}}')
     p.set_defaults(func=run)

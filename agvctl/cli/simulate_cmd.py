@@ -17,14 +17,17 @@ from agvctl.sim.open_loop import OpenLoopResult, load_input_profile, sample_coun
 
 def register(sub: Any) -> None:
     p = sub.add_parser(
-        "simulate", help="open-loop response to constant DA volts or a DA profile",
+        "simulate",
+        help="open-loop response to constant DA volts or a DA profile",
         description="Simulate the full nonlinear model from rest at the origin, the DA commands held over each "
         "sample period and passed through the DA converter and the amplifier.",
     )
     p.add_argument("--da-left", type=float, metavar="V", help="constant left DA command (V)")
     p.add_argument("--da-right", type=float, metavar="V", help="constant right DA command (V)")
     p.add_argument("--duration", type=float, metavar="S", required=True, help="simulated time (s)")
-    p.add_argument("--input", metavar="PROFILE.csv", help="CSV with columns t_s,da_left_v,da_right_v (held until the next row)")
+    p.add_argument(
+        "--input", metavar="PROFILE.csv", help="CSV with columns t_s,da_left_v,da_right_v (held until the next row)"
+    )
     add_vehicle_options(p)
     p.add_argument("--json", action="store_true", help="print the final state, peaks and timings as JSON")
     p.add_argument("--out", metavar="LOG.csv", help="write the per-sample log")
@@ -83,13 +86,17 @@ def run(args: argparse.Namespace) -> int:
     print(f"{vehicle.name}: {n} samples of {ts * 1e3:g} ms, open loop")
     print(f"  final pose       x = {f['x_m']:.4f} m   y = {f['y_m']:.4f} m   θ = {math.degrees(f['theta_rad']):.2f}°")
     print(f"  final speed      U = {f['speed_m_s']:.4f} m/s   ω = {f['yaw_rate_rad_s']:.4f} rad/s")
-    print(f"  motor speeds     left {f['omega_motor_left_rad_s']:.2f} rad/s   right {f['omega_motor_right_rad_s']:.2f} rad/s")
+    ml, mr = f["omega_motor_left_rad_s"], f["omega_motor_right_rad_s"]
+    print(f"  motor speeds     left {ml:.2f} rad/s   right {mr:.2f} rad/s")
     limit = vehicle.amplifier.current_limit_a
-    print(f"  peak current     left {pk['current_left_a']:.3f} A   right {pk['current_right_a']:.3f} A   (limit {limit:g} A)")
+    il, ir = pk["current_left_a"], pk["current_right_a"]
+    print(f"  peak current     left {il:.3f} A   right {ir:.3f} A   (limit {limit:g} A)")
     a_lim = vehicle.derived.accel_limit_m_s2
-    print(f"  peak wheel accel left {pk['wheel_accel_left_m_s2']:.3f} m/s²   right {pk['wheel_accel_right_m_s2']:.3f} m/s²   (a_lim {a_lim:.3f})")
-    print(f"  wall time        {data['wall_time_s'] * 1e3:.1f} ms simulating ({args.duration / max(data['wall_time_s'], 1e-9):,.0f}x real time), "
-          f"{data['setup_time_s'] * 1e3:.0f} ms setup")
+    al, ar = pk["wheel_accel_left_m_s2"], pk["wheel_accel_right_m_s2"]
+    print(f"  peak wheel accel left {al:.3f} m/s²   right {ar:.3f} m/s²   (a_lim {a_lim:.3f})")
+    wall, setup = data["wall_time_s"], data["setup_time_s"]
+    rtf = args.duration / max(wall, 1e-9)
+    print(f"  wall time        {wall * 1e3:.1f} ms simulating ({rtf:,.0f}x real time), {setup * 1e3:.0f} ms setup")
     if args.out:
         print(f"  log              {args.out}")
     return 0

@@ -32,8 +32,11 @@ def decoupled_wheel_models(vehicle: VehicleParams) -> DecoupledModels:
         damping = m.voltage_constant_v_s_rad * m.torque_constant_n_m_a / m.resistance_ohm + m.viscous_friction_n_m_s_rad
         out.append(
             control.tf(
-                [k_u], [consts.inertia_equivalent_kg_m2, damping],
-                inputs=f"voltage_{side}_v", outputs=f"omega_motor_{side}_rad_s", name=f"agv_wheel_{side}",
+                [k_u],
+                [consts.inertia_equivalent_kg_m2, damping],
+                inputs=f"voltage_{side}_v",
+                outputs=f"omega_motor_{side}_rad_s",
+                name=f"agv_wheel_{side}",
             )
         )
     return DecoupledModels(*out)

@@ -143,7 +143,12 @@ class FullModel:
     def _equations(self, x: ca.SX, u: ca.SX, p: ca.SX) -> tuple[ca.SX, ca.SX]:
         opt = self.options
         par = {name: p[i] for i, name in enumerate(PARAMETER_NAMES)}
-        M, i_o, h, b = par["mass_kg"], par["inertia_rotation_point_kg_m2"], par["com_behind_axle_m"], par["separation_m"]
+        M, i_o, h, b = (
+            par["mass_kg"],
+            par["inertia_rotation_point_kg_m2"],
+            par["com_behind_axle_m"],
+            par["separation_m"],
+        )
         i_max, p_factor = par["current_limit_a"], par["p_factor"]
         sides = [_Side(*(par[f"{k}_{s}"] for k in _SIDE_KEYS)) for s in ("left", "right")]
         L, Rt = sides
@@ -192,12 +197,16 @@ class FullModel:
 
     def linearize(self, x0: np.ndarray, u0: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Jacobians ``(A, B)`` of the right-hand side at ``(x0, u0)``, computed symbolically by CasADi."""
-        jac = ca.Function("agv_jacobians", [self.x, self.u, self.p], [ca.jacobian(self.xdot, self.x), ca.jacobian(self.xdot, self.u)])
+        jac = ca.Function(
+            "agv_jacobians", [self.x, self.u, self.p], [ca.jacobian(self.xdot, self.x), ca.jacobian(self.xdot, self.u)]
+        )
         A, B = jac(x0, u0, p)
         return np.asarray(A, dtype=float), np.asarray(B, dtype=float)
 
 
-def state_from_motor_speeds(vehicle: VehicleParams, omega_motor_rad_s: tuple[float, float], pose: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> np.ndarray:
+def state_from_motor_speeds(
+    vehicle: VehicleParams, omega_motor_rad_s: tuple[float, float], pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+) -> np.ndarray:
     """The state vector for given motor speeds (sliding in their direction) and pose: the inverse of eq 2."""
     d = vehicle.derived
     state = [0.0, 0.0, *pose]

@@ -26,7 +26,10 @@ def linear_model_matrices(vehicle: VehicleParams) -> tuple[np.ndarray, np.ndarra
     mass = np.array([[ml.inertia_kg_m2 + d.k_ll, d.k_lr], [d.k_lr, mr.inertia_kg_m2 + d.k_rr]])
     gain = np.diag([m.torque_constant_n_m_a / m.resistance_ohm for m in (ml, mr)])
     damping = np.diag(
-        [m.voltage_constant_v_s_rad * m.torque_constant_n_m_a / m.resistance_ohm + m.viscous_friction_n_m_s_rad for m in (ml, mr)]
+        [
+            m.voltage_constant_v_s_rad * m.torque_constant_n_m_a / m.resistance_ohm + m.viscous_friction_n_m_s_rad
+            for m in (ml, mr)
+        ]
     )
     A = -np.linalg.solve(mass, damping)
     B = np.linalg.solve(mass, gain)
@@ -36,7 +39,9 @@ def linear_model_matrices(vehicle: VehicleParams) -> tuple[np.ndarray, np.ndarra
 def linear_model(vehicle: VehicleParams) -> control.StateSpace:
     """Eqs 35-38: motor voltages (V) → motor speeds (rad/s), continuous time."""
     A, B = linear_model_matrices(vehicle)
-    return control.ss(A, B, np.eye(2), np.zeros((2, 2)), states=_STATES, inputs=_INPUTS, outputs=_STATES, name="agv_linear")
+    return control.ss(
+        A, B, np.eye(2), np.zeros((2, 2)), states=_STATES, inputs=_INPUTS, outputs=_STATES, name="agv_linear"
+    )
 
 
 def linear_model_speed_yaw_rate(vehicle: VehicleParams) -> control.StateSpace:
@@ -46,5 +51,12 @@ def linear_model_speed_yaw_rate(vehicle: VehicleParams) -> control.StateSpace:
     n_l, n_r = vehicle.motor.left.gear_ratio, vehicle.motor.right.gear_ratio
     C = np.array([[r_l / (2 * n_l), r_r / (2 * n_r)], [-r_l / (b * n_l), r_r / (b * n_r)]])  # eqs 39-40, 29
     return control.ss(
-        A, B, C, np.zeros((2, 2)), states=_STATES, inputs=_INPUTS, outputs=["speed_m_s", "yaw_rate_rad_s"], name="agv_linear_u_omega"
+        A,
+        B,
+        C,
+        np.zeros((2, 2)),
+        states=_STATES,
+        inputs=_INPUTS,
+        outputs=["speed_m_s", "yaw_rate_rad_s"],
+        name="agv_linear_u_omega",
     )

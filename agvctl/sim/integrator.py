@@ -38,7 +38,15 @@ from numpy.typing import NDArray
 from agvctl.params import VehicleParams
 from agvctl.plant.full import AUX_NAMES, INPUT_NAMES, PARAMETER_NAMES, STATE_NAMES, FullModel, PlantOptions
 
-__all__ = ["KERNEL_SUBSTEPS", "STATS_NAMES", "CompiledPlant", "cache_dir", "choose_substeps", "compiled_plant", "sample_splits"]
+__all__ = [
+    "KERNEL_SUBSTEPS",
+    "STATS_NAMES",
+    "CompiledPlant",
+    "cache_dir",
+    "choose_substeps",
+    "compiled_plant",
+    "sample_splits",
+]
 
 STATS_NAMES = (
     "current_limited_fraction_left",
@@ -119,7 +127,11 @@ def _rk4_sample_step(model: FullModel, substeps: int) -> ca.Function:
     limited = [ca.SX(0), ca.SX(0)]
     i_peak = [ca.SX(0), ca.SX(0)]
     a_peak = [ca.SX(0), ca.SX(0)]
-    i_cur, i_lim, i_acc = AUX_NAMES.index("current_left_a"), AUX_NAMES.index("current_limited_left"), AUX_NAMES.index("wheel_accel_left_m_s2")
+    i_cur, i_lim, i_acc = (
+        AUX_NAMES.index("current_left_a"),
+        AUX_NAMES.index("current_limited_left"),
+        AUX_NAMES.index("wheel_accel_left_m_s2"),
+    )
     for _ in range(substeps):
         k1, aux = f(xk, u, p)
         if aux0 is None:
@@ -132,6 +144,7 @@ def _rk4_sample_step(model: FullModel, substeps: int) -> ca.Function:
         k3 = f(xk + h / 2 * k2, u, p)[0]
         k4 = f(xk + h * k3, u, p)[0]
         xk = xk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    assert aux0 is not None
     stats = ca.vertcat(limited[0] / substeps, limited[1] / substeps, i_peak[0], i_peak[1], a_peak[0], a_peak[1])
     return ca.Function("agv_step", [x, u, p, dt], [xk, aux0, stats], ["x", "u", "p", "dt"], ["x_next", "aux", "stats"])
 
@@ -211,10 +224,18 @@ class CompiledPlant:
         step = _rk4_sample_step(self.model, KERNEL_SUBSTEPS)
         acc = step.mapaccum("agv_acc", CHUNK_SAMPLES, [0], [0], {})
         # parameters and dt are the same for every sample of a chunk: repeat them inside the generated code
-        cx, cu, cp, cdt = ca.MX.sym("x0", len(STATE_NAMES)), ca.MX.sym("u", 2, CHUNK_SAMPLES), ca.MX.sym("p", len(PARAMETER_NAMES)), ca.MX.sym("dt")
-        chunk = ca.Function(
-            "agv_chunk", [cx, cu, cp, cdt], acc(cx, cu, ca.repmat(cp, 1, CHUNK_SAMPLES), ca.repmat(cdt, 1, CHUNK_SAMPLES)),
-            ["x0", "u", "p", "dt"], ["x", "aux", "stats"],
+        cx, cu, cp, cdt = (
+            ca.MX.sym("x0", len(STATE_NAMES)),
+            ca.MX.sym("u", 2, CHUNK_SAMPLES),
+            ca.MX.sym("p", len(PARAMETER_NAMES)),
+            ca.MX.sym("dt"),
+        )
+        chunk = ca.Function(  # type: ignore[call-overload]
+            "agv_chunk",
+            [cx, cu, cp, cdt],
+            acc(cx, cu, ca.repmat(cp, 1, CHUNK_SAMPLES), ca.repmat(cdt, 1, CHUNK_SAMPLES)),
+            ["x0", "u", "p", "dt"],
+            ["x", "aux", "stats"],
         )
         n_threads = max(1, min(os.cpu_count() or 1, 8))
         batch = chunk.map(BATCH_VEHICLES, "thread", n_threads)
@@ -246,7 +267,9 @@ class CompiledPlant:
             gen.generate(tmp + os.sep)
             source = Path(tmp, "agv_plant.c").read_bytes()
             flags = ["-O2", "-fPIC", "-shared"]
-            key = hashlib.sha256(source + " ".join(flags).encode() + ca.__version__.encode() + sys.platform.encode()).hexdigest()[:20]
+            key = hashlib.sha256(
+                source + " ".join(flags).encode() + str(getattr(ca, "__version__", "")).encode() + sys.platform.encode()
+            ).hexdigest()[:20]
             target = cache_dir() / f"agv_plant_{key}.so"
             if not target.exists():
                 target.parent.mkdir(parents=True, exist_ok=True)
@@ -319,7 +342,7 @@ class CompiledPlant:
 
         Returns ``(X, AUX, STATS)`` with shapes B×(n+1)×5, B×n×10, B×n×6.
         """
-        n_vehicles, n = u.shape[0], u.shape[1]
+        n_vehicles = u.shape[0]
         u = np.repeat(u, splits, axis=1)
         m = u.shape[1]
         n_chunks = max(1, -(-m // CHUNK_SAMPLES))

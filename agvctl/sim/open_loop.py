@@ -39,13 +39,19 @@ def sample_count(duration_s: float, sample_period_s: float) -> int:
 
 
 def _log_from_arrays(
-    vehicle: VehicleParams, actuator_out: dict[str, NDArray[np.float64]], X: NDArray[np.float64],
-    A: NDArray[np.float64], S: NDArray[np.float64], aux_final: NDArray[np.float64],
+    vehicle: VehicleParams,
+    actuator_out: dict[str, NDArray[np.float64]],
+    X: NDArray[np.float64],
+    A: NDArray[np.float64],
+    S: NDArray[np.float64],
+    aux_final: NDArray[np.float64],
 ) -> SimLog:
     n = A.shape[0]
     ts = vehicle.control.sample_period_s
     A_full = np.vstack([A, aux_final[None, :]])
-    final_stats = np.array([aux_final[4], aux_final[5], abs(aux_final[2]), abs(aux_final[3]), abs(aux_final[6]), abs(aux_final[7])])
+    final_stats = np.array(
+        [aux_final[4], aux_final[5], abs(aux_final[2]), abs(aux_final[3]), abs(aux_final[6]), abs(aux_final[7])]
+    )
     S_full = np.vstack([S, final_stats[None, :]])
     aux = {name: A_full[:, i] for i, name in enumerate(AUX_NAMES)}
     stats = {name: S_full[:, i] for i, name in enumerate(STATS_NAMES)}
@@ -57,7 +63,12 @@ def _log_from_arrays(
     cols["current_limited_right"] = (stats["current_limited_fraction_right"] > 0).astype(float)
     for name in STATS_NAMES:
         cols[name] = stats[name]
-    for name in ("omega_motor_left_rad_s", "omega_motor_right_rad_s", "wheel_accel_left_m_s2", "wheel_accel_right_m_s2"):
+    for name in (
+        "omega_motor_left_rad_s",
+        "omega_motor_right_rad_s",
+        "wheel_accel_left_m_s2",
+        "wheel_accel_right_m_s2",
+    ):
         cols[name] = aux[name]
     for i, name in enumerate(STATE_NAMES[2:], start=2):
         cols[name] = X[:, i]
@@ -67,7 +78,9 @@ def _log_from_arrays(
     return SimLog({name: cols[name] for name in PLANT_LOG_COLUMNS})
 
 
-def _actuate(vehicle: VehicleParams, da_voltage_v: NDArray[np.float64]) -> tuple[NDArray[np.float64], dict[str, NDArray[np.float64]]]:
+def _actuate(
+    vehicle: VehicleParams, da_voltage_v: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], dict[str, NDArray[np.float64]]]:
     out = Actuator(vehicle).apply(da_voltage_v)
     cols = {
         "da_code_left": out.da_code[..., 0].astype(float),
