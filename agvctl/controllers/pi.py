@@ -1,0 +1,270 @@
+"""Discrete PI wheel-speed loops with anti-windup for the DA range and the amplifier's current limit.
+
+One loop per motor, run every sample period T_s. Input: the motor-speed error e = ω_ref − ω (rad/s); output: the
+motor voltage u (V) the amplifier should apply, which :class:`PIWheelController` divides by the amplifier gain
+k_pow to get the DA voltage command (the DA converter and amplifier multiply it back, :mod:`agvctl.actuator`).
+
+The controller, from error to motor voltage, is
+
+    C(z) = k_p + k_i T_s · z / (z − 1) = ((k_p + k_i T_s) z − k_p) / (z − 1)
+
+(backward-Euler integrator), i.e. ``num = [k_p + k_i T_s, −k_p]``, ``den = [1, −1]`` in descending powers of z.
+In the time domain: ``I_k = I_{k−1} + k_i T_s e_k``, ``u_k = k_p e_k + I_k`` (+ the optional feed-forward).
+
+Anti-windup. The controller knows the voltage it commands and the speed it measures, so it predicts the armature
+current of eq 1 (inductance neglected): ``i = (u − k_e ω)/R``. The usable motor voltage is therefore
+
+    [k_e ω − R I_max, k_e ω + R I_max] ∩ [u_min, u_max]
+
+with [u_min, u_max] what the DA converter and amplifier can deliver. The output is clamped to that window (shrunk
+by half a DA step so that the DA's rounding cannot push the current past I_max), and when the clamp is active in
+the direction the integrator is moving the integrator is stopped (conditional integration), and it is
+back-calculated onto the window if it alone lies beyond the clamped edge (e.g. when the window moves with the
+speed). Stopping rather than fully back-calculating (I = u_sat − k_p e) keeps the full current available during
+a current-limited acceleration: the full back-calculation drops the command below the limit as soon as the error
+shrinks, since k_p exceeds k_e. The prediction holds at
+the start of the sample; over the sample the speed moves towards the command, so |i| only decreases.
+
+Optional Coulomb-friction feed-forward: ``u_ff = τ_c R / k_t · sign(ω_ref)`` (the voltage that balances the
+Coulomb torque τ_c at standstill, eq 1 with the friction of eqs 2-4), off by default.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import control
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.actuator import Actuator
+from agvctl.config import build, dump_toml, load_toml, number
+from agvctl.errors import ConfigError
+from agvctl.params import MotorParams, VehicleParams
+
+__all__ = [
+    "GainsFile",
+    "PIGains",
+    "PISettings",
+    "PISpeedLoop",
+    "PIWheelController",
+    "gains_toml",
+    "load_gains",
+]
+
+
+@dataclass(frozen=True)
+class PIGains:
+    """Gains of the discrete PI ``C(z) = kp + ki·dt_s·z/(z − 1)``, motor-speed error (rad/s) → motor voltage (V)."""
+
+    kp: float
+    """Proportional gain k_p, V/(rad/s) = V s/rad."""
+    ki: float
+    """Integral gain k_i, V/rad (per second of integrated error in rad/s)."""
+    dt_s: float
+    """Sample period T_s."""
+
+    def __post_init__(self) -> None:
+        for name in ("kp", "ki", "dt_s"):
+            value = getattr(self, name)
+            if not math.isfinite(value):
+                raise ValueError(f"PIGains.{name} must be finite (got {value})")
+        if self.kp < 0 or self.ki < 0:
+            raise ValueError(f"PIGains: kp and ki must be >= 0 (got kp={self.kp}, ki={self.ki})")
+        if self.dt_s <= 0:
+            raise ValueError(f"PIGains.dt_s must be > 0 (got {self.dt_s})")
+
+    @property
+    def num(self) -> tuple[float, float]:
+        """Numerator of C(z) in descending powers of z: ``(kp + ki·dt_s, −kp)``."""
+        return (self.kp + self.ki * self.dt_s, -self.kp)
+
+    @property
+    def den(self) -> tuple[float, float]:
+        """Denominator of C(z) in descending powers of z: ``(1, −1)``."""
+        return (1.0, -1.0)
+
+    def transfer_function(self) -> control.TransferFunction:
+        """C(z) as a discrete python-control transfer function with ``dt = dt_s``."""
+        return control.tf(list(self.num), list(self.den), self.dt_s, inputs="speed_error_rad_s", outputs="motor_voltage_v")
+
+
+class PISpeedLoop:
+    """The PI loop of one motor, with current-limit and DA-range anti-windup and optional friction feed-forward.
+
+    ``voltage_min_v``/``voltage_max_v`` is the motor-voltage range the DA converter and amplifier can deliver;
+    ``quantum_v`` is one DA step in motor volts (k_pow·α), used to keep the rounded command inside the
+    current window.
+    """
+
+    def __init__(
+        self,
+        gains: PIGains,
+        motor: MotorParams,
+        *,
+        current_limit_a: float,
+        voltage_min_v: float,
+        voltage_max_v: float,
+        quantum_v: float = 0.0,
+        coulomb_feedforward: bool = False,
+        anti_windup: bool = True,
+    ) -> None:
+        if not voltage_min_v < voltage_max_v:
+            raise ValueError(f"voltage_min_v must be below voltage_max_v (got {voltage_min_v}, {voltage_max_v})")
+        self.gains = gains
+        self.k_e = motor.voltage_constant_v_s_rad
+        self.k_t = motor.torque_constant_n_m_a
+        self.R = motor.resistance_ohm
+        self.tau_c = motor.coulomb_friction_n_m
+        self.current_limit_a = current_limit_a
+        self.voltage_min_v = voltage_min_v
+        self.voltage_max_v = voltage_max_v
+        self.quantum_v = quantum_v
+        self.coulomb_feedforward = coulomb_feedforward
+        self.anti_windup = anti_windup
+        self.integrator_v = 0.0
+        """The integrator state I (V of motor voltage)."""
+        self.limited = False
+        """Whether the last :meth:`update` was clamped by the current window or the DA range."""
+
+    def reset(self) -> None:
+        """Zero the integrator."""
+        self.integrator_v = 0.0
+        self.limited = False
+
+    def predicted_current_a(self, motor_voltage_v: float, measured_rad_s: float) -> float:
+        """Armature current of eq 1 at the start of the sample: ``(u − k_e ω)/R``."""
+        return (motor_voltage_v - self.k_e * measured_rad_s) / self.R
+
+    def usable_voltage_v(self, measured_rad_s: float) -> tuple[float, float]:
+        """The motor-voltage window ``[k_e ω − R I_max, k_e ω + R I_max] ∩ [u_min, u_max]`` (less half a DA step
+        at the current-limit edges). If the window is empty (the motor spins faster than the amplifier's range
+        can hold within I_max) both ends are the range end nearest to it, which gives the smallest current."""
+        back_emf_v = self.k_e * measured_rad_s  # eq 1
+        margin_v = self.R * self.current_limit_a - 0.5 * self.quantum_v
+        lo = max(back_emf_v - margin_v, self.voltage_min_v)
+        hi = min(back_emf_v + margin_v, self.voltage_max_v)
+        if lo > hi:
+            edge = self.voltage_max_v if back_emf_v > 0 else self.voltage_min_v
+            return edge, edge
+        return lo, hi
+
+    def feedforward_v(self, setpoint_rad_s: float) -> float:
+        """Coulomb-friction feed-forward τ_c R/k_t · sign(ω_ref) if enabled, else 0."""
+        if not self.coulomb_feedforward or setpoint_rad_s == 0.0:
+            return 0.0
+        return math.copysign(self.tau_c * self.R / self.k_t, setpoint_rad_s)
+
+    def update(self, setpoint_rad_s: float, measured_rad_s: float) -> float:
+        """The motor voltage (V) for this sample."""
+        g = self.gains
+        e = setpoint_rad_s - measured_rad_s
+        ff = self.feedforward_v(setpoint_rad_s)
+        step_v = g.ki * g.dt_s * e
+        integrator = self.integrator_v + step_v
+        u_raw = g.kp * e + integrator + ff
+        if not self.anti_windup:
+            self.integrator_v = integrator
+            self.limited = False
+            return u_raw
+        lo, hi = self.usable_voltage_v(measured_rad_s)
+        u = min(max(u_raw, lo), hi)
+        self.limited = u != u_raw
+        if u_raw > hi:
+            # stop integrating upwards; the integrator alone never asks for more than the window's top
+            integrator = min(self.integrator_v, integrator, hi - ff)
+        elif u_raw < lo:
+            integrator = max(self.integrator_v, integrator, lo - ff)
+        self.integrator_v = integrator
+        return u
+
+
+class PIWheelController:
+    """Both wheels' PI loops: a :class:`~agvctl.controllers.base.WheelSpeedController`.
+
+    ``update`` takes motor-speed setpoints and measurements (rad/s, left and right) and returns DA voltage
+    commands (V) = motor voltage / k_pow. Per-side motor constants come from ``vehicle``.
+    """
+
+    def __init__(
+        self,
+        vehicle: VehicleParams,
+        gains: PIGains,
+        *,
+        coulomb_feedforward: bool = False,
+        anti_windup: bool = True,
+    ) -> None:
+        act = Actuator(vehicle)
+        self.amplifier_gain = act.gain
+        u_max = vehicle.amplifier.voltage_limit_v
+        da_min_v = act.mid_v + act.code_min * act.volts_per_code
+        v_min = max(act.gain * da_min_v, -u_max)
+        v_max = min(act.gain * act.max_da_voltage_v, u_max)
+        self.loops = tuple(
+            PISpeedLoop(
+                gains, vehicle.motor.side(side),
+                current_limit_a=vehicle.amplifier.current_limit_a,
+                voltage_min_v=v_min, voltage_max_v=v_max, quantum_v=act.gain * act.volts_per_code,
+                coulomb_feedforward=coulomb_feedforward, anti_windup=anti_windup,
+            )
+            for side in ("left", "right")
+        )
+        self.gains = gains
+
+    def reset(self) -> None:
+        """Zero both integrators."""
+        for loop in self.loops:
+            loop.reset()
+
+    def motor_voltages_v(self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The motor voltages (left, right) in V for one sample (advances the integrators)."""
+        sp = np.asarray(setpoint_rad_s, dtype=float)
+        meas = np.asarray(measured_rad_s, dtype=float)
+        return np.array([loop.update(float(sp[i]), float(meas[i])) for i, loop in enumerate(self.loops)])
+
+    def update(self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]) -> NDArray[np.float64]:
+        """DA voltage commands (left, right) in V for one sample: motor voltage / k_pow."""
+        return self.motor_voltages_v(setpoint_rad_s, measured_rad_s) / self.amplifier_gain
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Gains files
+
+
+@dataclass(frozen=True)
+class PISettings:
+    """The ``[pi]`` table of a gains file."""
+
+    kp_v_s_rad: float = number(ge=0, doc="k_p, V per rad/s")
+    ki_v_rad: float = number(ge=0, doc="k_i, V per rad")
+    dt_s: float = number(gt=0, doc="the sample period the gains were designed for")
+    coulomb_feedforward: bool = False
+
+    def validate(self, *, source: str, prefix: str) -> None:
+        if self.kp_v_s_rad == 0 and self.ki_v_rad == 0:
+            raise ConfigError(source, f"{prefix}.kp_v_s_rad" if prefix else "kp_v_s_rad", "kp_v_s_rad and ki_v_rad are both zero")
+
+    @property
+    def gains(self) -> PIGains:
+        return PIGains(kp=self.kp_v_s_rad, ki=self.ki_v_rad, dt_s=self.dt_s)
+
+
+@dataclass(frozen=True)
+class GainsFile:
+    """A gains TOML file as written by ``agvctl tune --out`` (one table, ``[pi]``)."""
+
+    pi: PISettings
+
+
+def load_gains(path: str | Path) -> PISettings:
+    """Read a gains TOML file strictly (unknown keys, wrong types, bad values: one-line :class:`ConfigError`)."""
+    return build(GainsFile, load_toml(path), source=str(path)).pi
+
+
+def gains_toml(gains: PIGains, *, coulomb_feedforward: bool = False, header: str = "") -> str:
+    """The text of a gains file for ``gains`` (read back by :func:`load_gains`)."""
+    settings = PISettings(kp_v_s_rad=gains.kp, ki_v_rad=gains.ki, dt_s=gains.dt_s, coulomb_feedforward=coulomb_feedforward)
+    return dump_toml({"pi": dataclasses.asdict(settings)}, header=header)
