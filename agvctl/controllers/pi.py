@@ -1,28 +1,30 @@
 """Discrete PI wheel-speed loops with anti-windup for the DA range and the amplifier's current limit.
 
-One loop per motor, run every sample period T_s. Input: the motor-speed error e = ω_ref − ω (rad/s); output: the
-motor voltage u (V) the amplifier should apply, which :class:`PIWheelController` divides by the amplifier gain
-k_pow to get the DA voltage command (the DA converter and amplifier multiply it back, :mod:`agvctl.actuator`).
+One loop per motor, run every sample period T_s. Input: the motor-speed error e = ω_ref − ω (rad/s);
+output: the motor voltage u (V) the amplifier should apply, which :class:`PIWheelController` divides by the
+amplifier gain k_pow to get the DA voltage command (the DA converter and amplifier multiply it back,
+:mod:`agvctl.actuator`).
 
 The controller, from error to motor voltage, is
 
     C(z) = k_p + k_i T_s · z / (z − 1) = ((k_p + k_i T_s) z − k_p) / (z − 1)
 
-(backward-Euler integrator), i.e. ``num = [k_p + k_i T_s, −k_p]``, ``den = [1, −1]`` in descending powers of z.
-In the time domain: ``I_k = I_{k−1} + k_i T_s e_k``, ``u_k = k_p e_k + I_k`` (+ the optional feed-forward).
+(backward-Euler integrator), i.e. ``num = [k_p + k_i T_s, −k_p]``, ``den = [1, −1]`` in descending powers
+of z. In the time domain: ``I_k = I_{k−1} + k_i T_s e_k``, ``u_k = k_p e_k + I_k`` (+ the optional
+feed-forward).
 
-Anti-windup. The controller knows the voltage it commands and the speed it measures, so it predicts the armature
-current of eq 1 (inductance neglected): ``i = (u − k_e ω)/R``. The usable motor voltage is therefore
+Anti-windup. The controller knows the voltage it commands and the speed it measures, so it predicts the
+armature current of eq 1 (inductance neglected): ``i = (u − k_e ω)/R``. The usable motor voltage is therefore
 
     [k_e ω − R I_max, k_e ω + R I_max] ∩ [u_min, u_max]
 
-with [u_min, u_max] what the DA converter and amplifier can deliver. The output is clamped to that window (shrunk
-by half a DA step so that the DA's rounding cannot push the current past I_max), and when the clamp is active in
-the direction the integrator is moving the integrator is stopped (conditional integration), and it is
-back-calculated onto the window if it alone lies beyond the clamped edge (e.g. when the window moves with the
-speed). Stopping rather than fully back-calculating (I = u_sat − k_p e) keeps the full current available during
-a current-limited acceleration: the full back-calculation drops the command below the limit as soon as the error
-shrinks, since k_p exceeds k_e. The prediction holds at
+with [u_min, u_max] what the DA converter and amplifier can deliver. The output is clamped to that window
+(shrunk by half a DA step so that the DA's rounding cannot push the current past I_max), and when the clamp
+is active in the direction the integrator is moving the integrator is stopped (conditional integration),
+and it is back-calculated onto the window if it alone lies beyond the clamped edge (e.g. when the window
+moves with the speed). Stopping rather than fully back-calculating (I = u_sat − k_p e) keeps the full
+current available during a current-limited acceleration: the full back-calculation drops the command below
+the limit as soon as the error shrinks, since k_p exceeds k_e. The prediction holds at
 the start of the sample; over the sample the speed moves towards the command, so |i| only decreases.
 
 Optional Coulomb-friction feed-forward: ``u_ff = τ_c R / k_t · sign(ω_ref)`` (the voltage that balances the
@@ -58,7 +60,8 @@ __all__ = [
 
 @dataclass(frozen=True)
 class PIGains:
-    """Gains of the discrete PI ``C(z) = kp + ki·dt_s·z/(z − 1)``, motor-speed error (rad/s) → motor voltage (V)."""
+    """Gains of the discrete PI ``C(z) = kp + ki·dt_s·z/(z − 1)``, motor-speed error (rad/s) → motor
+    voltage (V)."""
 
     kp: float
     """Proportional gain k_p, V/(rad/s) = V s/rad."""
@@ -89,11 +92,14 @@ class PIGains:
 
     def transfer_function(self) -> control.TransferFunction:
         """C(z) as a discrete python-control transfer function with ``dt = dt_s``."""
-        return control.tf(list(self.num), list(self.den), self.dt_s, inputs="speed_error_rad_s", outputs="motor_voltage_v")
+        return control.tf(
+            list(self.num), list(self.den), self.dt_s, inputs="speed_error_rad_s", outputs="motor_voltage_v"
+        )
 
 
 class PISpeedLoop:
-    """The PI loop of one motor, with current-limit and DA-range anti-windup and optional friction feed-forward.
+    """The PI loop of one motor, with current-limit and DA-range anti-windup and optional friction
+    feed-forward.
 
     ``voltage_min_v``/``voltage_max_v`` is the motor-voltage range the DA converter and amplifier can deliver;
     ``quantum_v`` is one DA step in motor volts (k_pow·α), used to keep the rounded command inside the
@@ -113,7 +119,9 @@ class PISpeedLoop:
         anti_windup: bool = True,
     ) -> None:
         if not voltage_min_v < voltage_max_v:
-            raise ValueError(f"voltage_min_v must be below voltage_max_v (got {voltage_min_v}, {voltage_max_v})")
+            raise ValueError(
+                f"voltage_min_v must be below voltage_max_v (got {voltage_min_v}, {voltage_max_v})"
+            )
         self.gains = gains
         self.k_e = motor.voltage_constant_v_s_rad
         self.k_t = motor.torque_constant_n_m_a
@@ -140,9 +148,10 @@ class PISpeedLoop:
         return (motor_voltage_v - self.k_e * measured_rad_s) / self.R
 
     def usable_voltage_v(self, measured_rad_s: float) -> tuple[float, float]:
-        """The motor-voltage window ``[k_e ω − R I_max, k_e ω + R I_max] ∩ [u_min, u_max]`` (less half a DA step
-        at the current-limit edges). If the window is empty (the motor spins faster than the amplifier's range
-        can hold within I_max) both ends are the range end nearest to it, which gives the smallest current."""
+        """The motor-voltage window ``[k_e ω − R I_max, k_e ω + R I_max] ∩ [u_min, u_max]`` (less half a DA
+        step at the current-limit edges). If the window is empty (the motor spins faster than the
+        amplifier's range can hold within I_max) both ends are the range end nearest to it, which gives the
+        smallest current."""
         back_emf_v = self.k_e * measured_rad_s  # eq 1
         margin_v = self.R * self.current_limit_a - 0.5 * self.quantum_v
         lo = max(back_emf_v - margin_v, self.voltage_min_v)
@@ -205,10 +214,14 @@ class PIWheelController:
         v_max = min(act.gain * act.max_da_voltage_v, u_max)
         self.loops = tuple(
             PISpeedLoop(
-                gains, vehicle.motor.side(side),
+                gains,
+                vehicle.motor.side(side),
                 current_limit_a=vehicle.amplifier.current_limit_a,
-                voltage_min_v=v_min, voltage_max_v=v_max, quantum_v=act.gain * act.volts_per_code,
-                coulomb_feedforward=coulomb_feedforward, anti_windup=anti_windup,
+                voltage_min_v=v_min,
+                voltage_max_v=v_max,
+                quantum_v=act.gain * act.volts_per_code,
+                coulomb_feedforward=coulomb_feedforward,
+                anti_windup=anti_windup,
             )
             for side in ("left", "right")
         )
@@ -219,18 +232,22 @@ class PIWheelController:
         for loop in self.loops:
             loop.reset()
 
-    def motor_voltages_v(self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]) -> NDArray[np.float64]:
+    def motor_voltages_v(
+        self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
         """The motor voltages (left, right) in V for one sample (advances the integrators)."""
         sp = np.asarray(setpoint_rad_s, dtype=float)
         meas = np.asarray(measured_rad_s, dtype=float)
         return np.array([loop.update(float(sp[i]), float(meas[i])) for i, loop in enumerate(self.loops)])
 
-    def update(self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]) -> NDArray[np.float64]:
+    def update(
+        self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
         """DA voltage commands (left, right) in V for one sample: motor voltage / k_pow."""
         return self.motor_voltages_v(setpoint_rad_s, measured_rad_s) / self.amplifier_gain
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # Gains files
 
 
@@ -245,7 +262,11 @@ class PISettings:
 
     def validate(self, *, source: str, prefix: str) -> None:
         if self.kp_v_s_rad == 0 and self.ki_v_rad == 0:
-            raise ConfigError(source, f"{prefix}.kp_v_s_rad" if prefix else "kp_v_s_rad", "kp_v_s_rad and ki_v_rad are both zero")
+            raise ConfigError(
+                source,
+                f"{prefix}.kp_v_s_rad" if prefix else "kp_v_s_rad",
+                "kp_v_s_rad and ki_v_rad are both zero",
+            )
 
     @property
     def gains(self) -> PIGains:
@@ -260,11 +281,14 @@ class GainsFile:
 
 
 def load_gains(path: str | Path) -> PISettings:
-    """Read a gains TOML file strictly (unknown keys, wrong types, bad values: one-line :class:`ConfigError`)."""
+    """Read a gains TOML file strictly (unknown keys, wrong types, bad values: one-line
+    :class:`ConfigError`)."""
     return build(GainsFile, load_toml(path), source=str(path)).pi
 
 
 def gains_toml(gains: PIGains, *, coulomb_feedforward: bool = False, header: str = "") -> str:
     """The text of a gains file for ``gains`` (read back by :func:`load_gains`)."""
-    settings = PISettings(kp_v_s_rad=gains.kp, ki_v_rad=gains.ki, dt_s=gains.dt_s, coulomb_feedforward=coulomb_feedforward)
+    settings = PISettings(
+        kp_v_s_rad=gains.kp, ki_v_rad=gains.ki, dt_s=gains.dt_s, coulomb_feedforward=coulomb_feedforward
+    )
     return dump_toml({"pi": dataclasses.asdict(settings)}, header=header)

@@ -4,26 +4,29 @@ The loop, per wheel, broken at the controller's input::
 
     L(z) = C(z) · k_chain · G_zoh(z)
 
-* G_zoh(z): the decoupled model ω/u = (k_t/R)/(J̃ s + k_e k_t/R + f_m) (eqs 1, 60-61) sampled with a ZOH at T_s
+* G_zoh(z): the decoupled model ω/u = (k_t/R)/(J̃ s + k_e k_t/R + f_m) (eqs 1, 60-61) sampled with a ZOH at
+  T_s
   (``control.sample_system(..., "zoh")``), K(1 − a)/(z − a) with a = exp(−T_s/τ_m);
-* k_chain: the gain from the controller's output to the motor voltage. The controller outputs a motor voltage u_c,
+* k_chain: the gain from the controller's output to the motor voltage. The controller outputs a motor
+  voltage u_c,
   :class:`~agvctl.controllers.pi.PIWheelController` sends the DA the voltage u_c/k_pow, the DA outputs that
-  voltage (code·α = u_c/k_pow up to half a step: gain 1 V/V, quantisation neglected) and the amplifier multiplies
-  by k_pow: k_chain = k_pow · 1 · (1/k_pow) = 1;
+  voltage (code·α = u_c/k_pow up to half a step: gain 1 V/V, quantisation neglected) and the amplifier
+  multiplies by k_pow: k_chain = k_pow · 1 · (1/k_pow) = 1;
 * C(z) = k_p + k_i T_s z/(z − 1) (:class:`~agvctl.controllers.pi.PIGains`).
 
-Margins are those of this sampled loop, computed from its frequency response L(e^{jωT_s}) on a dense grid up to
-and including the Nyquist frequency ω = π/T_s (z = −1). For a PI on this first-order plant the phase reaches
-−180° exactly at z = −1 (both C(−1) and G_zoh(−1) are real), which ``control.margin`` /
+Margins are those of this sampled loop, computed from its frequency response L(e^{jωT_s}) on a dense grid
+up to and including the Nyquist frequency ω = π/T_s (z = −1). For a PI on this first-order plant the phase
+reaches −180° exactly at z = −1 (both C(−1) and G_zoh(−1) are real), which ``control.margin`` /
 ``control.stability_margins`` miss (they report an infinite gain margin); here that point is a phase crossing
 like any other, and the gain margin there is −20 log10 |L(−1)|.
 
-Design ("as fast as the margins allow"): for a crossover ω_c, the PI that gives exactly the required phase margin
-there is unique (solve C(e^{jω_c T}) = e^{j(PM − 180°)} / (k_chain G(e^{jω_c T})) for k_p, k_i). For a fixed ω_c it
-also has the best gain margin of all PIs with that crossover and at least that phase margin (more phase lead means
-a larger C(−1) = k_p + k_i T_s/2), and its gain margin falls as ω_c rises. So the fastest design is the largest
-ω_c at which that PI has k_i > 0 and meets the gain margin: found by a scan and bisection. With a crossover
-demand, the PI with the required phase margin at that ω_c is checked against the gain margin.
+Design ("as fast as the margins allow"): for a crossover ω_c, the PI that gives exactly the required phase
+margin there is unique (solve C(e^{jω_c T}) = e^{j(PM − 180°)} / (k_chain G(e^{jω_c T})) for k_p, k_i). For
+a fixed ω_c it also has the best gain margin of all PIs with that crossover and at least that phase margin
+(more phase lead means a larger C(−1) = k_p + k_i T_s/2), and its gain margin falls as ω_c rises. So the
+fastest design is the largest ω_c at which that PI has k_i > 0 and meets the gain margin: found by a scan
+and bisection. With a crossover demand, the PI with the required phase margin at that ω_c is checked
+against the gain margin.
 """
 
 from __future__ import annotations
@@ -76,11 +79,15 @@ class TuningSpec:
     def __post_init__(self) -> None:
         pm, gm, wc = self.phase_margin_deg, self.gain_margin_db, self.crossover_rad_s
         if not (math.isfinite(pm) and 0.0 < pm < 180.0):
-            raise ConfigError(SPEC_SOURCE, "phase_margin_deg", f"must be between 0 and 180 degrees (got {pm:g})")
+            raise ConfigError(
+                SPEC_SOURCE, "phase_margin_deg", f"must be between 0 and 180 degrees (got {pm:g})"
+            )
         if not (math.isfinite(gm) and gm >= 0.0):
             raise ConfigError(SPEC_SOURCE, "gain_margin_db", f"must be a finite number >= 0 dB (got {gm:g})")
         if wc is not None and not (math.isfinite(wc) and wc > 0.0):
-            raise ConfigError(SPEC_SOURCE, "crossover_rad_s", f"must be a positive number of rad/s (got {wc:g})")
+            raise ConfigError(
+                SPEC_SOURCE, "crossover_rad_s", f"must be a positive number of rad/s (got {wc:g})"
+            )
 
 
 @dataclass(frozen=True)
@@ -117,7 +124,9 @@ class TuningResult:
 
     def loop(self, side: str = "left") -> control.TransferFunction:
         """The open loop L(z) = C(z) k_chain G_zoh(z) of one wheel as a python-control transfer function."""
-        num, den = loop_polynomials(self.gains, self.plant_left if side == "left" else self.plant_right, self.chain_gain)
+        num, den = loop_polynomials(
+            self.gains, self.plant_left if side == "left" else self.plant_right, self.chain_gain
+        )
         return control.tf(num, den, self.gains.dt_s)
 
 
@@ -133,7 +142,8 @@ def chain_gain(vehicle: VehicleParams) -> float:
 
 
 def sampled_wheel_models(vehicle: VehicleParams) -> tuple[control.TransferFunction, control.TransferFunction]:
-    """The decoupled models (eqs 60-61) of the left and right wheel sampled with a ZOH at the sample period."""
+    """The decoupled models (eqs 60-61) of the left and right wheel sampled with a ZOH at the sample
+    period."""
     ts = vehicle.control.sample_period_s
     models = decoupled_wheel_models(vehicle)
     return (
@@ -144,7 +154,9 @@ def sampled_wheel_models(vehicle: VehicleParams) -> tuple[control.TransferFuncti
 
 def _tf_polys(tf: control.TransferFunction) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     num, den = control.tfdata(tf)
-    return np.atleast_1d(np.asarray(num[0][0], dtype=float)), np.atleast_1d(np.asarray(den[0][0], dtype=float))
+    return np.atleast_1d(np.asarray(num[0][0], dtype=float)), np.atleast_1d(
+        np.asarray(den[0][0], dtype=float)
+    )
 
 
 def loop_polynomials(
@@ -152,7 +164,8 @@ def loop_polynomials(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Numerator and denominator (descending powers of z) of L(z) = C(z) · chain · G(z)."""
     g_num, g_den = _tf_polys(plant_z)
-    return chain * np.polymul(gains.num, g_num), np.polymul(gains.den, g_den)
+    num = np.asarray(chain * np.polymul(gains.num, g_num), dtype=np.float64)
+    return num, np.asarray(np.polymul(gains.den, g_den), dtype=np.float64)
 
 
 def frequency_response(
@@ -168,8 +181,8 @@ def loop_margins(
 ) -> LoopMargins:
     """Gain and phase margins of the discrete loop ``num/den`` from its frequency response on (0, π/T_s].
 
-    The grid is linear in ω and includes the Nyquist frequency itself; crossings are refined with Brent's method.
-    A phase crossing is a zero of Im L with Re L < 0, including ω = π/T_s where Im L = 0 identically.
+    The grid is linear in ω and includes the Nyquist frequency itself; crossings are refined with Brent's
+    method. A phase crossing is a zero of Im L with Re L < 0, including ω = π/T_s where Im L = 0 identically.
     """
     w_nyq = math.pi / dt_s
     w = np.linspace(0.0, w_nyq, grid_points + 1)[1:]
@@ -191,7 +204,7 @@ def loop_margins(
     # phase crossings: Im L = 0 with Re L < 0, and z = -1 itself
     gms, wps = [], []
     im = resp.imag
-    for i in np.nonzero((np.sign(im[:-1]) * np.sign(im[1:]) < 0))[0]:
+    for i in np.nonzero(np.sign(im[:-1]) * np.sign(im[1:]) < 0)[0]:
         wp = brentq(lambda om: at(om).imag, w[i], w[i + 1], xtol=1e-12)
         if at(wp).real < 0:
             gms.append(-20.0 * math.log10(abs(at(wp))))
@@ -210,10 +223,15 @@ def loop_margins(
 
 
 def _pi_for_crossover(
-    plant_z: control.TransferFunction, chain: float, crossover_rad_s: float, phase_margin_deg: float, dt_s: float
+    plant_z: control.TransferFunction,
+    chain: float,
+    crossover_rad_s: float,
+    phase_margin_deg: float,
+    dt_s: float,
 ) -> PIGains | None:
-    """The PI with |L| = 1 and phase margin ``phase_margin_deg`` at ``crossover_rad_s``; None if that needs k_i <= 0
-    (a PI cannot provide the phase lead). Where it would need k_p < 0, the pure integrator (k_p = 0) instead."""
+    """The PI with |L| = 1 and phase margin ``phase_margin_deg`` at ``crossover_rad_s``; None if that needs
+    k_i <= 0 (a PI cannot provide the phase lead). Where it would need k_p < 0, the pure integrator (k_p =
+    0) instead."""
     theta = crossover_rad_s * dt_s
     g_num, g_den = _tf_polys(plant_z)
     g = chain * complex(frequency_response(g_num, g_den, dt_s, np.array([crossover_rad_s]))[0])
@@ -262,9 +280,14 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
             if gains is None:
                 continue
             m = [loop_margins(*loop_polynomials(gains, p, chain), ts, grid_points=grid) for p in plants]
-            if all(x.phase_margin_deg >= spec.phase_margin_deg and x.gain_margin_db >= spec.gain_margin_db for x in m):
-                if best is None or min(x.crossover_rad_s for x in m) > min(x.crossover_rad_s for x in best[1:]):
-                    best = (gains, m[0], m[1])
+            meets = all(
+                x.phase_margin_deg >= spec.phase_margin_deg and x.gain_margin_db >= spec.gain_margin_db
+                for x in m
+            )
+            if meets and (
+                best is None or min(x.crossover_rad_s for x in m) > min(x.crossover_rad_s for x in best[1:])
+            ):
+                best = (gains, m[0], m[1])
         return best
 
     # the fastest feasible crossover: scan (log-spaced) then bisect between the last feasible and the next
@@ -272,9 +295,11 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
     feasible = [candidate(float(wc), _SEARCH_GRID_POINTS) is not None for wc in scan]
     if not any(feasible):
         raise ConfigError(
-            SPEC_SOURCE, "phase_margin_deg",
-            f"no PI gives phase margin >= {spec.phase_margin_deg:g} deg and gain margin >= {spec.gain_margin_db:g} dB "
-            f"on this vehicle's wheel loop at any crossover up to Nyquist ({w_nyq:.4g} rad/s)",
+            SPEC_SOURCE,
+            "phase_margin_deg",
+            f"no PI gives phase margin >= {spec.phase_margin_deg:g} deg and gain margin >= "
+            f"{spec.gain_margin_db:g} dB on this vehicle's wheel loop at any crossover up to Nyquist "
+            f"({w_nyq:.4g} rad/s)",
         )
     last = max(i for i, ok in enumerate(feasible) if ok)
     lo = float(scan[last])
@@ -295,7 +320,8 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
         wc_target = spec.crossover_rad_s
         if wc_target >= w_nyq:
             raise ConfigError(
-                SPEC_SOURCE, "crossover_rad_s",
+                SPEC_SOURCE,
+                "crossover_rad_s",
                 f"{wc_target:g} rad/s is at or above the Nyquist frequency pi/T_s = {w_nyq:.4g} rad/s",
             )
     found = candidate(wc_target, GRID_POINTS)
@@ -306,12 +332,21 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
                 break
     if found is None:
         raise ConfigError(
-            SPEC_SOURCE, "crossover_rad_s",
-            f"no PI has crossover {wc_target:g} rad/s with phase margin >= {spec.phase_margin_deg:g} deg and gain "
-            f"margin >= {spec.gain_margin_db:g} dB; with these margins the crossover can be at most {max_wc:.4g} rad/s",
+            SPEC_SOURCE,
+            "crossover_rad_s",
+            f"no PI has crossover {wc_target:g} rad/s with phase margin >= {spec.phase_margin_deg:g} deg and "
+            f"gain margin >= {spec.gain_margin_db:g} dB; with these margins the crossover can be at most "
+            f"{max_wc:.4g} rad/s",
         )
     gains, m_left, m_right = found
     return TuningResult(
-        gains=gains, margins=_worst(m_left, m_right), margins_left=m_left, margins_right=m_right, spec=spec,
-        chain_gain=chain, plant_left=plants[0], plant_right=plants[1], max_crossover_rad_s=max_wc,
+        gains=gains,
+        margins=_worst(m_left, m_right),
+        margins_left=m_left,
+        margins_right=m_right,
+        spec=spec,
+        chain_gain=chain,
+        plant_left=plants[0],
+        plant_right=plants[1],
+        max_crossover_rad_s=max_wc,
     )

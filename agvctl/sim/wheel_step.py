@@ -1,0 +1,197 @@
+"""Verification of the wheel-speed loops on the full nonlinear plant: a wheel-speed step through the
+DA/amplifier.
+
+Both wheels get the same rim-speed step (straight line), i.e. a motor-speed setpoint ω_ref = v N / r per side.
+Every sample: the motor speeds are measured at the sample time, the controller returns DA voltage commands,
+the actuator (12-bit DA, amplifier) turns them into motor voltages held over the sample, and the compiled
+full model (friction of eqs 2-4, coupling of eqs 52-59, current limit inside the right-hand side) advances
+one sample.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.actuator import Actuator
+from agvctl.controllers.base import WheelSpeedController
+from agvctl.controllers.pi import PIGains, PIWheelController
+from agvctl.params import VehicleParams
+from agvctl.plant.full import AUX_NAMES, STATE_NAMES, parameter_vector
+from agvctl.sim.integrator import STATS_NAMES, compiled_plant, sample_splits
+
+__all__ = ["StepMetrics", "WheelStepResult", "step_metrics", "wheel_step_response"]
+
+_I_OMEGA = AUX_NAMES.index("omega_motor_left_rad_s")
+_I_CURRENT = AUX_NAMES.index("current_left_a")
+_I_PEAK = STATS_NAMES.index("current_peak_left_a")
+
+
+@dataclass(frozen=True)
+class StepMetrics:
+    """Step-response figures, all relative to the setpoint (the step size, from rest)."""
+
+    rise_time_s: float
+    """From 10 % to 90 % of the setpoint (first crossings, linearly interpolated between samples)."""
+    overshoot_pct: float
+    """(peak − setpoint)/setpoint · 100, or 0 if the response never exceeds the setpoint."""
+    settling_time_s: float
+    """Time after which the response stays within ±2 % of the setpoint (``inf`` if it never does)."""
+    steady_state_error_pct: float
+    """|setpoint − mean over the final window| / setpoint · 100."""
+
+
+@dataclass(frozen=True)
+class WheelStepResult:
+    """A simulated step of both wheel loops. Arrays have one row per sample time (n + 1) or per interval
+    (n)."""
+
+    t_s: NDArray[np.float64]
+    """Sample times k·T_s, k = 0…n."""
+    setpoint_rad_s: NDArray[np.float64]
+    """Motor-speed setpoints (left, right)."""
+    omega_motor_rad_s: NDArray[np.float64]
+    """(n + 1) × 2 measured motor speeds at the sample times."""
+    da_code: NDArray[np.int64]
+    """n × 2 DA codes sent."""
+    motor_voltage_v: NDArray[np.float64]
+    """n × 2 amplifier output voltages."""
+    current_a: NDArray[np.float64]
+    """(n + 1) × 2 armature currents at the sample times."""
+    current_peak_a: NDArray[np.float64]
+    """n × 2 peak |current| within each sample interval."""
+    metrics: StepMetrics
+    """The worse of the two wheels for each figure."""
+    metrics_left: StepMetrics = field(repr=False)
+    metrics_right: StepMetrics = field(repr=False)
+
+
+def step_metrics(
+    t_s: NDArray[np.float64],
+    y: NDArray[np.float64],
+    setpoint: float,
+    *,
+    settle_band: float = 0.02,
+    final_window_s: float = 0.5,
+) -> StepMetrics:
+    """Rise time (10-90 %), overshoot, settling time (±``settle_band``) and steady-state error of a step
+    response from 0 to ``setpoint`` sampled at ``t_s``."""
+    t = np.asarray(t_s, dtype=float)
+    r = np.asarray(y, dtype=float) / setpoint  # normalised: the target is 1
+
+    def first_crossing(level: float) -> float:
+        above = np.nonzero(r >= level)[0]
+        if above.size == 0:
+            return math.inf
+        k = int(above[0])
+        if k == 0:
+            return float(t[0])
+        return float(t[k - 1] + (level - r[k - 1]) / (r[k] - r[k - 1]) * (t[k] - t[k - 1]))
+
+    rise = first_crossing(0.9) - first_crossing(0.1)
+    overshoot = max(0.0, float(np.max(r)) - 1.0) * 100.0
+    outside = np.nonzero(np.abs(r - 1.0) > settle_band)[0]
+    if outside.size == 0:
+        settling = float(t[0])
+    elif outside[-1] == len(r) - 1:
+        settling = math.inf
+    else:
+        k = int(outside[-1])  # last sample outside the band; interpolate where it enters the band for good
+        edge = 1.0 + math.copysign(settle_band, r[k] - 1.0)
+        settling = float(t[k] + (edge - r[k]) / (r[k + 1] - r[k]) * (t[k + 1] - t[k]))
+    final = r[t >= t[-1] - final_window_s - 1e-12]
+    sse = abs(1.0 - float(np.mean(final))) * 100.0
+    return StepMetrics(
+        rise_time_s=rise, overshoot_pct=overshoot, settling_time_s=settling, steady_state_error_pct=sse
+    )
+
+
+def _worst(a: StepMetrics, b: StepMetrics) -> StepMetrics:
+    return StepMetrics(
+        *(
+            max(x, y)
+            for x, y in zip(
+                (a.rise_time_s, a.overshoot_pct, a.settling_time_s, a.steady_state_error_pct),
+                (b.rise_time_s, b.overshoot_pct, b.settling_time_s, b.steady_state_error_pct),
+                strict=True,
+            )
+        )
+    )
+
+
+def wheel_step_response(
+    vehicle: VehicleParams,
+    gains: PIGains | None = None,
+    *,
+    controller: WheelSpeedController | None = None,
+    wheel_speed_step_m_s: float = 0.3,
+    duration_s: float = 3.0,
+    coulomb_feedforward: bool = False,
+    anti_windup: bool = True,
+) -> WheelStepResult:
+    """Step both wheels' rim-speed setpoints from rest to ``wheel_speed_step_m_s`` on the full nonlinear
+    plant.
+
+    The controller is ``controller`` if given, else a :class:`PIWheelController` with ``gains``,
+    ``coulomb_feedforward`` and ``anti_windup``. All commands go through :class:`~agvctl.actuator.Actuator`.
+    """
+    if controller is None:
+        if gains is None:
+            raise ValueError("wheel_step_response: give gains or a controller")
+        controller = PIWheelController(
+            vehicle, gains, coulomb_feedforward=coulomb_feedforward, anti_windup=anti_windup
+        )
+    if not (math.isfinite(wheel_speed_step_m_s) and wheel_speed_step_m_s != 0.0):
+        raise ValueError(f"wheel_speed_step_m_s must be finite and non-zero (got {wheel_speed_step_m_s})")
+    ts = vehicle.control.sample_period_s
+    if not (math.isfinite(duration_s) and duration_s > 0):
+        raise ValueError(f"duration_s must be positive (got {duration_s})")
+    n = max(1, int(round(duration_s / ts)))
+    setpoint = np.array(
+        [
+            wheel_speed_step_m_s * vehicle.motor.left.gear_ratio / vehicle.wheels.radius_left_m,
+            wheel_speed_step_m_s * vehicle.motor.right.gear_ratio / vehicle.wheels.radius_right_m,
+        ]
+    )
+    plant = compiled_plant()
+    splits = sample_splits(vehicle)
+    p = parameter_vector(vehicle)
+    actuator = Actuator(vehicle)
+    controller.reset()
+
+    x = np.zeros(len(STATE_NAMES))
+    omega = np.empty((n + 1, 2))
+    current = np.empty((n + 1, 2))
+    codes = np.empty((n, 2), dtype=np.int64)
+    volts = np.empty((n, 2))
+    peaks = np.empty((n, 2))
+    u = np.zeros(2)
+    for k in range(n):
+        measured = plant.aux(x, u, p)[_I_OMEGA : _I_OMEGA + 2]  # the speeds at t_k (they depend on x only)
+        out = actuator.apply(controller.update(setpoint, measured))
+        u = np.asarray(out.motor_voltage_v, dtype=float)
+        x, aux, stats = plant.step(x, u, p, ts, splits)
+        omega[k] = aux[_I_OMEGA : _I_OMEGA + 2]
+        current[k] = aux[_I_CURRENT : _I_CURRENT + 2]
+        codes[k], volts[k], peaks[k] = out.da_code, u, stats[_I_PEAK : _I_PEAK + 2]
+    aux_end = plant.aux(x, u, p)
+    omega[n] = aux_end[_I_OMEGA : _I_OMEGA + 2]
+    current[n] = aux_end[_I_CURRENT : _I_CURRENT + 2]
+    t = np.asarray(np.arange(n + 1) * ts, dtype=np.float64)
+    m_left = step_metrics(t, omega[:, 0], float(setpoint[0]))
+    m_right = step_metrics(t, omega[:, 1], float(setpoint[1]))
+    return WheelStepResult(
+        t_s=t,
+        setpoint_rad_s=setpoint,
+        omega_motor_rad_s=omega,
+        da_code=codes,
+        motor_voltage_v=volts,
+        current_a=current,
+        current_peak_a=peaks,
+        metrics=_worst(m_left, m_right),
+        metrics_left=m_left,
+        metrics_right=m_right,
+    )
