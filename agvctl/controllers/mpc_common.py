@@ -1,0 +1,172 @@
+"""What the two MPC pose controllers share: their configuration, the reference on the horizon grid, fallbacks.
+
+Both controllers (:mod:`agvctl.controllers.mpc_ltv` on OSQP, :mod:`agvctl.controllers.mpc_nonlinear` on
+CasADi) solve the same problem every sample period T_s:
+
+    minimise  Σ_{k=1..N} ‖e_k‖²_Q (Q·terminal scale at k = N) + w_u Σ ‖s_k − s_ff,k‖²
+              + w_Δ Σ_{k=0..N−1} ‖s_k − s_{k−1}‖²
+    subject to the prediction model, |s_k| ≤ v_max and |s_k − s_{k−1}| ≤ a_lim·T_s (all hard)
+
+with s_k the wheel-speed setpoints (left, right) in m/s held over sample k, e_k the pose error (position in
+m, heading in rad) and s_ff the reference's feed-forward. The prediction model is the report's kinematics
+(eqs 39-43: U = (v_r + v_l)/2, ω = (v_r − v_l)/b, ẋ = U cos θ, ẏ = U sin θ, θ̇ = ω) driven either directly
+by the setpoints (``"kinematic"``) or through a first-order lag v̇ = (s − v)/τ standing for the closed
+wheel-speed loop (``"kinematic+wheel_loop"``).
+
+s_{−1} is the previous command (the measured wheel speeds at the first step after a reset): the setpoint
+ramps at most at a_lim, and the wheel loop follows the ramp. Measured against the *measured* wheel speed
+instead, the constraint would be violated through every acceleration (the loop lags its setpoint by about
+τ·a > a_lim·T_s), so it would have to be soft all the time. The only case where the hard constraints are
+infeasible is |s_{−1}| > v_max + a_lim·T_s (e.g. a measured speed over the limit at reset); there s_{−1} is
+first clipped to ±v_max, which relaxes the first move just enough — the limit of an infinitely heavy slack
+penalty, without the slack's poor conditioning (a slack weighted 10⁶ made OSQP need 400+ iterations in the
+acceleration phases, where the reference sits exactly at a_lim and the rate constraints are degenerate).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.config import build, number
+from agvctl.params import VehicleParams
+from agvctl.planning.reference import Reference
+
+__all__ = ["RUNNER_KEYS", "HorizonReference", "MpcConfig", "SetpointFallback", "wrap_angle"]
+
+FloatArray = NDArray[np.float64]
+
+PredictionModel = Literal["kinematic", "kinematic+wheel_loop"]
+ErrorFrame = Literal["path", "world"]
+
+RUNNER_KEYS = frozenset({"pose", "compute_delay"})
+"""Keys of an experiment's ``[controller]`` table that belong to the closed-loop runner, not to the MPC."""
+
+
+@dataclass(frozen=True)
+class MpcConfig:
+    """Settings of the MPC pose controllers, as in an experiment file's ``[controller]`` table (SI units).
+
+    Weights are per squared unit of their quantity: position 1/m², heading 1/rad², input and input rate
+    1/(m/s)². Only their ratios matter.
+    """
+
+    horizon: int = number(ge=1, default=20, doc="N, prediction and control horizon in samples")
+    weight_position: float = number(ge=0, default=1.0e3, doc="on each predicted position error, 1/m²")
+    weight_heading: float = number(ge=0, default=10.0, doc="on each predicted heading error, 1/rad²")
+    weight_terminal_scale: float = number(ge=0, default=1.0, doc="multiplies the pose weights at k = N")
+    weight_input: float = number(ge=0, default=0.1, doc="on setpoint minus feed-forward, 1/(m/s)²")
+    weight_input_rate: float = number(ge=0, default=10.0, doc="on setpoint change per sample, 1/(m/s)²")
+    prediction_model: PredictionModel = "kinematic+wheel_loop"
+    wheel_loop_time_constant_s: float = number(gt=0, default=0.1, doc="τ of the closed wheel loop's lag")
+    error_frame: ErrorFrame = "path"
+    """The LTV MPC's error coordinates: along/across the reference heading (``path``) or x/y (``world``)."""
+    max_wheel_speed_m_s: float | None = number(gt=0, default=None, doc="default: the vehicle's max speed")
+    max_wheel_accel_m_s2: float | None = number(gt=0, default=None, doc="default: the vehicle's eq-5 limit")
+    max_solve_time_s: float = number(gt=0, default=0.02, doc="solver time limit per step")
+    max_iterations: int = number(ge=1, default=400, doc="solver iteration limit per step")
+    tolerance: float = number(gt=0, default=1.0e-3, doc="solver tolerance (OSQP eps_abs/eps_rel, IPOPT tol)")
+
+    @classmethod
+    def from_table(
+        cls,
+        table: Mapping[str, Any],
+        *,
+        source: str,
+        prefix: str = "controller",
+        ignore: Iterable[str] = RUNNER_KEYS,
+    ) -> MpcConfig:
+        """Build from an experiment's ``[controller]`` table, strictly (unknown keys raise
+        :class:`~agvctl.errors.ConfigError` with a "did you mean"), skipping the runner's keys ``ignore``."""
+        skip = frozenset(ignore)
+        return build(cls, {k: v for k, v in table.items() if k not in skip}, source=source, prefix=prefix)
+
+    def replace(self, **changes: Any) -> MpcConfig:
+        """A copy with some fields changed."""
+        return dataclasses.replace(self, **changes)
+
+
+def wrap_angle(angle_rad: float) -> float:
+    """``angle_rad`` wrapped to [−π, π)."""
+    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class HorizonReference:
+    """The reference on the control grid t_j = j·T_s, sampled once at reset and padded with the final pose at
+    rest so that any horizon window ``[k, k + N]`` is a slice.
+
+    Arrays of length ``n_points`` (grid points, j = 0 … K + N + 1): ``x_m, y_m, theta_rad, speed_m_s,
+    yaw_rate_rad_s, wheel_m_s`` (n×2). Arrays of length ``n_points − 1`` (intervals [t_j, t_j+1]):
+    ``mid_*``, the reference at the midpoint of the interval, and ``feedforward_m_s`` (n×2), the setpoint
+    that makes the prediction model follow the reference: the midpoint wheel speeds for the kinematic model,
+    and for the wheel loop the inverse of its exact discretisation, s_j = (v_j+1 − a v_j)/(1 − a) with
+    a = exp(−T_s/τ).
+    """
+
+    def __init__(self, reference: Reference, config: MpcConfig, sample_period_s: float) -> None:
+        T = sample_period_s
+        N = config.horizon
+        self.sample_period_s = T
+        self.last_start = len(reference.grid_times_s)
+        """The largest window start: from here on the reference is at rest, so later windows are the same."""
+        n = self.last_start + N + 2
+        t = np.arange(n, dtype=np.float64) * T
+        g = reference.sample(t)
+        m = reference.sample(t[:-1] + 0.5 * T)
+        self.n_points = n
+        self.x_m, self.y_m, self.theta_rad = g.x_m, g.y_m, g.theta_rad
+        self.cos_theta, self.sin_theta = np.cos(g.theta_rad), np.sin(g.theta_rad)
+        self.speed_m_s, self.yaw_rate_rad_s = g.speed_m_s, g.yaw_rate_rad_s
+        self.wheel_m_s = np.column_stack([g.wheel_speed_left_m_s, g.wheel_speed_right_m_s])
+        self.mid_theta_rad, self.mid_speed_m_s = m.theta_rad, m.speed_m_s
+        self.mid_yaw_rate_rad_s = m.yaw_rate_rad_s
+        mid_wheel = np.column_stack([m.wheel_speed_left_m_s, m.wheel_speed_right_m_s])
+        if config.prediction_model == "kinematic":
+            ff = mid_wheel
+        else:
+            a = math.exp(-T / config.wheel_loop_time_constant_s)
+            ff = (self.wheel_m_s[1:] - a * self.wheel_m_s[:-1]) / (1.0 - a)
+        self.feedforward_m_s: FloatArray = np.ascontiguousarray(ff)
+
+    def window_start(self, t_s: float) -> int:
+        """The grid index of the sample starting at ``t_s`` (rounded), clamped to ``[0, last_start]``."""
+        k = round(t_s / self.sample_period_s)
+        return min(max(k, 0), self.last_start)
+
+
+class SetpointFallback:
+    """Remembers the last solved setpoint sequence, for the fallbacks when a solve fails: the shifted previous
+    solution while it still covers the current sample, then the reference's feed-forward."""
+
+    def __init__(self, horizon: int) -> None:
+        self.sequence_m_s = np.zeros((horizon, 2))
+        self.start = -1
+        """Grid index of the sequence's first sample; −1 when there is none."""
+
+    def clear(self) -> None:
+        self.start = -1
+
+    def store(self, start: int, sequence_m_s: FloatArray) -> None:
+        self.sequence_m_s[:] = sequence_m_s
+        self.start = start
+
+    def shifted(self, start: int) -> tuple[float, float] | None:
+        """The stored setpoint for grid index ``start``, if the stored sequence covers it."""
+        j = start - self.start
+        if self.start < 0 or j < 0 or j >= len(self.sequence_m_s):
+            return None
+        return float(self.sequence_m_s[j, 0]), float(self.sequence_m_s[j, 1])
+
+
+def resolved_limits(config: MpcConfig, vehicle: VehicleParams) -> tuple[float, float]:
+    """(v_max in m/s, a_lim in m/s²): the config's, or the vehicle's derived max speed and eq-5 limit."""
+    d = vehicle.derived
+    v_max = config.max_wheel_speed_m_s if config.max_wheel_speed_m_s is not None else d.max_speed_m_s
+    a_lim = config.max_wheel_accel_m_s2 if config.max_wheel_accel_m_s2 is not None else d.accel_limit_m_s2
+    return float(v_max), float(a_lim)
