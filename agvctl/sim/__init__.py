@@ -3,6 +3,7 @@
 from agvctl.sim.integrator import CompiledPlant, choose_substeps, compiled_plant, sample_splits
 from agvctl.sim.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.sim.open_loop import OpenLoopResult, load_input_profile, simulate_batch, simulate_open_loop
+from agvctl.sim.wheel_step import StepMetrics, WheelStepResult, step_metrics, wheel_step_response
 
 __all__ = [
     "PLANT_LOG_COLUMNS",
@@ -15,4 +16,8 @@ __all__ = [
     "load_input_profile",
     "simulate_batch",
     "simulate_open_loop",
+    "StepMetrics",
+    "WheelStepResult",
+    "step_metrics",
+    "wheel_step_response",
 ]
