@@ -21,7 +21,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.base import PoseCommand, SolveStatus
-from agvctl.controllers.mpc_common import HorizonReference, MpcConfig, SetpointFallback, resolved_limits
+from agvctl.controllers.mpc_common import (
+    HorizonReference,
+    MpcConfig,
+    SetpointFallback,
+    limit_command,
+    resolved_limits,
+)
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 
@@ -183,6 +189,9 @@ class NonlinearMpcController:
                 status = "fallback_feedforward"
         else:
             left, right = setpoint
+        v_max, a_step = self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 * self.sample_period_s
+        left = limit_command(left, self._u_prev[0], v_max, a_step)
+        right = limit_command(right, self._u_prev[1], v_max, a_step)
         self._u_prev[0], self._u_prev[1] = left, right
         return PoseCommand(left, right, time.perf_counter() - t0, status)
 
@@ -195,10 +204,13 @@ class NonlinearMpcController:
         # the pose's heading taken to the branch nearest the (continuous) reference heading
         theta_ref = g.theta_rad[k]
         theta = float(pose[2])
-        theta += 2.0 * math.pi * round((theta_ref - theta) / (2.0 * math.pi))
+        if math.isfinite(theta):
+            theta += 2.0 * math.pi * round((theta_ref - theta) / (2.0 * math.pi))
         x0 = [float(pose[0]), float(pose[1]), theta]
         if self._lag:
             x0 += [float(wheel_speed_m_s[0]), float(wheel_speed_m_s[1])]
+        if not all(math.isfinite(v) for v in x0):
+            return None  # a broken measurement
         ref = np.stack([g.x_m[k + 1 : k + N + 1], g.y_m[k + 1 : k + N + 1], g.theta_rad[k + 1 : k + N + 1]])
         ff = g.feedforward_m_s[k : k + N]
         v_max = self.max_wheel_speed_m_s
