@@ -31,12 +31,43 @@ from agvctl.controllers.mpc_common import (
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 
-__all__ = ["NonlinearMpcController"]
+__all__ = ["NonlinearMpcController", "prediction_step"]
 
 FloatArray = NDArray[np.float64]
 
 RK4_STEPS_PER_SAMPLE = 4
 _ACCEPTED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+def prediction_step(
+    sample_period_s: float, separation_m: float, wheel_loop_time_constant_s: float | None = None
+) -> ca.Function:
+    """The prediction model over one sample, ``step(x, s) -> x_next``, with s the held setpoints (m/s):
+    eqs 39-43 on x = (x_m, y_m, theta_rad), driven by s directly, or, given the wheel loop's time constant τ,
+    through v̇ = (s − v)/τ on x = (x_m, y_m, theta_rad, v_left_m_s, v_right_m_s). RK4, 4 steps per sample."""
+    lag = wheel_loop_time_constant_s is not None
+    nx = 5 if lag else 3
+    b = separation_m
+    x, s = ca.SX.sym("x", nx), ca.SX.sym("s", 2)
+
+    def rhs(z: ca.SX) -> ca.SX:
+        v = z[3:5] if lag else s
+        U = 0.5 * (v[0] + v[1])  # eq 39
+        w = (v[1] - v[0]) / b  # eq 40
+        out = [U * ca.cos(z[2]), U * ca.sin(z[2]), w]  # eqs 41-43
+        if wheel_loop_time_constant_s is not None:
+            out += [(s[0] - z[3]) / wheel_loop_time_constant_s, (s[1] - z[4]) / wheel_loop_time_constant_s]
+        return ca.vertcat(*out)
+
+    h = sample_period_s / RK4_STEPS_PER_SAMPLE
+    z = x
+    for _ in range(RK4_STEPS_PER_SAMPLE):
+        k1 = rhs(z)
+        k2 = rhs(z + 0.5 * h * k1)
+        k3 = rhs(z + 0.5 * h * k2)
+        k4 = rhs(z + h * k3)
+        z = z + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return ca.Function("step", [x, s], [z])
 
 
 class NonlinearMpcController:
@@ -84,33 +115,10 @@ class NonlinearMpcController:
 
     # -- the NLP ------------------------------------------------------------------------------------------
 
-    def _dynamics(self) -> ca.Function:
-        T, b, nx = self.sample_period_s, self.separation_m, self.nx
-        x, s = ca.SX.sym("x", nx), ca.SX.sym("s", 2)
-        tau = self.config.wheel_loop_time_constant_s
-
-        def rhs(z: ca.SX) -> ca.SX:
-            v = z[3:5] if self._lag else s
-            U = 0.5 * (v[0] + v[1])  # eq 39
-            w = (v[1] - v[0]) / b  # eq 40
-            out = [U * ca.cos(z[2]), U * ca.sin(z[2]), w]  # eqs 41-43
-            if self._lag:
-                out += [(s[0] - z[3]) / tau, (s[1] - z[4]) / tau]
-            return ca.vertcat(*out)
-
-        h = T / RK4_STEPS_PER_SAMPLE
-        z = x
-        for _ in range(RK4_STEPS_PER_SAMPLE):
-            k1 = rhs(z)
-            k2 = rhs(z + 0.5 * h * k1)
-            k3 = rhs(z + 0.5 * h * k2)
-            k4 = rhs(z + h * k3)
-            z = z + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-        return ca.Function("step", [x, s], [z])
-
     def _build(self, ipopt_options: dict[str, Any]) -> None:
         c, N, nx = self.config, self.config.horizon, self.nx
-        step = self._dynamics()
+        tau = c.wheel_loop_time_constant_s if self._lag else None
+        step = prediction_step(self.sample_period_s, self.separation_m, tau)
         X = ca.SX.sym("X", nx, N)  # x_1 … x_N
         S = ca.SX.sym("S", 2, N)  # s_0 … s_{N−1}
         x0 = ca.SX.sym("x0", nx)
