@@ -125,7 +125,7 @@ class NonlinearMpcController:
         ref = ca.SX.sym("ref", 3, N)  # reference pose at k = 1 … N
         ff = ca.SX.sym("ff", 2, N)
         u_prev = ca.SX.sym("u_prev", 2)
-        cost = 0
+        cost = ca.SX(0)
         g = []
         prev_x, prev_s = x0, u_prev
         for k in range(N):
@@ -139,7 +139,7 @@ class NonlinearMpcController:
             prev_x, prev_s = X[:, k], S[:, k]
         w = ca.veccat(X, S)
         p = ca.veccat(x0, ref, ff, u_prev)
-        options = {
+        options: dict[str, Any] = {
             "print_time": False,
             "ipopt": {
                 "print_level": 0,
