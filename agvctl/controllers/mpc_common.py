@@ -38,7 +38,15 @@ from agvctl.config import build, number
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 
-__all__ = ["RUNNER_KEYS", "HorizonReference", "MpcConfig", "SetpointFallback", "wrap_angle"]
+__all__ = [
+    "RUNNER_KEYS",
+    "HorizonReference",
+    "MpcConfig",
+    "SetpointFallback",
+    "limit_command",
+    "resolved_limits",
+    "wrap_angle",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -170,3 +178,15 @@ def resolved_limits(config: MpcConfig, vehicle: VehicleParams) -> tuple[float, f
     v_max = config.max_wheel_speed_m_s if config.max_wheel_speed_m_s is not None else d.max_speed_m_s
     a_lim = config.max_wheel_accel_m_s2 if config.max_wheel_accel_m_s2 is not None else d.accel_limit_m_s2
     return float(v_max), float(a_lim)
+
+
+def limit_command(
+    setpoint_m_s: float, previous_m_s: float, max_speed_m_s: float, max_step_m_s: float
+) -> float:
+    """``setpoint_m_s`` brought exactly within the hard limits: |s| ≤ v_max and |s − s_prev| ≤ a_lim·T_s, with
+    s_prev first clipped to ±v_max (so the two always intersect). The solvers meet the limits only to their
+    tolerance, and the fallbacks not at all; every command that leaves a controller goes through this."""
+    prev = min(max(float(previous_m_s), -max_speed_m_s), max_speed_m_s)
+    lo = max(prev - max_step_m_s, -max_speed_m_s)
+    hi = min(prev + max_step_m_s, max_speed_m_s)
+    return float(min(max(setpoint_m_s, lo), hi))

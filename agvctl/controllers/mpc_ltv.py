@@ -23,6 +23,7 @@ the constructor, with every entry that can ever be nonzero in the sparsity patte
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Mapping
 from typing import Any
@@ -38,6 +39,7 @@ from agvctl.controllers.mpc_common import (
     HorizonReference,
     MpcConfig,
     SetpointFallback,
+    limit_command,
     resolved_limits,
     wrap_angle,
 )
@@ -142,6 +144,9 @@ class LtvMpcController:
                 status = "fallback_feedforward"
         else:
             left, right = setpoint
+        v_max, a_step = self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 * self.sample_period_s
+        left = limit_command(left, self._u_prev[0], v_max, a_step)
+        right = limit_command(right, self._u_prev[1], v_max, a_step)
         self._u_prev[0], self._u_prev[1] = left, right
         return PoseCommand(left, right, time.perf_counter() - t0, status)
 
@@ -214,6 +219,8 @@ class LtvMpcController:
         self._rate_c = np.zeros((N, 2))
         self._x0 = np.zeros(nx)
         self._start = np.zeros(2)
+        self._zeros_z = np.zeros(n_z)
+        self._zeros_y = np.zeros(n_rows)
 
         self._solver = osqp.OSQP()
         self._solver.setup(
@@ -289,6 +296,8 @@ class LtvMpcController:
         if self._lag:
             x0[3] = float(wheel_speed_m_s[0]) - g.wheel_m_s[k, 0]
             x0[4] = float(wheel_speed_m_s[1]) - g.wheel_m_s[k, 1]
+        if not (math.isfinite(float(x0.sum())) and math.isfinite(float(self._u_prev.sum()))):
+            return None  # a broken measurement: never let NaN into OSQP's warm start
 
         # A's time-varying entries: −A_{k+1} … −A_{k+N−1}, −B_k … −B_{k+N−1}
         data = self._A_data
@@ -329,10 +338,9 @@ class LtvMpcController:
         solver = self._solver
         solver.update(q=q, l=lo, u=hi, Ax=data)
         result: Any = solver.solve(raise_error=False)
-        if result.info.status_val not in _ACCEPTED:
-            return None
         z = result.x
-        if not np.all(np.isfinite(z[iU:iS])):
+        if result.info.status_val not in _ACCEPTED or not np.all(np.isfinite(z)):
+            solver.warm_start(x=self._zeros_z, y=self._zeros_y)  # do not start the next solve from garbage
             return None
         seq = g.feedforward_m_s[k : k + N] + z[iU:iS].reshape(N, 2)
         np.clip(seq, -self.max_wheel_speed_m_s, self.max_wheel_speed_m_s, out=seq)
