@@ -14,6 +14,7 @@ run's median and 99th percentile. Tracking errors are the distance to the refere
 time.
 
     PYTHONPATH=. python experiments/benchmarks/mpc.py [--repeat 3] [--no-dompc] [--horizon 20]
+        [--prediction-model kinematic|kinematic+wheel_loop] [--error-frame path|world]
 
 do-mpc is optional (``pip install agvctl[bench]``); without it its row is skipped with a message.
 """
@@ -273,16 +274,23 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="closed-loop runs per controller (default 3)")
     ap.add_argument("--horizon", type=int, default=20)
     ap.add_argument("--no-dompc", action="store_true", help="skip do-mpc")
+    ap.add_argument("--prediction-model", choices=("kinematic", "kinematic+wheel_loop"),
+                    default="kinematic+wheel_loop")  # fmt: skip
+    ap.add_argument("--error-frame", choices=("path", "world"), default="path", help="the OSQP MPC's")
     args = ap.parse_args(argv)
 
     vehicle = load_vehicle(None)
     reference = plan_file(ROOT / "trajectories" / "figure8.toml", vehicle)
     tau = identify_wheel_loop_time_constant(vehicle)
     config = MpcConfig(
-        horizon=args.horizon, prediction_model="kinematic+wheel_loop", wheel_loop_time_constant_s=tau
+        horizon=args.horizon,
+        prediction_model=args.prediction_model,
+        wheel_loop_time_constant_s=tau,
+        error_frame=args.error_frame,
     )
     print(f"figure-8 at 0.5 m/s: {reference.duration_s:.2f} s + {SETTLE_S:.0f} s settle, "
-          f"T_s = {vehicle.control.sample_period_s * 1e3:.0f} ms, horizon {config.horizon}; "
+          f"T_s = {vehicle.control.sample_period_s * 1e3:.0f} ms, horizon {config.horizon}, "
+          f"{config.prediction_model} model, {config.error_frame} frame; "
           f"bench wheel loop τ = {tau * 1e3:.0f} ms (identified from a 0.30 → 0.35 m/s step)")  # fmt: skip
     print(f"weights: position {config.weight_position:g}/m², heading {config.weight_heading:g}/rad², input "
           f"{config.weight_input:g}, rate {config.weight_input_rate:g} (m/s)⁻²; limits "
