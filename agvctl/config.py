@@ -28,6 +28,7 @@ T = TypeVar("T")
 __all__ = [
     "apply_overrides",
     "build",
+    "build_fields",
     "dump_toml",
     "load_toml",
     "number",
@@ -246,6 +247,11 @@ def _build_dataclass(cls: type, data: Mapping[str, Any], source: str, prefix: st
     pre = getattr(cls, "__from_file__", None)
     if pre is not None:
         return pre(data, source=source, prefix=prefix)
+    return build_fields(cls, data, source=source, prefix=prefix)
+
+
+def build_fields(cls: type, data: Mapping[str, Any], *, source: str, prefix: str) -> Any:
+    """Build a dataclass field by field (what :func:`build` does unless the class has ``__from_file__``)."""
     hints = get_type_hints(cls)
     fields = {f.metadata.get("file_key", f.name): f for f in dataclasses.fields(cls) if not f.metadata.get("derived")}
     for k in data:

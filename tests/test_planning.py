@@ -211,11 +211,14 @@ def test_arc_duration_is_time_optimal_for_the_outer_wheel():
 
 
 def test_each_motion_of_the_square_is_time_optimal(vehicle):
-    ref = plan(load_path(ROOT / "trajectories" / "square.toml"), vehicle)
+    spec = load_path(ROOT / "trajectories" / "square.toml")
+    lim = spec.limits  # the file's own wheel limits (0.8 m/s, 0.5 m/s², 3 m/s³)
+    ref = plan(spec, vehicle)
     assert len(ref.motions) == 8
     for m in ref.motions:
         d = 2.0 if m.kind == "path" else math.pi / 2 * B / 2
-        assert m.duration_s == pytest.approx(closed_form_rest_to_rest(d, 0.8, 0.657, 3.0), rel=1e-6)
+        best = closed_form_rest_to_rest(d, lim.wheel_speed_m_s, lim.wheel_accel_m_s2, lim.wheel_jerk_m_s3)
+        assert m.duration_s == pytest.approx(best, rel=1e-6)
 
 
 @settings(max_examples=60, derandomize=True, deadline=None)

@@ -58,6 +58,10 @@ __all__ = [
 ]
 
 
+FEEDFORWARD_RAMP_RAD_S = 2.0
+"""ω_ε: the Coulomb feed-forward ramps in linearly up to this motor speed (≈ 5.6 mm/s at the wheel)."""
+
+
 @dataclass(frozen=True)
 class PIGains:
     """Gains of the discrete PI ``C(z) = kp + ki·dt_s·z/(z − 1)``, motor-speed error (rad/s) → motor
@@ -117,17 +121,21 @@ class PISpeedLoop:
         quantum_v: float = 0.0,
         coulomb_feedforward: bool = False,
         anti_windup: bool = True,
+        braking_current_limit_a: float | None = None,
+        braking_limit_below_rad_s: float = math.inf,
     ) -> None:
         if not voltage_min_v < voltage_max_v:
-            raise ValueError(
-                f"voltage_min_v must be below voltage_max_v (got {voltage_min_v}, {voltage_max_v})"
-            )
+            raise ValueError(f"voltage_min_v must be below voltage_max_v (got {voltage_min_v}, {voltage_max_v})")
         self.gains = gains
         self.k_e = motor.voltage_constant_v_s_rad
         self.k_t = motor.torque_constant_n_m_a
         self.R = motor.resistance_ohm
         self.tau_c = motor.coulomb_friction_n_m
         self.current_limit_a = current_limit_a
+        self.braking_current_limit_a = current_limit_a if braking_current_limit_a is None else braking_current_limit_a
+        """Largest current opposing the motion (braking); see :func:`symmetric_braking_current_a`."""
+        self.braking_limit_below_rad_s = braking_limit_below_rad_s
+        """The braking limit applies only while |ω| is below this speed (inf: always)."""
         self.voltage_min_v = voltage_min_v
         self.voltage_max_v = voltage_max_v
         self.quantum_v = quantum_v
@@ -149,23 +157,34 @@ class PISpeedLoop:
 
     def usable_voltage_v(self, measured_rad_s: float) -> tuple[float, float]:
         """The motor-voltage window ``[k_e ω − R I_max, k_e ω + R I_max] ∩ [u_min, u_max]`` (less half a DA
-        step at the current-limit edges). If the window is empty (the motor spins faster than the
+        step at the current-limit edges), the side that brakes the motor limited to the braking current.
+        If the window is empty (the motor spins faster than the
         amplifier's range can hold within I_max) both ends are the range end nearest to it, which gives the
         smallest current."""
         back_emf_v = self.k_e * measured_rad_s  # eq 1
         margin_v = self.R * self.current_limit_a - 0.5 * self.quantum_v
-        lo = max(back_emf_v - margin_v, self.voltage_min_v)
-        hi = min(back_emf_v + margin_v, self.voltage_max_v)
+        brake_v = max(0.0, self.R * self.braking_current_limit_a - 0.5 * self.quantum_v)
+        if abs(measured_rad_s) >= self.braking_limit_below_rad_s:
+            brake_v = margin_v
+        # a current against the motion brakes: friction helps it, so it may be smaller for the same deceleration
+        lo = max(back_emf_v - (brake_v if measured_rad_s > 0 else margin_v), self.voltage_min_v)
+        hi = min(back_emf_v + (brake_v if measured_rad_s < 0 else margin_v), self.voltage_max_v)
         if lo > hi:
             edge = self.voltage_max_v if back_emf_v > 0 else self.voltage_min_v
             return edge, edge
         return lo, hi
 
     def feedforward_v(self, setpoint_rad_s: float) -> float:
-        """Coulomb-friction feed-forward τ_c R/k_t · sign(ω_ref) if enabled, else 0."""
-        if not self.coulomb_feedforward or setpoint_rad_s == 0.0:
+        """Coulomb-friction feed-forward τ_c R/k_t · sat(ω_ref / ω_ε) if enabled, else 0.
+
+        The sign function is ramped over |ω_ref| ≤ ω_ε = :data:`FEEDFORWARD_RAMP_RAD_S`: a pose controller
+        holding the vehicle still commands setpoints of ±1e-5 rad/s, and a full ±τ_c R/k_t flipping on those
+        would break the motors away and chatter at standstill.
+        """
+        if not self.coulomb_feedforward:
             return 0.0
-        return math.copysign(self.tau_c * self.R / self.k_t, setpoint_rad_s)
+        ramp = max(-1.0, min(1.0, setpoint_rad_s / FEEDFORWARD_RAMP_RAD_S))
+        return self.tau_c * self.R / self.k_t * ramp
 
     def update(self, setpoint_rad_s: float, measured_rad_s: float) -> float:
         """The motor voltage (V) for this sample."""
@@ -191,6 +210,31 @@ class PISpeedLoop:
         return u
 
 
+def symmetric_braking_current_a(vehicle: VehicleParams, side: str) -> float:
+    """The braking current that decelerates a wheel no harder than a_lim (eq 5): (a_lim J̃ N/r − τ_c)/k_t.
+
+    Accelerating, the motor torque fights the Coulomb friction and I_max gives at most a_lim. Braking, friction
+    helps: k_t I_b + τ_c decelerates the wheel's equivalent inertia J̃ (eq 60) at a_lim for the I_b above
+    (0.50 A for the IAU AGV, against 5.5 A). Full braking current near a stop would decelerate a wheel at
+    (k_t I_max + τ_c)/J̃ ≈ 2.7 a_lim, notably when a wheel is stopped to reverse (spin in place after a line).
+    :class:`PIWheelController` applies it always (``symmetric_braking``) or only in the last sample before a
+    wheel stops (``gentle_stop``), so that braking at speed keeps its full authority.
+    """
+    m = vehicle.motor.left if side == "left" else vehicle.motor.right
+    r = vehicle.wheels.radius_left_m if side == "left" else vehicle.wheels.radius_right_m
+    j_eq = (vehicle.derived.left if side == "left" else vehicle.derived.right).inertia_equivalent_kg_m2
+    torque = vehicle.derived.accel_limit_m_s2 * j_eq * m.gear_ratio / r - m.coulomb_friction_n_m
+    return min(vehicle.amplifier.current_limit_a, max(0.0, torque / m.torque_constant_n_m_a))
+
+
+def gentle_stop_speed_rad_s(vehicle: VehicleParams, side: str) -> float:
+    """Below this motor speed a braking wheel is about to stop (and maybe reverse): the speed a_lim removes in
+    one sample, a_lim T_s N / r (9.5 rad/s, 2.6 cm/s at the rim, for the IAU AGV)."""
+    m = vehicle.motor.left if side == "left" else vehicle.motor.right
+    r = vehicle.wheels.radius_left_m if side == "left" else vehicle.wheels.radius_right_m
+    return vehicle.derived.accel_limit_m_s2 * vehicle.control.sample_period_s * m.gear_ratio / r
+
+
 class PIWheelController:
     """Both wheels' PI loops: a :class:`~agvctl.controllers.base.WheelSpeedController`.
 
@@ -205,6 +249,8 @@ class PIWheelController:
         *,
         coulomb_feedforward: bool = False,
         anti_windup: bool = True,
+        symmetric_braking: bool = False,
+        gentle_stop: bool = False,
     ) -> None:
         act = Actuator(vehicle)
         self.amplifier_gain = act.gain
@@ -222,6 +268,12 @@ class PIWheelController:
                 quantum_v=act.gain * act.volts_per_code,
                 coulomb_feedforward=coulomb_feedforward,
                 anti_windup=anti_windup,
+                braking_current_limit_a=(
+                    symmetric_braking_current_a(vehicle, side) if symmetric_braking or gentle_stop else None
+                ),
+                braking_limit_below_rad_s=(
+                    math.inf if symmetric_braking or not gentle_stop else gentle_stop_speed_rad_s(vehicle, side)
+                ),
             )
             for side in ("left", "right")
         )
@@ -240,9 +292,7 @@ class PIWheelController:
         meas = np.asarray(measured_rad_s, dtype=float)
         return np.array([loop.update(float(sp[i]), float(meas[i])) for i, loop in enumerate(self.loops)])
 
-    def update(
-        self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]
-    ) -> NDArray[np.float64]:
+    def update(self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]) -> NDArray[np.float64]:
         """DA voltage commands (left, right) in V for one sample: motor voltage / k_pow."""
         return self.motor_voltages_v(setpoint_rad_s, measured_rad_s) / self.amplifier_gain
 

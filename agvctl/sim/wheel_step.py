@@ -104,9 +104,7 @@ def step_metrics(
         settling = float(t[k] + (edge - r[k]) / (r[k + 1] - r[k]) * (t[k + 1] - t[k]))
     final = r[t >= t[-1] - final_window_s - 1e-12]
     sse = abs(1.0 - float(np.mean(final))) * 100.0
-    return StepMetrics(
-        rise_time_s=rise, overshoot_pct=overshoot, settling_time_s=settling, steady_state_error_pct=sse
-    )
+    return StepMetrics(rise_time_s=rise, overshoot_pct=overshoot, settling_time_s=settling, steady_state_error_pct=sse)
 
 
 def _worst(a: StepMetrics, b: StepMetrics) -> StepMetrics:
@@ -141,9 +139,7 @@ def wheel_step_response(
     if controller is None:
         if gains is None:
             raise ValueError("wheel_step_response: give gains or a controller")
-        controller = PIWheelController(
-            vehicle, gains, coulomb_feedforward=coulomb_feedforward, anti_windup=anti_windup
-        )
+        controller = PIWheelController(vehicle, gains, coulomb_feedforward=coulomb_feedforward, anti_windup=anti_windup)
     if not (math.isfinite(wheel_speed_step_m_s) and wheel_speed_step_m_s != 0.0):
         raise ValueError(f"wheel_speed_step_m_s must be finite and non-zero (got {wheel_speed_step_m_s})")
     ts = vehicle.control.sample_period_s

@@ -1,0 +1,50 @@
+"""The summary of a closed-loop run (``summary.json``): metrics and every limit's verdict."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from agvctl.checks.limits import all_passed, evaluate_limits
+from agvctl.sim.experiment import PreparedExperiment
+from agvctl.sim.loop import ClosedLoopResult
+from agvctl.sim.metrics import closed_loop_metrics
+
+__all__ = ["SUMMARY_METRICS", "run_summary"]
+
+SUMMARY_METRICS = (
+    "tracking_error_rms_m",
+    "tracking_error_max_m",
+    "heading_error_max_deg",
+    "final_position_error_m",
+    "peak_wheel_accel_m_s2",
+    "peak_motor_current_a",
+    "da_saturation_fraction",
+    "current_limited_fraction",
+    "solve_time_p50_ms",
+    "solve_time_p99_ms",
+    "solver_failures",
+)
+
+
+def run_summary(prepared: PreparedExperiment, result: ClosedLoopResult) -> dict[str, Any]:
+    """``{"experiment", "passed", "metrics", "wall_time_s", ...}`` with every limit's verdict."""
+    metrics = closed_loop_metrics(result)
+    exp = prepared.experiment
+    limits = evaluate_limits(exp.limits, result.log, metrics, prepared.controller_vehicle, result.sample_period_s)
+    ordered = {k: metrics[k] for k in SUMMARY_METRICS}
+    ordered.update({k: v for k, v in metrics.items() if k not in ordered})
+    return {
+        "experiment": exp.name,
+        "passed": all_passed(limits),
+        "metrics": _json_safe(ordered),
+        "wall_time_s": result.wall_time_s,
+        "setup_time_s": result.setup_time_s,
+        "simulated_s": result.n_samples * result.sample_period_s,
+        "limits": [r.as_dict() for r in limits],
+    }
+
+
+def _json_safe(d: dict[str, float]) -> dict[str, float | None]:
+    import math
+
+    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}

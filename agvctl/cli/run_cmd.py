@@ -1,0 +1,71 @@
+"""``agvctl run``: one closed-loop experiment, with its log, summary and plots."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from agvctl.checks.summary import run_summary
+from agvctl.cli.progress import ProgressBar
+from agvctl.reports import write_run_outputs
+from agvctl.sim.experiment import load_experiment, prepare_experiment, run_experiment
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "run",
+        help="run a closed-loop experiment (reference → MPC → PI → DA/amplifier → plant)",
+        description="Run an experiment file: plan its trajectory, track it with the pose controller and the PI "
+        "wheel loops through the DA converter and amplifier on the full plant, write the log, a summary and plots.",
+    )
+    p.add_argument("experiment", metavar="EXPERIMENT.toml")
+    p.add_argument("--out", metavar="DIR", help="output directory (default: out/<experiment name>)")
+    p.add_argument("--no-plot", action="store_true", help="skip the PNG plots")
+    p.add_argument("--json", action="store_true", help="print summary.json instead of the report")
+    p.set_defaults(func=run)
+
+
+def format_summary(summary: dict[str, Any]) -> str:
+    """The readable report of ``agvctl run``."""
+    m = summary["metrics"]
+    rms, mx, fin = (m[k] * 1e3 for k in ("tracking_error_rms_m", "tracking_error_max_m", "final_position_error_m"))
+    lines = [f"experiment: {summary['experiment']}   {'PASSED' if summary['passed'] else 'LIMITS VIOLATED'}"]
+    lines.append(f"  tracking error    rms {rms:.2f} mm   max {mx:.2f} mm   final {fin:.2f} mm")
+    lines.append(f"  heading error     max {m['heading_error_max_deg']:.2f}°")
+    t2 = m["time_to_2cm_s"]
+    lines.append(f"  within 2 cm       from t = {t2:.2f} s on" if t2 is not None else "  within 2 cm       never")
+    acc, cur = m["peak_wheel_accel_m_s2"], m["peak_motor_current_a"]
+    lines.append(f"  peak wheel accel  {acc:.3f} m/s²   peak current {cur:.2f} A")
+    da, cl = m["da_saturation_fraction"] * 100, m["current_limited_fraction"] * 100
+    lines.append(f"  DA saturated      {da:.1f} % of samples   current-limited {cl:.1f} % of time")
+    p50, p99 = m["solve_time_p50_ms"], m["solve_time_p99_ms"]
+    lines.append(
+        f"  pose controller   {p50:.3f} ms median, {p99:.3f} ms p99, "
+        f"{m['solver_failures']} failures, {m['deadline_misses']} deadline misses"
+    )
+    wall, sim = summary["wall_time_s"], summary["simulated_s"]
+    lines.append(f"  wall time         {wall:.2f} s for {sim:.1f} s simulated ({sim / max(wall, 1e-9):.0f}x real time)")
+    for r in summary["limits"]:
+        lines.append(f"  limit  {r['message']}")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    exp = load_experiment(args.experiment)
+    prepared = prepare_experiment(exp)
+    out_dir = Path(args.out) if args.out else Path("out") / exp.name
+    bar = ProgressBar(f"{exp.name}:")
+    try:
+        result = run_experiment(prepared, progress=bar)
+    finally:
+        bar.close()
+    summary = run_summary(prepared, result)
+    written = write_run_outputs(prepared, result, summary, out_dir, plots=not args.no_plot)
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        print(format_summary(summary))
+        print(f"  wrote             {', '.join(str(p) for p in written)}")
+    return 0

@@ -1,0 +1,135 @@
+"""Plots of closed-loop runs (matplotlib, imported only when a plot is drawn, Agg backend, PNG files)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agvctl.fileio import atomic_open
+from agvctl.params import VehicleParams
+from agvctl.sim.log import SimLog
+
+__all__ = ["CLOSED_LOOP_PLOTS", "save_closed_loop_plots"]
+
+CLOSED_LOOP_PLOTS = (
+    "path.png",
+    "tracking_error.png",
+    "wheel_speeds.png",
+    "da.png",
+    "currents.png",
+    "wheel_accel.png",
+    "solve_time.png",
+)
+
+
+def _pyplot() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig: Any, path: Path) -> None:
+    with atomic_open(path, "wb") as fh:
+        fig.savefig(fh, format="png", dpi=90)
+
+
+def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | Path, title: str = "") -> list[Path]:
+    """Write the closed-loop figures of :data:`CLOSED_LOOP_PLOTS` into ``out_dir``; returns their paths."""
+    plt = _pyplot()
+    out = Path(out_dir)
+    t = log["t_s"]
+    written: list[Path] = []
+
+    def finish(fig: Any, name: str) -> None:
+        if title:
+            fig.suptitle(title)
+        fig.tight_layout()
+        _save(fig, out / name)
+        plt.close(fig)
+        written.append(out / name)
+
+    fig, ax = plt.subplots(figsize=(6.5, 6))
+    ax.plot(log["ref_x_m"], log["ref_y_m"], "k--", lw=1, label="reference")
+    ax.plot(log["x_m"], log["y_m"], "C0", lw=1.5, label="vehicle (true)")
+    if not np.allclose(log["est_x_m"], log["x_m"]):
+        ax.plot(log["est_x_m"], log["est_y_m"], "C2", lw=1, alpha=0.8, label="estimate")
+    ax.plot(log["x_m"][0], log["y_m"][0], "o", color="C0")
+    ax.set(xlabel="x [m]", ylabel="y [m]", aspect="equal", title="path")
+    ax.legend(loc="best")
+    ax.grid(alpha=0.3)
+    finish(fig, "path.png")
+
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
+    a1.plot(t, log["position_error_m"] * 100, "C3")
+    a1.set(ylabel="position error [cm]")
+    a2.plot(t, np.degrees(log["heading_error_rad"]), "C4")
+    a2.set(xlabel="t [s]", ylabel="heading error [°]")
+    for a in (a1, a2):
+        a.grid(alpha=0.3)
+    finish(fig, "tracking_error.png")
+
+    fig, axes = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
+    for a, side in zip(axes, ("left", "right"), strict=True):
+        a.plot(t, log[f"ref_wheel_speed_{side}_m_s"], "k--", lw=1, label="reference")
+        a.plot(t, log[f"setpoint_wheel_speed_{side}_m_s"], "C1", lw=1, label="setpoint")
+        a.plot(t, log[f"wheel_speed_{side}_m_s"], "C0", lw=1.2, label="measured")
+        a.set(ylabel=f"{side} wheel [m/s]")
+        a.grid(alpha=0.3)
+    axes[0].legend(loc="best", fontsize=8)
+    axes[-1].set(xlabel="t [s]")
+    finish(fig, "wheel_speeds.png")
+
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
+    alpha = vehicle.da.volts_per_code
+    for side, c in (("left", "C0"), ("right", "C1")):
+        a1.step(t, log[f"da_voltage_{side}_v"], where="post", color=c, lw=1, label=side)
+        a2.step(t, log[f"da_code_{side}"], where="post", color=c, lw=1, label=side)
+    for a, lim in (
+        (a1, (vehicle.da.min_v, vehicle.da.code_max * alpha)),
+        (a2, (vehicle.da.code_min, vehicle.da.code_max)),
+    ):
+        for v in lim:
+            a.axhline(v, color="r", ls=":", lw=1)
+        a.grid(alpha=0.3)
+    a1.set(ylabel="DA output [V]")
+    a2.set(ylabel="DA code", xlabel="t [s]")
+    a1.legend(loc="best", fontsize=8)
+    finish(fig, "da.png")
+
+    fig, ax = plt.subplots(figsize=(8, 3.5))
+    for side, c in (("left", "C0"), ("right", "C1")):
+        ax.plot(t, log[f"current_{side}_a"], color=c, lw=1, label=side)
+    i_max = vehicle.amplifier.current_limit_a
+    ax.axhline(i_max, color="r", ls=":", lw=1, label="limit")
+    ax.axhline(-i_max, color="r", ls=":", lw=1)
+    ax.set(xlabel="t [s]", ylabel="armature current [A]")
+    ax.legend(loc="best", fontsize=8)
+    ax.grid(alpha=0.3)
+    finish(fig, "currents.png")
+
+    fig, ax = plt.subplots(figsize=(8, 3.5))
+    for side, c in (("left", "C0"), ("right", "C1")):
+        ax.plot(t, log[f"wheel_accel_{side}_m_s2"], color=c, lw=1, label=side)
+    a_lim = vehicle.derived.accel_limit_m_s2
+    ax.axhline(a_lim, color="r", ls=":", lw=1, label="a_lim (eq 5)")
+    ax.axhline(-a_lim, color="r", ls=":", lw=1)
+    ax.set(xlabel="t [s]", ylabel="wheel acceleration [m/s²]")
+    ax.legend(loc="best", fontsize=8)
+    ax.grid(alpha=0.3)
+    finish(fig, "wheel_accel.png")
+
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    ms = log["solve_time_s"][:-1] * 1e3
+    ax.hist(ms, bins=50, color="C0")
+    p50, p99 = np.percentile(ms, [50, 99])
+    ax.axvline(p50, color="k", ls="--", lw=1, label=f"median {p50:.2f} ms")
+    ax.axvline(p99, color="r", ls="--", lw=1, label=f"p99 {p99:.2f} ms")
+    ax.set(xlabel="pose-controller step time [ms]", ylabel="samples")
+    ax.legend(loc="best", fontsize=8)
+    finish(fig, "solve_time.png")
+    return written

@@ -1,0 +1,43 @@
+"""Writing a closed-loop run's outputs: log, summary, the resolved scenario, plots."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from agvctl.config import dump_toml, to_dict
+from agvctl.fileio import write_json, write_text
+from agvctl.plots import save_closed_loop_plots
+from agvctl.sim.experiment import PreparedExperiment
+from agvctl.sim.loop import ClosedLoopResult
+
+__all__ = ["write_run_outputs"]
+
+
+def write_run_outputs(
+    prepared: PreparedExperiment,
+    result: ClosedLoopResult,
+    summary: dict[str, Any],
+    out_dir: Path,
+    *,
+    plots: bool = True,
+) -> list[Path]:
+    """Write ``log.csv``, ``summary.json``, the resolved ``experiment.toml`` and (optionally) the plots."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    result.log.to_csv(out_dir / "log.csv")
+    write_json(out_dir / "summary.json", summary)
+    exp = prepared.experiment
+    resolved = to_dict(exp)
+    resolved["trajectory"] = str(exp.resolve(exp.trajectory).resolve())
+    resolved["controller"].update(exp.controller.pose_settings)
+    resolved["plant"] = {
+        "set": dict(exp.plant.set),
+        **({"initial_pose": to_dict(exp.plant.initial_pose)} if exp.plant.initial_pose else {}),
+    }
+    vehicle = to_dict(prepared.plant_vehicle)
+    write_text(out_dir / "experiment.toml", dump_toml(resolved, header=f"resolved from {exp.source}"))
+    write_text(out_dir / "plant_vehicle.toml", dump_toml(vehicle, header="the simulated truth of this run"))
+    written = [out_dir / "log.csv", out_dir / "summary.json", out_dir / "experiment.toml"]
+    if plots:
+        written += save_closed_loop_plots(result.log, prepared.controller_vehicle, out_dir, title=exp.name)
+    return written

@@ -1,0 +1,70 @@
+"""Building an experiment's controllers: the PI wheel loops (tuned or from a gains file) and the pose controller."""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+from agvctl.config import build
+from agvctl.controllers.base import FeedForwardPoseController, PoseController
+from agvctl.controllers.pi import PIGains, PIWheelController, load_gains
+from agvctl.controllers.tuning import design_pi
+from agvctl.errors import ConfigError
+from agvctl.params import VehicleParams
+from agvctl.sim.experiment import Experiment
+
+__all__ = ["build_controllers", "default_pi_gains"]
+
+
+@functools.lru_cache(maxsize=32)
+def default_pi_gains(vehicle: VehicleParams) -> tuple[PIGains, float]:
+    """The PI designed for the default spec (PM ≥ 60°, GM ≥ 10 dB, fastest) and its crossover (rad/s)."""
+    result = design_pi(vehicle)
+    return result.gains, result.margins.crossover_rad_s
+
+
+def build_controllers(exp: Experiment, vehicle: VehicleParams) -> tuple[PoseController, PIWheelController]:
+    """The pose controller and wheel loops of ``exp``, designed for ``vehicle`` (the controller's model)."""
+    spec = exp.controller
+    gains, crossover = default_pi_gains(vehicle)
+    feedforward = spec.coulomb_feedforward
+    if spec.pi_gains is not None:
+        path = exp.resolve(spec.pi_gains)
+        if not path.exists():
+            raise ConfigError(exp.source, "controller.pi_gains", f"file not found: {path}")
+        settings = load_gains(path)
+        if abs(settings.dt_s - vehicle.control.sample_period_s) > 1e-12:
+            raise ConfigError(
+                str(path),
+                "pi.dt_s",
+                f"gains designed for {settings.dt_s:g} s, "
+                f"the vehicle samples every {vehicle.control.sample_period_s:g} s",
+            )
+        gains, feedforward = settings.gains, settings.coulomb_feedforward or feedforward
+    wheel = PIWheelController(
+        vehicle,
+        gains,
+        coulomb_feedforward=feedforward,
+        symmetric_braking=spec.symmetric_braking,
+        gentle_stop=spec.gentle_stop,
+    )
+    pose: PoseController
+    if spec.pose == "none":
+        pose = FeedForwardPoseController()
+        return pose, wheel
+    from agvctl.controllers.mpc_common import MpcConfig
+
+    settings_map = dict(spec.pose_settings)
+    config = build(MpcConfig, settings_map, source=exp.source, prefix="controller")
+    if "wheel_loop_time_constant_s" not in settings_map and crossover > 0:
+        # the closed wheel loop lags like a first-order system with τ ≈ 1/ω_c of the designed PI
+        config = dataclasses.replace(config, wheel_loop_time_constant_s=1.0 / crossover)
+    if spec.pose == "mpc":
+        from agvctl.controllers.mpc_ltv import LtvMpcController
+
+        pose = LtvMpcController(vehicle, config)
+    else:
+        from agvctl.controllers.mpc_nonlinear import NonlinearMpcController
+
+        pose = NonlinearMpcController(vehicle, config)
+    return pose, wheel

@@ -1,0 +1,66 @@
+"""Figures of merit of a closed-loop run, computed from its log (the ``metrics`` of ``summary.json``)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from agvctl.sim.loop import ClosedLoopResult
+
+__all__ = ["METRIC_NAMES", "closed_loop_metrics", "time_to_converge_s"]
+
+METRIC_NAMES = (
+    "tracking_error_rms_m",
+    "tracking_error_max_m",
+    "heading_error_max_deg",
+    "final_position_error_m",
+    "peak_wheel_speed_m_s",
+    "peak_wheel_accel_m_s2",
+    "peak_motor_current_a",
+    "da_saturation_fraction",
+    "current_limited_fraction",
+    "solve_time_p50_ms",
+    "solve_time_p99_ms",
+    "deadline_misses",
+    "solver_failures",
+    "time_to_2cm_s",
+)
+
+
+def time_to_converge_s(t_s: np.ndarray, error_m: np.ndarray, threshold_m: float) -> float:
+    """The first time after which the error stays at or below ``threshold_m`` (inf if it never settles)."""
+    above = np.nonzero(error_m > threshold_m)[0]
+    if above.size == 0:
+        return 0.0
+    last = int(above[-1])
+    return float(t_s[last + 1]) if last + 1 < len(t_s) else math.inf
+
+
+def closed_loop_metrics(result: ClosedLoopResult) -> dict[str, float]:
+    """Tracking, actuator and computation figures of a run (SI units, names carry them)."""
+    log = result.log
+    err = log["position_error_m"]
+    solve_ms = log["solve_time_s"][:-1] * 1e3 if len(log) > 1 else log["solve_time_s"] * 1e3
+    clipped = (log["da_clipped_left"] > 0) | (log["da_clipped_right"] > 0)
+    limited = np.maximum(log["current_limited_fraction_left"], log["current_limited_fraction_right"])
+    return {
+        "tracking_error_rms_m": float(np.sqrt(np.mean(err**2))),
+        "tracking_error_max_m": float(np.max(err)),
+        "heading_error_max_deg": float(np.degrees(np.max(np.abs(log["heading_error_rad"])))),
+        "final_position_error_m": float(err[-1]),
+        "peak_wheel_speed_m_s": float(
+            max(np.max(np.abs(log["wheel_speed_left_m_s"])), np.max(np.abs(log["wheel_speed_right_m_s"])))
+        ),
+        "peak_wheel_accel_m_s2": float(
+            max(log.peak_abs("wheel_accel_peak_left_m_s2"), log.peak_abs("wheel_accel_peak_right_m_s2"))
+        ),
+        "peak_motor_current_a": float(max(log.peak_abs("current_peak_left_a"), log.peak_abs("current_peak_right_a"))),
+        "da_saturation_fraction": float(np.mean(clipped[:-1])) if len(log) > 1 else 0.0,
+        "current_limited_fraction": float(np.mean(limited[:-1])) if len(log) > 1 else 0.0,
+        "solve_time_p50_ms": float(np.percentile(solve_ms, 50)),
+        "solve_time_p99_ms": float(np.percentile(solve_ms, 99)),
+        "deadline_misses": int(np.sum(solve_ms > result.sample_period_s * 1e3)),
+        "solver_failures": int(result.solver_failures),
+        "time_to_2cm_s": time_to_converge_s(log["t_s"], err, 0.02),
+    }
