@@ -7,11 +7,12 @@ from typing import Any
 
 import numpy as np
 
+from agvctl.checks.runner import CheckReport
 from agvctl.fileio import atomic_open
 from agvctl.params import VehicleParams
 from agvctl.sim.log import SimLog
 
-__all__ = ["CLOSED_LOOP_PLOTS", "save_closed_loop_plots"]
+__all__ = ["CLOSED_LOOP_PLOTS", "save_closed_loop_plots", "save_metric_histograms"]
 
 CLOSED_LOOP_PLOTS = (
     "path.png",
@@ -132,4 +133,38 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
     ax.set(xlabel="pose-controller step time [ms]", ylabel="samples")
     ax.legend(loc="best", fontsize=8)
     finish(fig, "solve_time.png")
+    return written
+
+
+def save_metric_histograms(report: CheckReport, out_dir: str | Path) -> list[Path]:
+    """For each Monte Carlo experiment, ``<name>_<metric>.png``: the metric over the samples, its limit if any."""
+    plt = _pyplot()
+    out = Path(out_dir)
+    written: list[Path] = []
+    for exp in report.experiments:
+        if not exp.monte_carlo:
+            continue
+        bounds = {v.limit: v.bound for v in exp.verdicts}
+        alias = {
+            "wheel_speed_m_s": "peak_wheel_speed_m_s",
+            "wheel_accel_m_s2": "peak_wheel_accel_m_s2",
+            "motor_current_a": "peak_motor_current_a",
+        }
+        limit_of = {alias.get(k, k): b for k, b in bounds.items()}
+        for metric in exp.outcomes[0].metrics:
+            values = np.array([o.metrics[metric] for o in exp.outcomes], dtype=float)
+            values = values[np.isfinite(values)]
+            if values.size == 0:
+                continue
+            fig, ax = plt.subplots(figsize=(6, 3.5))
+            ax.hist(values, bins=min(40, max(5, values.size // 5)), color="C0")
+            if metric in limit_of:
+                ax.axvline(limit_of[metric], color="r", ls="--", lw=1.2, label=f"limit {limit_of[metric]:.4g}")
+                ax.legend(fontsize=8)
+            ax.set(xlabel=metric, ylabel="samples", title=f"{exp.name}: {len(exp.outcomes)} samples")
+            fig.tight_layout()
+            path = out / f"{exp.name}_{metric}.png"
+            _save(fig, path)
+            plt.close(fig)
+            written.append(path)
     return written

@@ -277,8 +277,7 @@ def _execute(
                     progress(done, n)
             out = [r for r in results if r is not None]
         finally:
-            if not scheduler:
-                client.close()
+            client.close()  # our own connection (and, without a scheduler, our own local cluster)
         return out
     if jobs <= 1 or n <= 1:
         for task in tasks:

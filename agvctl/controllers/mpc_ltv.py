@@ -229,7 +229,7 @@ class LtvMpcController:
                 "eps_abs": c.tolerance,
                 "eps_rel": c.tolerance,
                 "max_iter": c.max_iterations,
-                "time_limit": c.max_solve_time_s,
+                "time_limit": c.max_solve_time_s if c.max_solve_time_s is not None else 1.0e10,
                 **OSQP_SETTINGS,
                 **self._osqp_overrides,
             },

@@ -147,7 +147,7 @@ class NonlinearMpcController:
                 "max_iter": c.max_iterations,
                 "tol": c.tolerance,
                 "acceptable_tol": 10 * c.tolerance,
-                "max_wall_time": c.max_solve_time_s,
+                "max_wall_time": c.max_solve_time_s if c.max_solve_time_s is not None else 1.0e20,
                 "warm_start_init_point": "yes",
                 "mu_init": 1e-3,
                 **ipopt_options,
