@@ -8,7 +8,7 @@ import functools
 from agvctl.config import build
 from agvctl.controllers.base import FeedForwardPoseController, PoseController
 from agvctl.controllers.pi import PIGains, PIWheelController, load_gains
-from agvctl.controllers.tuning import design_pi
+from agvctl.controllers.tuning import closed_loop_time_constant_s, design_pi
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 from agvctl.sim.experiment import Experiment
@@ -18,15 +18,16 @@ __all__ = ["build_controllers", "default_pi_gains"]
 
 @functools.lru_cache(maxsize=32)
 def default_pi_gains(vehicle: VehicleParams) -> tuple[PIGains, float]:
-    """The PI designed for the default spec (PM ≥ 60°, GM ≥ 10 dB, fastest) and its crossover (rad/s)."""
-    result = design_pi(vehicle)
-    return result.gains, result.margins.crossover_rad_s
+    """The PI designed for the default spec (PM ≥ 60°, GM ≥ 10 dB, fastest) and the time constant (s) of the
+    first-order lag that best fits its closed loop (the MPC's wheel-loop model)."""
+    gains = design_pi(vehicle).gains
+    return gains, closed_loop_time_constant_s(vehicle, gains)
 
 
 def build_controllers(exp: Experiment, vehicle: VehicleParams) -> tuple[PoseController, PIWheelController]:
     """The pose controller and wheel loops of ``exp``, designed for ``vehicle`` (the controller's model)."""
     spec = exp.controller
-    gains, crossover = default_pi_gains(vehicle)
+    gains, loop_tau_s = default_pi_gains(vehicle)
     feedforward = spec.coulomb_feedforward
     if spec.pi_gains is not None:
         path = exp.resolve(spec.pi_gains)
@@ -41,6 +42,7 @@ def build_controllers(exp: Experiment, vehicle: VehicleParams) -> tuple[PoseCont
                 f"the vehicle samples every {vehicle.control.sample_period_s:g} s",
             )
         gains, feedforward = settings.gains, settings.coulomb_feedforward or feedforward
+        loop_tau_s = closed_loop_time_constant_s(vehicle, gains)
     wheel = PIWheelController(
         vehicle,
         gains,
@@ -56,9 +58,9 @@ def build_controllers(exp: Experiment, vehicle: VehicleParams) -> tuple[PoseCont
 
     settings_map = dict(spec.pose_settings)
     config = build(MpcConfig, settings_map, source=exp.source, prefix="controller")
-    if "wheel_loop_time_constant_s" not in settings_map and crossover > 0:
-        # the closed wheel loop lags like a first-order system with τ ≈ 1/ω_c of the designed PI
-        config = dataclasses.replace(config, wheel_loop_time_constant_s=1.0 / crossover)
+    if "wheel_loop_time_constant_s" not in settings_map:
+        # the MPC predicts the wheel loops as first-order lags: the best fit to the designed closed loop
+        config = dataclasses.replace(config, wheel_loop_time_constant_s=loop_tau_s)
     if spec.pose == "mpc":
         from agvctl.controllers.mpc_ltv import LtvMpcController
 
