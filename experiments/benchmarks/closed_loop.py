@@ -1,0 +1,82 @@
+"""Benchmark of the closed loop: 60 s of figure-8 with the OSQP MPC over the PI loops on the full plant.
+
+The whole cascade of ``agvctl run`` — reference, LTV MPC (OSQP), PI wheel loops, DA converter and amplifier, the
+compiled nonlinear plant, logging — for 60 s of simulated time (two figure-8 laps at 0.5 m/s and the rest at
+standstill), plots excluded. Prints the loop's wall time and real-time factor (goal: ≤ 2 s, ≥ 30x), the MPC's
+whole-step time per control step (goal: median ≤ 0.7 ms, p99 ≤ 2 ms), and the same loop with the reference
+feed-forward in place of the MPC, which shows what the MPC costs.
+
+Run:  python experiments/benchmarks/closed_loop.py [--repeat 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+
+import numpy as np
+
+from agvctl.controllers.base import FeedForwardPoseController, PoseController
+from agvctl.controllers.mpc_common import MpcConfig
+from agvctl.controllers.mpc_ltv import LtvMpcController
+from agvctl.controllers.pi import PIWheelController
+from agvctl.params import load_vehicle
+from agvctl.planning import ArcSegment, WheelLimits, plan_segments
+from agvctl.sim.controllers import default_pi_gains
+from agvctl.sim.loop import run_closed_loop
+from agvctl.sim.metrics import closed_loop_metrics
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args()
+
+    vehicle = load_vehicle()
+    limits = WheelLimits(wheel_speed_m_s=0.8, wheel_accel_m_s2=0.5, wheel_jerk_m_s3=3.0)
+    laps = [ArcSegment(radius_m=1.0, angle_deg=a, speed_m_s=0.5) for a in (360, -360, 360, -360)]
+    reference = plan_segments(
+        laps, limits=limits, separation_m=vehicle.wheels.separation_m, sample_period_s=vehicle.control.sample_period_s
+    )
+    settle = 60.0 - reference.duration_s
+    gains, tau = default_pi_gains(vehicle)
+
+    def once(pose: PoseController) -> tuple[float, dict[str, float]]:
+        result = run_closed_loop(
+            plant_vehicle=vehicle,
+            controller_vehicle=vehicle,
+            reference=reference,
+            pose_controller=pose,
+            wheel_controller=PIWheelController(vehicle, gains, coulomb_feedforward=True),
+            settle_s=settle,
+        )
+        return result.wall_time_s, closed_loop_metrics(result)
+
+    mpc = LtvMpcController(vehicle, MpcConfig(wheel_loop_time_constant_s=tau))
+    once(mpc)  # warm-up: the compiled plant and OSQP set up once
+    runs = [once(mpc) for _ in range(args.repeat)]
+    walls = [w for w, _ in runs]
+    p50 = statistics.median(m["solve_time_p50_ms"] for _, m in runs)
+    p99 = statistics.median(m["solve_time_p99_ms"] for _, m in runs)
+    m0 = runs[0][1]
+    ff_walls = [once(FeedForwardPoseController())[0] for _ in range(args.repeat)]
+
+    wall = statistics.median(walls)
+    print(f"closed loop, 60 s simulated (two figure-8 laps at 0.5 m/s, {reference.duration_s:.1f} s, then at rest)")
+    print(f"  OSQP MPC + PI + DA/amplifier + full plant  wall {wall:.3f} s (median of {args.repeat}, "
+          f"min {min(walls):.3f})  = {60.0 / wall:.0f}x real time   (goal <= 2 s, >= 30x)")
+    print(f"  MPC whole step                             median {p50:.3f} ms   p99 {p99:.3f} ms   "
+          f"(goal <= 0.7 / <= 2 ms; median over runs)")
+    print(f"  tracking                                   rms {m0['tracking_error_rms_m'] * 1e3:.2f} mm   "
+          f"max {m0['tracking_error_max_m'] * 1e3:.2f} mm")
+    ff = statistics.median(ff_walls)
+    print(f"  the same loop with feed-forward, no MPC    wall {ff:.3f} s: the MPC costs {wall - ff:.3f} s "
+          f"of the {wall:.3f} s")
+    print(f"  per control step: {wall / 1500 * 1e3:.3f} ms in all, {(wall - ff) / 1500 * 1e3:.3f} ms of it the MPC")
+    assert np.isfinite(wall)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
