@@ -33,6 +33,7 @@ __all__ = [
     "load_toml",
     "number",
     "parse_override",
+    "read_text",
     "to_dict",
 ]
 
@@ -52,15 +53,20 @@ def number(
     return dataclasses.field(default=default, metadata=metadata)
 
 
-def load_toml(path: str | Path) -> dict[str, Any]:
-    """Read a TOML file; an unreadable or malformed file raises a one-line :class:`ConfigError`."""
+def read_text(path: str | Path) -> str:
+    """A UTF-8 text file's contents; a missing or unreadable file raises a one-line :class:`ConfigError`."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        return path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ConfigError(str(path), "", "file not found") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(str(path), "", f"cannot read: {exc}") from None
+
+
+def load_toml(path: str | Path) -> dict[str, Any]:
+    """Read a TOML file; an unreadable or malformed file raises a one-line :class:`ConfigError`."""
+    text = read_text(path)
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -35,10 +36,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.config import build, number
+from agvctl.controllers.base import PoseCommand, SolveStatus
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 
 __all__ = [
+    "MpcStepper",
     "RUNNER_KEYS",
     "HorizonReference",
     "MpcConfig",
@@ -183,9 +186,7 @@ def resolved_limits(config: MpcConfig, vehicle: VehicleParams) -> tuple[float, f
     return float(v_max), float(a_lim)
 
 
-def limit_command(
-    setpoint_m_s: float, previous_m_s: float, max_speed_m_s: float, max_step_m_s: float
-) -> float:
+def limit_command(setpoint_m_s: float, previous_m_s: float, max_speed_m_s: float, max_step_m_s: float) -> float:
     """``setpoint_m_s`` brought exactly within the hard limits: |s| ≤ v_max and |s − s_prev| ≤ a_lim·T_s, with
     s_prev first clipped to ±v_max (so the two always intersect). The solvers meet the limits only to their
     tolerance, and the fallbacks not at all; every command that leaves a controller goes through this."""
@@ -193,3 +194,66 @@ def limit_command(
     lo = max(prev - max_step_m_s, -max_speed_m_s)
     hi = min(prev + max_step_m_s, max_speed_m_s)
     return float(min(max(setpoint_m_s, lo), hi))
+
+
+class MpcStepper:
+    """The step both MPCs share: solve, or fall back (shifted plan, then feed-forward), count, clip to limits.
+
+    Subclasses set ``_grid`` (a :class:`HorizonReference`, at reset), ``_fallback``, ``max_wheel_speed_m_s``,
+    ``max_wheel_accel_m_s2``, ``sample_period_s`` and implement ``_solve(k, pose, wheel_speed_m_s)``, returning
+    the first setpoint pair or None on failure.
+    """
+
+    _grid: HorizonReference | None
+    _fallback: SetpointFallback
+    _u_prev: NDArray[np.float64] | None
+    _failures: int
+    max_wheel_speed_m_s: float
+    max_wheel_accel_m_s2: float
+    sample_period_s: float
+
+    @property
+    def failures(self) -> int:
+        """How many updates since construction fell back because the solver failed or ran out of time."""
+        return self._failures
+
+    def _solve(
+        self, k: int, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]
+    ) -> tuple[float, float] | None:
+        raise NotImplementedError
+
+    def _on_failure(self) -> None:
+        """Forget solver state that a failed solve may have spoiled (e.g. a warm start)."""
+
+    def update(self, t_s: float, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]) -> PoseCommand:
+        """Setpoints for the sample starting at ``t_s`` (see
+        :class:`~agvctl.controllers.base.PoseController`); ``solve_time_s`` is the whole step's wall time."""
+        t0 = time.perf_counter()
+        g = self._grid
+        if g is None:
+            raise RuntimeError(f"{type(self).__name__}.update called before reset(reference)")
+        k = g.window_start(t_s)
+        if self._u_prev is None:
+            self._u_prev = np.array(wheel_speed_m_s, dtype=np.float64)
+        status: SolveStatus = "solved"
+        try:
+            setpoint = self._solve(k, pose, wheel_speed_m_s)
+        except Exception:  # noqa: BLE001 - a solver failure must never stop the run
+            setpoint = None
+        if setpoint is None:
+            self._failures += 1
+            self._on_failure()
+            shifted = self._fallback.shifted(k)
+            if shifted is not None:
+                left, right = shifted
+                status = "fallback_shifted"
+            else:
+                left, right = float(g.feedforward_m_s[k, 0]), float(g.feedforward_m_s[k, 1])
+                status = "fallback_feedforward"
+        else:
+            left, right = setpoint
+        v_max, a_step = self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 * self.sample_period_s
+        left = limit_command(left, self._u_prev[0], v_max, a_step)
+        right = limit_command(right, self._u_prev[1], v_max, a_step)
+        self._u_prev[0], self._u_prev[1] = left, right
+        return PoseCommand(left, right, time.perf_counter() - t0, status)

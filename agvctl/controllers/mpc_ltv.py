@@ -24,7 +24,6 @@ the constructor, with every entry that can ever be nonzero in the sparsity patte
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Mapping
 from typing import Any
 
@@ -34,12 +33,11 @@ import scipy.linalg
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from agvctl.controllers.base import PoseCommand, SolveStatus
 from agvctl.controllers.mpc_common import (
     HorizonReference,
     MpcConfig,
+    MpcStepper,
     SetpointFallback,
-    limit_command,
     resolved_limits,
     wrap_angle,
 )
@@ -65,7 +63,8 @@ OSQP_SETTINGS: dict[str, Any] = {
 adapts on measured time). ρ = 1 (default 0.1) halved the iterations of the hardest steps, recovering from a
 0.1 m offset with the rate limits active (measured: at most 120 instead of 205 iterations)."""
 
-class LtvMpcController:
+
+class LtvMpcController(MpcStepper):
     """Linear time-varying MPC on OSQP; satisfies :class:`~agvctl.controllers.base.PoseController`.
 
     ``vehicle`` provides b (wheel separation), T_s and the default speed and acceleration limits. The solver
@@ -98,11 +97,6 @@ class LtvMpcController:
     # -- public -------------------------------------------------------------------------------------------
 
     @property
-    def failures(self) -> int:
-        """How many updates since construction fell back because the solver failed or ran out of time."""
-        return self._failures
-
-    @property
     def predicted_setpoints_m_s(self) -> FloatArray:
         """The last solved setpoint sequence (N×2, left/right, m/s) — for plots and tests."""
         return self._fallback.sequence_m_s.copy()
@@ -114,41 +108,6 @@ class LtvMpcController:
         self._precompute(grid)
         self._fallback.clear()
         self._u_prev = None
-
-    def update(
-        self, t_s: float, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]
-    ) -> PoseCommand:
-        """Setpoints for the sample starting at ``t_s`` (see
-        :class:`~agvctl.controllers.base.PoseController`); ``solve_time_s`` is the whole step's wall time."""
-        t0 = time.perf_counter()
-        g = self._grid
-        if g is None:
-            raise RuntimeError("LtvMpcController.update called before reset(reference)")
-        k = g.window_start(t_s)
-        ff = g.feedforward_m_s
-        if self._u_prev is None:
-            self._u_prev = np.array(wheel_speed_m_s, dtype=np.float64)
-        try:
-            setpoint = self._solve(k, pose, wheel_speed_m_s)
-            status: SolveStatus = "solved"
-        except Exception:  # noqa: BLE001 - a solver failure must never stop the run
-            setpoint = None
-        if setpoint is None:
-            self._failures += 1
-            shifted = self._fallback.shifted(k)
-            if shifted is not None:
-                left, right = shifted
-                status = "fallback_shifted"
-            else:
-                left, right = float(ff[k, 0]), float(ff[k, 1])
-                status = "fallback_feedforward"
-        else:
-            left, right = setpoint
-        v_max, a_step = self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 * self.sample_period_s
-        left = limit_command(left, self._u_prev[0], v_max, a_step)
-        right = limit_command(right, self._u_prev[1], v_max, a_step)
-        self._u_prev[0], self._u_prev[1] = left, right
-        return PoseCommand(left, right, time.perf_counter() - t0, status)
 
     # -- problem structure --------------------------------------------------------------------------------
 
@@ -224,7 +183,11 @@ class LtvMpcController:
 
         self._solver = osqp.OSQP()
         self._solver.setup(
-            P, self._q, A, self._l, self._u,
+            P,
+            self._q,
+            A,
+            self._l,
+            self._u,
             **{
                 "eps_abs": c.tolerance,
                 "eps_rel": c.tolerance,

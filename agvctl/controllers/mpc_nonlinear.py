@@ -13,19 +13,17 @@ previous command as parameters, warm-started from the previous solution shifted 
 from __future__ import annotations
 
 import math
-import time
 from typing import Any
 
 import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.controllers.base import PoseCommand, SolveStatus
 from agvctl.controllers.mpc_common import (
     HorizonReference,
     MpcConfig,
+    MpcStepper,
     SetpointFallback,
-    limit_command,
     resolved_limits,
 )
 from agvctl.params import VehicleParams
@@ -70,7 +68,7 @@ def prediction_step(
     return ca.Function("step", [x, s], [z])
 
 
-class NonlinearMpcController:
+class NonlinearMpcController(MpcStepper):
     """Nonlinear MPC with IPOPT; satisfies :class:`~agvctl.controllers.base.PoseController`.
 
     Same configuration, fallbacks and failure count as :class:`~agvctl.controllers.mpc_ltv.LtvMpcController`
@@ -100,10 +98,8 @@ class NonlinearMpcController:
         self._last_k = -1
         self._build(ipopt_options or {})
 
-    @property
-    def failures(self) -> int:
-        """How many updates since construction fell back because the solver failed or ran out of time."""
-        return self._failures
+    def _on_failure(self) -> None:
+        self._w0 = None  # a failed solve's iterate is no warm start
 
     def reset(self, reference: Reference) -> None:
         """Start tracking ``reference`` (samples its horizon grid; clears warm starts and fallbacks)."""
@@ -167,41 +163,6 @@ class NonlinearMpcController:
         self._n_states = nx * N
 
     # -- one step -----------------------------------------------------------------------------------------
-
-    def update(
-        self, t_s: float, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]
-    ) -> PoseCommand:
-        """Setpoints for the sample starting at ``t_s`` (see
-        :class:`~agvctl.controllers.base.PoseController`); ``solve_time_s`` is the whole step's wall time."""
-        t0 = time.perf_counter()
-        g = self._grid
-        if g is None:
-            raise RuntimeError("NonlinearMpcController.update called before reset(reference)")
-        k = g.window_start(t_s)
-        if self._u_prev is None:
-            self._u_prev = np.array(wheel_speed_m_s, dtype=np.float64)
-        try:
-            setpoint = self._solve(k, pose, wheel_speed_m_s)
-            status: SolveStatus = "solved"
-        except Exception:  # noqa: BLE001 - a solver failure must never stop the run
-            setpoint = None
-        if setpoint is None:
-            self._failures += 1
-            self._w0 = None
-            shifted = self._fallback.shifted(k)
-            if shifted is not None:
-                left, right = shifted
-                status = "fallback_shifted"
-            else:
-                left, right = float(g.feedforward_m_s[k, 0]), float(g.feedforward_m_s[k, 1])
-                status = "fallback_feedforward"
-        else:
-            left, right = setpoint
-        v_max, a_step = self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 * self.sample_period_s
-        left = limit_command(left, self._u_prev[0], v_max, a_step)
-        right = limit_command(right, self._u_prev[1], v_max, a_step)
-        self._u_prev[0], self._u_prev[1] = left, right
-        return PoseCommand(left, right, time.perf_counter() - t0, status)
 
     def _solve(
         self, k: int, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvctl.actuator import Actuator
+from agvctl.config import read_text
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 from agvctl.plant.full import AUX_NAMES, STATE_NAMES, PlantOptions, parameter_vector
@@ -182,12 +183,7 @@ def load_input_profile(path: str | Path, sample_period_s: float, duration_s: flo
     command is zero.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(str(path), "", "file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(str(path), "", f"cannot read: {exc}") from None
+    text = read_text(path)
     lines = [line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
         raise ConfigError(str(path), "", "empty file; expected a header t_s,da_left_v,da_right_v")
