@@ -301,7 +301,7 @@ class SideFriction:
     stiction_n_m: Estimate
     windows: tuple[HoldWindow, ...] = ()
     breakaway_da_voltages_v: tuple[float, ...] = ()
-    """|u| at each detected break-away, DA volts."""
+    """|u| held over the last still sample of each ramp (DA volts), before the resolution and lag corrections."""
 
     def as_dict(self) -> dict[str, dict[str, float | None]]:
         """The ``--json`` object of one side."""
@@ -603,7 +603,7 @@ def fit_friction(
                 tau_c, tau_c_se, None if true_motor is None else true_motor.coulomb_friction_n_m),
             stiction_n_m=Estimate(tau_s, tau_s_se, None if true_motor is None else true_motor.stiction_n_m),
             windows=windows,
-            breakaway_da_voltages_v=tuple(found),
+            breakaway_da_voltages_v=tuple(b.u_still_v for b in found),
         ))
     return FrictionFit(left=sides[0], right=sides[1], notes=tuple(notes))
 
