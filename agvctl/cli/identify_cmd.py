@@ -56,11 +56,19 @@ DEMO_UMBMARK_RATIO, DEMO_UMBMARK_SEPARATION_FACTOR = 1.005, 1.01
 """The simulated truth of ``identify umbmark --simulate`` without ``--set``: r_r/r_l = 1.005, b 1 % larger."""
 
 
+_DESCRIPTION = """\
+The report's appendix A.1 procedures on measurements or on the simulator; --out writes the result as a vehicle TOML.
+
+With --simulate the vehicle (--vehicle) is what the controllers believe and --set changes only the simulated
+truth (the plant); without --set, friction and umbmark simulate a demonstration truth that differs from the
+vehicle (printed). With --log or scale readings, --set changes the vehicle as everywhere else."""
+
+
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "identify",
         help="identify vehicle constants: mass, friction, wheel geometry (appendix A.1)",
-        description=__doc__,
+        description=_DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     isub = p.add_subparsers(dest="procedure", metavar="PROCEDURE", parser_class=type(p))
