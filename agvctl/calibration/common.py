@@ -1,0 +1,89 @@
+"""What every identification procedure shares: an estimate with its standard error, and reading CSV logs strictly."""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.errors import ConfigError
+
+__all__ = ["Estimate", "read_csv_columns"]
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """An identified quantity: the estimate, its standard error (1σ) and, on the simulator, the true value."""
+
+    estimate: float
+    stderr: float
+    """One standard error. 0 when the procedure saw no scatter (noise off); NaN when it cannot be estimated."""
+    truth: float | None = None
+    """The plant's value (simulated procedures only)."""
+
+    def as_dict(self) -> dict[str, float | None]:
+        """``{"estimate", "stderr"[, "truth"]}`` for JSON (NaN stderr becomes ``None``)."""
+        out: dict[str, float | None] = {
+            "estimate": self.estimate,
+            "stderr": self.stderr if math.isfinite(self.stderr) else None,
+        }
+        if self.truth is not None:
+            out["truth"] = self.truth
+        return out
+
+    @property
+    def error(self) -> float | None:
+        """estimate − truth (``None`` without a truth)."""
+        return None if self.truth is None else self.estimate - self.truth
+
+
+def read_csv_columns(
+    path: str | Path, numeric: Sequence[str], text: Sequence[str] = ()
+) -> tuple[dict[str, NDArray[np.float64]], dict[str, list[str]]]:
+    """Read the named columns of a CSV log with a header row; other columns are ignored.
+
+    Every numeric cell must parse as a finite number. Raises :class:`ConfigError` (one line) naming the file and
+    the first missing column, or the first row (1-based data row) and column that is empty or not a finite number.
+    """
+    source = str(path)
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            rows = list(csv.reader(fh))
+    except FileNotFoundError:
+        raise ConfigError(source, "", "file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(source, "", f"cannot read: {exc}") from None
+    rows = [r for r in rows if r and not (len(r) == 1 and not r[0].strip()) and not r[0].lstrip().startswith("#")]
+    if not rows:
+        raise ConfigError(source, "", "empty file (expected a header row naming the columns)")
+    header = [h.strip() for h in rows[0]]
+    missing = [name for name in (*numeric, *text) if name not in header]
+    if missing:
+        plural = "s" if len(missing) > 1 else ""
+        raise ConfigError(source, "", f"missing column{plural} {', '.join(missing)}")
+    body = rows[1:]
+    if not body:
+        raise ConfigError(source, "", "no data rows")
+    index = {name: header.index(name) for name in (*numeric, *text)}
+    values: dict[str, NDArray[np.float64]] = {}
+    for name in numeric:
+        col = np.empty(len(body))
+        j = index[name]
+        for i, row in enumerate(body):
+            cell = row[j].strip() if j < len(row) else ""
+            try:
+                value = float(cell)
+            except ValueError:
+                value = math.nan
+            if not math.isfinite(value):
+                shown = cell if cell else "empty"
+                raise ConfigError(source, f"row {i + 1}", f"{name} is not a finite number ({shown})")
+            col[i] = value
+        values[name] = col
+    strings = {name: [(row[index[name]].strip() if index[name] < len(row) else "") for row in body] for name in text}
+    return values, strings
