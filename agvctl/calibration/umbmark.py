@@ -344,8 +344,8 @@ def drive_square(
         sample_period_s=controller_vehicle.control.sample_period_s,
         name=f"umbmark-{direction}",
     )
-    gains, crossover = default_pi_gains(controller_vehicle)
-    mpc = LtvMpcController(controller_vehicle, MpcConfig(wheel_loop_time_constant_s=1.0 / crossover))
+    gains, loop_tau_s = default_pi_gains(controller_vehicle)
+    mpc = LtvMpcController(controller_vehicle, MpcConfig(wheel_loop_time_constant_s=loop_tau_s))
     wheels = PIWheelController(controller_vehicle, gains, coulomb_feedforward=True, gentle_stop=True)
     result = run_closed_loop(
         plant_vehicle=plant_vehicle,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from typing import NamedTuple
 
 from agvctl.config import build
 from agvctl.controllers.base import FeedForwardPoseController, PoseController
@@ -13,15 +14,22 @@ from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 from agvctl.sim.experiment import Experiment
 
-__all__ = ["build_controllers", "default_pi_gains"]
+__all__ = ["WheelLoopDesign", "build_controllers", "default_pi_gains"]
+
+
+class WheelLoopDesign(NamedTuple):
+    """The PI gains and the first-order lag τ (s) that best fits their closed loop."""
+
+    gains: PIGains
+    loop_time_constant_s: float
 
 
 @functools.lru_cache(maxsize=32)
-def default_pi_gains(vehicle: VehicleParams) -> tuple[PIGains, float]:
+def default_pi_gains(vehicle: VehicleParams) -> WheelLoopDesign:
     """The PI designed for the default spec (PM ≥ 60°, GM ≥ 10 dB, fastest) and the time constant (s) of the
     first-order lag that best fits its closed loop (the MPC's wheel-loop model)."""
     gains = design_pi(vehicle).gains
-    return gains, closed_loop_time_constant_s(vehicle, gains)
+    return WheelLoopDesign(gains, closed_loop_time_constant_s(vehicle, gains))
 
 
 def build_controllers(exp: Experiment, vehicle: VehicleParams) -> tuple[PoseController, PIWheelController]:
