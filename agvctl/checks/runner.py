@@ -288,13 +288,25 @@ def _execute(
         return out
     import multiprocessing
 
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-        for outcome in pool.map(run_task, tasks, chunksize=max(1, n // (4 * jobs))):
-            out.append(outcome)
-            done += 1
-            if progress:
-                progress(done, n)
+    # one thread per worker for the numerical libraries (as Dask does for its workers): with N workers on N cores
+    # their own thread pools would oversubscribe the machine several times over
+    saved = {k: os.environ.get(k) for k in _THREAD_VARS}
+    os.environ.update({k: "1" for k, v in saved.items() if v is None})
+    try:
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+            for outcome in pool.map(run_task, tasks, chunksize=max(1, n // (4 * jobs))):
+                out.append(outcome)
+                done += 1
+                if progress:
+                    progress(done, n)
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
     return out
+
+
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
 
 
 def _verdicts(outcomes: Sequence[RunOutcome]) -> list[LimitVerdict]:
@@ -338,6 +350,8 @@ def check_experiments(
 
     ``jobs`` processes (default: all cores) for the local executor; ``executor="dask"`` sends the runs to the
     Dask scheduler at ``scheduler`` (``tcp://host:8786``). Raises :class:`ConfigError` on bad input before any run.
+    Local workers are spawned processes, which import the calling script again: from a script, call this under
+    ``if __name__ == "__main__":``.
     """
     t0 = time.perf_counter()
     jobs = jobs if jobs is not None else (os.cpu_count() or 1)
