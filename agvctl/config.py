@@ -29,7 +29,10 @@ __all__ = [
     "apply_overrides",
     "build",
     "build_fields",
+    "convert_value",
+    "did_you_mean",
     "dump_toml",
+    "join_key",
     "load_toml",
     "number",
     "parse_override",
@@ -117,7 +120,7 @@ def _check_path(schema: type, parts: list[str], source: str, key: str) -> None:
             raise ConfigError(source, key, f"'{'.'.join(parts[:depth])}' is a value, not a table")
         names = _file_keys(cls)
         if part not in names:
-            raise ConfigError(source, key, "unknown key" + _did_you_mean(part, names, parts[:depth]))
+            raise ConfigError(source, key, "unknown key" + did_you_mean(part, names, parts[:depth]))
         cls = names[part]
     if isinstance(cls, type) and dataclasses.is_dataclass(cls):
         raise ConfigError(source, key, "is a table; set one of its keys")
@@ -137,7 +140,8 @@ def _file_keys(cls: type) -> dict[str, Any]:
     return keys
 
 
-def _did_you_mean(word: str, choices: Iterable[str], prefix: list[str]) -> str:
+def did_you_mean(word: str, choices: Iterable[str], prefix: list[str]) -> str:
+    """`` (did you mean a.b.c?)`` for the closest of ``choices`` to a misspelt ``word``, or ``""``."""
     close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
     if not close:
         return ""
@@ -146,11 +150,12 @@ def _did_you_mean(word: str, choices: Iterable[str], prefix: list[str]) -> str:
 
 def build(cls: type[T], data: Any, *, source: str, prefix: str = "") -> T:
     """Build dataclass ``cls`` from the mapping ``data`` strictly; errors name ``source`` and the dotted key."""
-    value = _convert(cls, data, source, prefix)
+    value = convert_value(cls, data, source, prefix)
     return typing.cast(T, value)
 
 
-def _join(prefix: str, key: str) -> str:
+def join_key(prefix: str, key: str) -> str:
+    """``prefix.key`` (or ``key`` at the top level): the dotted path named in error messages."""
     return f"{prefix}.{key}" if prefix else key
 
 
@@ -180,7 +185,8 @@ def _describe(value: Any) -> str:
     return repr(value)
 
 
-def _convert(tp: Any, value: Any, source: str, key: str, meta: Mapping[str, Any] | None = None) -> Any:
+def convert_value(tp: Any, value: Any, source: str, key: str, meta: Mapping[str, Any] | None = None) -> Any:
+    """Check and convert one value from a file to type ``tp`` (bounds from a :func:`number` field's ``meta``)."""
     origin = get_origin(tp)
     if origin in (Union, types.UnionType):
         args = [a for a in get_args(tp) if a is not type(None)]
@@ -189,7 +195,7 @@ def _convert(tp: Any, value: Any, source: str, key: str, meta: Mapping[str, Any]
         last: ConfigError | None = None
         for arg in args:
             try:
-                return _convert(arg, value, source, key, meta)
+                return convert_value(arg, value, source, key, meta)
             except ConfigError as exc:
                 last = exc
         assert last is not None
@@ -205,7 +211,7 @@ def _convert(tp: Any, value: Any, source: str, key: str, meta: Mapping[str, Any]
         (item_tp, *_rest) = get_args(tp)
         if not isinstance(value, list):
             raise ConfigError(source, key, f"expected an array (got {_describe(value)})")
-        items = [_convert(item_tp, v, source, f"{key}[{i}]") for i, v in enumerate(value)]
+        items = [convert_value(item_tp, v, source, f"{key}[{i}]") for i, v in enumerate(value)]
         return tuple(items) if origin is tuple else items
     if isinstance(tp, type) and dataclasses.is_dataclass(tp):
         if not isinstance(value, Mapping):
@@ -263,13 +269,15 @@ def build_fields(cls: type, data: Mapping[str, Any], *, source: str, prefix: str
     for k in data:
         if k not in fields:
             raise ConfigError(
-                source, _join(prefix, k), "unknown key" + _did_you_mean(k, fields, prefix.split(".") if prefix else [])
+                source,
+                join_key(prefix, k),
+                "unknown key" + did_you_mean(k, fields, prefix.split(".") if prefix else []),
             )
     kwargs: dict[str, Any] = {}
     for file_key, f in fields.items():
-        key = _join(prefix, file_key)
+        key = join_key(prefix, file_key)
         if file_key in data:
-            kwargs[f.name] = _convert(hints[f.name], data[file_key], source, key, f.metadata)
+            kwargs[f.name] = convert_value(hints[f.name], data[file_key], source, key, f.metadata)
         elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
             raise ConfigError(source, key, "missing key")
     obj = cls(**kwargs)
@@ -325,7 +333,7 @@ def dump_toml(data: Mapping[str, Any], header: str = "") -> str:
         for k, v in plain:
             lines.append(f"{k} = {scalar(v)}")
         for k, v in subs:
-            table(_join(prefix, k), v)
+            table(join_key(prefix, k), v)
 
     table("", data)
     return "\n".join(lines) + "\n"

@@ -19,7 +19,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from agvctl.config import _convert, _did_you_mean, _join, apply_overrides, build, load_toml, number, parse_override
+from agvctl.config import (
+    apply_overrides,
+    build,
+    convert_value,
+    did_you_mean,
+    join_key,
+    load_toml,
+    number,
+    parse_override,
+)
 from agvctl.errors import ConfigError
 
 __all__ = [
@@ -104,7 +113,7 @@ class MotorParams:
         if self.coulomb_friction_n_m > self.stiction_n_m:
             raise ConfigError(
                 source,
-                _join(prefix, "coulomb_friction_n_m"),
+                join_key(prefix, "coulomb_friction_n_m"),
                 f"Coulomb friction {self.coulomb_friction_n_m:g} N m exceeds stiction {self.stiction_n_m:g} N m; "
                 "the break-away torque must be at least the sliding friction",
             )
@@ -130,25 +139,27 @@ class MotorPair:
         allowed = [*_MOTOR_KEYS, "left", "right"]
         for k in data:
             if k not in allowed:
-                raise ConfigError(source, _join(prefix, k), "unknown key" + _did_you_mean(k, allowed, [prefix]))
+                raise ConfigError(source, join_key(prefix, k), "unknown key" + did_you_mean(k, allowed, [prefix]))
         meta = {f.name: f.metadata for f in dataclasses.fields(MotorParams)}
-        base = {k: _convert(float, v, source, _join(prefix, k), meta[k]) for k, v in data.items() if k in meta}
+        base = {k: convert_value(float, v, source, join_key(prefix, k), meta[k]) for k, v in data.items() if k in meta}
         sides: dict[str, MotorParams] = {}
         for side in ("left", "right"):
-            side_prefix = _join(prefix, side)
+            side_prefix = join_key(prefix, side)
             override = data.get(side, {})
             if not isinstance(override, Mapping):
                 raise ConfigError(source, side_prefix, "expected a table")
             for k in override:
                 if k not in meta:
                     raise ConfigError(
-                        source, _join(side_prefix, k), "unknown key" + _did_you_mean(k, meta, [side_prefix])
+                        source, join_key(side_prefix, k), "unknown key" + did_you_mean(k, meta, [side_prefix])
                     )
             merged = dict(base)
-            merged.update({k: _convert(float, v, source, _join(side_prefix, k), meta[k]) for k, v in override.items()})
+            merged.update(
+                {k: convert_value(float, v, source, join_key(side_prefix, k), meta[k]) for k, v in override.items()}
+            )
             for k in _MOTOR_KEYS:
                 if k not in merged:
-                    raise ConfigError(source, _join(prefix, k), "missing key")
+                    raise ConfigError(source, join_key(prefix, k), "missing key")
             motor = MotorParams(**merged)
             motor.validate(source=source, prefix=side_prefix if override else prefix)
             sides[side] = motor
@@ -187,7 +198,7 @@ class DAParams:
     def validate(self, *, source: str, prefix: str) -> None:
         if not self.min_v < self.max_v:
             raise ConfigError(
-                source, _join(prefix, "min_v"), f"must be below max_v (got {self.min_v:g} >= {self.max_v:g})"
+                source, join_key(prefix, "min_v"), f"must be below max_v (got {self.min_v:g} >= {self.max_v:g})"
             )
 
     @property

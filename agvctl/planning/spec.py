@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from agvctl.config import _did_you_mean, build, load_toml, number
+from agvctl.config import build, did_you_mean, load_toml, number
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 
@@ -153,7 +153,7 @@ class _AnySegment:
             raise ConfigError(source, f"{prefix}.type", f"missing key (one of {', '.join(SEGMENT_TYPES)})")
         kind = data["type"]
         if kind not in _SEGMENT_CLASSES:
-            hint = _did_you_mean(str(kind), SEGMENT_TYPES, []) if isinstance(kind, str) else ""
+            hint = did_you_mean(str(kind), SEGMENT_TYPES, []) if isinstance(kind, str) else ""
             expected = ", ".join(SEGMENT_TYPES)
             problem = f"unknown segment type {kind!r} (expected one of {expected})"
             hint = hint.replace("did you mean ", "did you mean type = ")
@@ -232,8 +232,9 @@ def resolve_limits(spec: PathSpec, vehicle: VehicleParams, *, force: bool = Fals
             problem = f"{value:g} {unit} is above the vehicle's {what} of {physical:.4g} {unit}"
             if not force:
                 raise ConfigError(spec.source, key, problem + " (use --force to plan anyway)")
-            warnings.warn(f"{spec.source}: {key}: {problem}; planning anyway (--force)", PhysicalLimitWarning,
-                          stacklevel=2)
+            warnings.warn(
+                f"{spec.source}: {key}: {problem}; planning anyway (--force)", PhysicalLimitWarning, stacklevel=2
+            )
     jerk = lim.wheel_jerk_m_s3 if lim.wheel_jerk_m_s3 is not None else default_jerk_limit_m_s3(vehicle)
     return WheelLimits(
         wheel_speed_m_s=lim.wheel_speed_m_s if lim.wheel_speed_m_s is not None else top,

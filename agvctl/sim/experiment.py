@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from agvctl.config import _did_you_mean, _join, build, build_fields, load_toml, number
+from agvctl.config import build, build_fields, did_you_mean, join_key, load_toml, number
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams, load_vehicle
 from agvctl.planning import load_path, plan
@@ -70,17 +70,17 @@ class PlantSpec:
         for k in data:
             if k not in ("set", "initial_pose"):
                 raise ConfigError(
-                    source, _join(prefix, k), "unknown key" + _did_you_mean(k, ["set", "initial_pose"], [prefix])
+                    source, join_key(prefix, k), "unknown key" + did_you_mean(k, ["set", "initial_pose"], [prefix])
                 )
         sets = data.get("set", {})
         if not isinstance(sets, Mapping):
-            raise ConfigError(source, _join(prefix, "set"), "expected a table of dotted vehicle keys")
+            raise ConfigError(source, join_key(prefix, "set"), "expected a table of dotted vehicle keys")
         pose = data.get("initial_pose")
         return cls(
             set=dict(sets),
             initial_pose=None
             if pose is None
-            else build(InitialPose, pose, source=source, prefix=_join(prefix, "initial_pose")),
+            else build(InitialPose, pose, source=source, prefix=join_key(prefix, "initial_pose")),
         )
 
 
@@ -155,7 +155,7 @@ def _pose_config(spec: ControllerSpec, source: str, prefix: str) -> Any:
         if spec.pose_settings:
             key = next(iter(spec.pose_settings))
             raise ConfigError(
-                source, _join(prefix, key), 'not used with pose = "none"' + _did_you_mean(key, _RUNNER_KEYS, [prefix])
+                source, join_key(prefix, key), 'not used with pose = "none"' + did_you_mean(key, _RUNNER_KEYS, [prefix])
             )
         return None
     from agvctl.controllers.mpc_common import MpcConfig
@@ -186,10 +186,10 @@ class RobustnessSpec:
         base: RobustnessSpec = build_fields(cls, plain, source=source, prefix=prefix)
         raw = data.get("spread", {})
         if not isinstance(raw, Mapping):
-            raise ConfigError(source, _join(prefix, "spread"), "expected a table of dotted vehicle keys")
+            raise ConfigError(source, join_key(prefix, "spread"), "expected a table of dotted vehicle keys")
         spreads: dict[str, Spread] = {}
         for key, value in raw.items():
-            where = f"{_join(prefix, 'spread')}.{key}"
+            where = f"{join_key(prefix, 'spread')}.{key}"
             if isinstance(value, Mapping):
                 if list(value) != ["normal"]:
                     raise ConfigError(source, where, "expected a relative half-width (uniform) or { normal = SIGMA }")
@@ -261,7 +261,8 @@ def prepare_experiment(exp: Experiment) -> PreparedExperiment:
     return PreparedExperiment(exp, controller_vehicle, plant_vehicle, reference)
 
 
-def initial_pose_of(exp: Experiment, reference: Reference) -> tuple[float, float, float] | None:
+def initial_pose_of(exp: Experiment) -> tuple[float, float, float] | None:
+    """The true start pose (x_m, y_m, theta_rad) of ``[plant] initial_pose``; None: the reference's start."""
     pose = exp.plant.initial_pose
     if pose is None:
         return None
@@ -285,7 +286,7 @@ def run_experiment(
         reference=prepared.reference,
         pose_controller=pose_ctrl,
         wheel_controller=wheel_ctrl,
-        initial_pose=initial_pose_of(e, prepared.reference),
+        initial_pose=initial_pose_of(e),
         settle_s=e.settle_s,
         compute_delay=e.controller.compute_delay,
         localization=e.controller.localization,
