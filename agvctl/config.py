@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import re
 import tomllib
 import types
 import typing
@@ -324,6 +325,9 @@ def dump_toml(data: Mapping[str, Any], header: str = "") -> str:
             return "[" + ", ".join(scalar(x) for x in v) + "]"
         raise TypeError(f"cannot write {v!r} to TOML")
 
+    def key(k: str) -> str:
+        return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else scalar(k)  # dotted keys stay one key: quoted
+
     def table(prefix: str, d: Mapping[str, Any]) -> None:
         plain = [(k, v) for k, v in d.items() if not isinstance(v, Mapping)]
         subs = [(k, v) for k, v in d.items() if isinstance(v, Mapping)]
@@ -331,9 +335,9 @@ def dump_toml(data: Mapping[str, Any], header: str = "") -> str:
             lines.append("")
             lines.append(f"[{prefix}]")
         for k, v in plain:
-            lines.append(f"{k} = {scalar(v)}")
+            lines.append(f"{key(k)} = {scalar(v)}")
         for k, v in subs:
-            table(join_key(prefix, k), v)
+            table(join_key(prefix, key(k)), v)
 
     table("", data)
     return "\n".join(lines) + "\n"

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
 from agvctl.checks.runner import CheckReport
 from agvctl.config import dump_toml, to_dict
-from agvctl.fileio import write_json, write_text
+from agvctl.fileio import write_text
 from agvctl.plots import save_closed_loop_plots, save_metric_histograms
 from agvctl.sim.experiment import PreparedExperiment
 from agvctl.sim.loop import ClosedLoopResult
@@ -23,22 +24,24 @@ def write_run_outputs(
     *,
     plots: bool = True,
 ) -> list[Path]:
-    """Write ``log.csv``, ``summary.json``, the resolved ``experiment.toml`` and (optionally) the plots."""
-    out_dir.mkdir(parents=True, exist_ok=True)
-    result.log.to_csv(out_dir / "log.csv")
-    write_json(out_dir / "summary.json", summary)
+    """Write ``log.csv``, ``summary.json``, the resolved ``experiment.toml`` and the true vehicle, and (optionally)
+    the plots. Every text is made before the first file is written, and each file is written atomically."""
     exp = prepared.experiment
     resolved = to_dict(exp)
     resolved["trajectory"] = str(exp.resolve(exp.trajectory).resolve())
+    if exp.vehicle != "default":
+        resolved["vehicle"] = str(exp.resolve(exp.vehicle).resolve())
     resolved["controller"].update(exp.controller.pose_settings)
-    resolved["plant"] = {
-        "set": dict(exp.plant.set),
-        **({"initial_pose": to_dict(exp.plant.initial_pose)} if exp.plant.initial_pose else {}),
+    texts = {
+        "summary.json": json.dumps(summary, indent=2) + "\n",
+        "experiment.toml": dump_toml(resolved, header=f"resolved from {exp.source}"),
+        "plant_vehicle.toml": dump_toml(to_dict(prepared.plant_vehicle), header="the simulated truth of this run"),
     }
-    vehicle = to_dict(prepared.plant_vehicle)
-    write_text(out_dir / "experiment.toml", dump_toml(resolved, header=f"resolved from {exp.source}"))
-    write_text(out_dir / "plant_vehicle.toml", dump_toml(vehicle, header="the simulated truth of this run"))
-    written = [out_dir / "log.csv", out_dir / "summary.json", out_dir / "experiment.toml"]
+    out_dir.mkdir(parents=True, exist_ok=True)
+    result.log.to_csv(out_dir / "log.csv")
+    for name, text in texts.items():
+        write_text(out_dir / name, text)
+    written = [out_dir / "log.csv", *(out_dir / name for name in texts)]
     if plots:
         written += save_closed_loop_plots(result.log, prepared.controller_vehicle, out_dir, title=exp.name)
     return written

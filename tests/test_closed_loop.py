@@ -167,3 +167,15 @@ def test_run_bad_experiment_exits_2_and_writes_nothing(capsys, tmp_path):
     err = capsys.readouterr().err
     assert code == 2 and "trajectory: file not found" in err and err.count("\n") == 1
     assert not out.exists()
+
+
+def test_resolved_experiment_written_by_run_loads_back(capsys, tmp_path):
+    from agvctl.cli import main
+
+    for name in ("figure8_radius_error.toml", "robustness/figure8_mc.toml"):
+        out = tmp_path / name.replace("/", "_")
+        assert main(["run", str(EXPERIMENTS / name), "--out", str(out), "--no-plot"]) == 0
+        original, again = load_experiment(EXPERIMENTS / name), load_experiment(out / "experiment.toml")
+        assert again.plant == original.plant and again.limits == original.limits
+        assert again.controller == original.controller and again.robustness == original.robustness
+    capsys.readouterr()

@@ -203,6 +203,12 @@ class RobustnessSpec:
             spreads[str(key)] = Spread(kind, float(rel))  # type: ignore[arg-type]
         return dataclasses.replace(base, spread=spreads)
 
+    def __to_file__(self) -> dict[str, Any]:
+        spread: dict[str, Any] = {
+            k: (v.relative if v.kind == "uniform" else {"normal": v.relative}) for k, v in self.spread.items()
+        }
+        return {"samples": self.samples, "seed": self.seed, "spread": spread}
+
 
 @dataclass(frozen=True)
 class Experiment:
