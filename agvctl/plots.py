@@ -102,27 +102,27 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
     a1.legend(loc="best", fontsize=8)
     finish(fig, "da.png")
 
-    fig, ax = plt.subplots(figsize=(8, 3.5))
-    for side, c in (("left", "C0"), ("right", "C1")):
-        ax.plot(t, log[f"current_{side}_a"], color=c, lw=1, label=side)
-    i_max = vehicle.amplifier.current_limit_a
-    ax.axhline(i_max, color="r", ls=":", lw=1, label="limit")
-    ax.axhline(-i_max, color="r", ls=":", lw=1)
-    ax.set(xlabel="t [s]", ylabel="armature current [A]")
-    ax.legend(loc="best", fontsize=8)
-    ax.grid(alpha=0.3)
-    finish(fig, "currents.png")
+    def both_sides_against(column: str, bound: float, bound_label: str, ylabel: str, name: str) -> None:
+        fig, ax = plt.subplots(figsize=(8, 3.5))
+        for side, c in (("left", "C0"), ("right", "C1")):
+            ax.plot(t, log[column.format(side=side)], color=c, lw=1, label=side)
+        ax.axhline(bound, color="r", ls=":", lw=1, label=bound_label)
+        ax.axhline(-bound, color="r", ls=":", lw=1)
+        ax.set(xlabel="t [s]", ylabel=ylabel)
+        ax.legend(loc="best", fontsize=8)
+        ax.grid(alpha=0.3)
+        finish(fig, name)
 
-    fig, ax = plt.subplots(figsize=(8, 3.5))
-    for side, c in (("left", "C0"), ("right", "C1")):
-        ax.plot(t, log[f"wheel_accel_{side}_m_s2"], color=c, lw=1, label=side)
-    a_lim = vehicle.derived.accel_limit_m_s2
-    ax.axhline(a_lim, color="r", ls=":", lw=1, label="a_lim (eq 5)")
-    ax.axhline(-a_lim, color="r", ls=":", lw=1)
-    ax.set(xlabel="t [s]", ylabel="wheel acceleration [m/s²]")
-    ax.legend(loc="best", fontsize=8)
-    ax.grid(alpha=0.3)
-    finish(fig, "wheel_accel.png")
+    both_sides_against(
+        "current_{side}_a", vehicle.amplifier.current_limit_a, "limit", "armature current [A]", "currents.png"
+    )
+    both_sides_against(
+        "wheel_accel_{side}_m_s2",
+        vehicle.derived.accel_limit_m_s2,
+        "a_lim (eq 5)",
+        "wheel acceleration [m/s²]",
+        "wheel_accel.png",
+    )
 
     fig, ax = plt.subplots(figsize=(6, 3.5))
     ms = log["solve_time_s"][:-1] * 1e3
