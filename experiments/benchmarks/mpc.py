@@ -3,10 +3,8 @@
 The problem: the figure-8 reference (0.5 m/s) from ``trajectories/figure8.toml`` plus 2 s at rest, horizon 20,
 the same weights, wheel-speed and wheel-acceleration limits and prediction model (kinematics + a first-order
 wheel loop whose time constant is identified below), on the same plant: the full nonlinear model (friction,
-centrifugal terms, current limit) behind the 12-bit DA and the amplifier, with a simple discrete PI speed loop
-per wheel written here (pole-zero cancellation of the decoupled model's mechanical time constant, closed-loop
-time constant ≈ 0.1 s, integrator clamped while the DA saturates). The closed-loop runner will use the tuned
-PI loops of ``agvctl.controllers``; this loop only has to be the same for all three controllers.
+centrifugal terms, current limit) behind the 12-bit DA and the amplifier, with the tuned PI wheel loops of
+``agvctl run`` (``agvctl.sim.loop.run_closed_loop``): the same loop for all three controllers.
 
 Each controller's step is timed with ``time.perf_counter`` around the whole call (Python included), and the
 run is repeated (``--repeat``) because the machine is shared: the table gives the median over repeats of each
@@ -32,89 +30,19 @@ from pathlib import Path
 
 import numpy as np
 
-from agvctl.actuator import Actuator
-from agvctl.controllers.base import PoseCommand
+from agvctl.controllers.base import PoseCommand, PoseController
 from agvctl.controllers.mpc_common import HorizonReference, MpcConfig, limit_command, resolved_limits
 from agvctl.controllers.mpc_ltv import LtvMpcController
 from agvctl.controllers.mpc_nonlinear import NonlinearMpcController, prediction_step
+from agvctl.controllers.pi import PIWheelController
 from agvctl.params import VehicleParams, load_vehicle
 from agvctl.planning import plan_file
 from agvctl.planning.reference import Reference
-from agvctl.plant.full import parameter_vector, state_from_motor_speeds
-from agvctl.sim.integrator import compiled_plant, sample_splits
+from agvctl.sim.controllers import default_pi_gains
+from agvctl.sim.loop import run_closed_loop
 
 ROOT = Path(__file__).resolve().parents[2]
 SETTLE_S = 2.0
-PI_CLOSED_LOOP_TIME_CONSTANT_S = 0.1
-
-
-class BenchWheelLoop:
-    """Discrete PI per wheel on the motor speed (rad/s) → DA voltage (V). Not the product's tuned loop."""
-
-    def __init__(self, vehicle: VehicleParams) -> None:
-        m = vehicle.motor.left
-        d = vehicle.derived
-        k_e, k_t, R, f_m = (m.voltage_constant_v_s_rad, m.torque_constant_n_m_a, m.resistance_ohm,
-                            m.viscous_friction_n_m_s_rad)  # fmt: skip
-        gain_rad_s_per_v = (k_t / R) / (k_e * k_t / R + f_m)  # steady motor speed per volt (eqs 60-61)
-        tau_m = d.mechanical_time_constant_s
-        self.kp = tau_m / (PI_CLOSED_LOOP_TIME_CONSTANT_S * gain_rad_s_per_v)  # motor V per rad/s
-        self.ki = self.kp / tau_m
-        self.T = vehicle.control.sample_period_s
-        self.amp_gain = vehicle.amplifier.gain
-        self.da_max = Actuator(vehicle).max_da_voltage_v
-        self.integral = np.zeros(2)
-
-    def update(self, setpoint_rad_s: np.ndarray, measured_rad_s: np.ndarray) -> np.ndarray:
-        e = setpoint_rad_s - measured_rad_s
-        u = (self.kp * e + self.ki * (self.integral + self.T * e)) / self.amp_gain
-        saturated = np.abs(u) > self.da_max
-        self.integral += np.where(saturated & (np.sign(u) == np.sign(e)), 0.0, self.T * e)
-        return np.clip(u, -self.da_max, self.da_max)
-
-
-class Plant:
-    """The full nonlinear plant behind the DA/amplifier and :class:`BenchWheelLoop`, one sample at a time."""
-
-    def __init__(self, vehicle: VehicleParams, pose: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
-        self.plant = compiled_plant()
-        self.p = parameter_vector(vehicle)
-        self.splits = sample_splits(vehicle)
-        self.actuator = Actuator(vehicle)
-        self.loop = BenchWheelLoop(vehicle)
-        self.T = vehicle.control.sample_period_s
-        self.rim = np.array([vehicle.wheels.radius_left_m / vehicle.motor.left.gear_ratio,
-                             vehicle.wheels.radius_right_m / vehicle.motor.right.gear_ratio])  # fmt: skip
-        self.x = state_from_motor_speeds(vehicle, (0.0, 0.0), pose)
-        self.u = np.zeros(2)
-
-    def wheel_speed_m_s(self) -> np.ndarray:
-        return self.plant.aux(self.x, self.u, self.p)[0:2] * self.rim
-
-    def step(self, setpoint_m_s: np.ndarray) -> None:
-        omega = self.plant.aux(self.x, self.u, self.p)[0:2]
-        da = self.loop.update(setpoint_m_s / self.rim, omega)
-        self.u = self.actuator.apply(da).motor_voltage_v
-        self.x, _aux, _stats = self.plant.step(self.x, self.u, self.p, self.T, self.splits)
-
-
-def identify_wheel_loop_time_constant(vehicle: VehicleParams) -> float:
-    """τ of the bench wheel loop: the time to 63 % of a small step, 0.30 → 0.35 m/s on a straight line (small,
-    so that the current limit does not turn it into a ramp at a_lim; moving, so that stiction stays out)."""
-    plant = Plant(vehicle)
-    T = vehicle.control.sample_period_s
-    for _ in range(100):
-        plant.step(np.array([0.3, 0.3]))
-    v0 = float(plant.wheel_speed_m_s()[0])
-    speeds = [v0]
-    for _ in range(50):
-        plant.step(np.array([0.35, 0.35]))
-        speeds.append(float(plant.wheel_speed_m_s()[0]))
-    v = np.array(speeds)
-    level = v0 + 0.632 * (0.35 - v0)
-    k = int(np.argmax(v >= level))
-    frac = (level - v[k - 1]) / (v[k] - v[k - 1])  # interpolate between samples k−1 and k
-    return (k - 1 + frac) * T
 
 
 @dataclass
@@ -125,26 +53,23 @@ class RunResult:
     failures: int
 
 
-def closed_loop(controller, reference: Reference, vehicle: VehicleParams) -> RunResult:
-    """Run one controller on the full plant over the reference plus :data:`SETTLE_S`."""
-    T = vehicle.control.sample_period_s
-    n = math.ceil((reference.duration_s + SETTLE_S) / T)
-    plant = Plant(vehicle)
-    controller.reset(reference)
-    times = np.empty(n)
-    err = np.empty(n)
-    head = np.empty(n)
-    ref = reference.sample((np.arange(n) + 1) * T)
-    for k in range(n):
-        pose = plant.x[2:5]
-        wheel = plant.wheel_speed_m_s()
-        t0 = time.perf_counter()
-        cmd: PoseCommand = controller.update(k * T, pose, wheel)
-        times[k] = time.perf_counter() - t0
-        plant.step(np.array([cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s]))
-        err[k] = math.hypot(plant.x[2] - ref.x_m[k], plant.x[3] - ref.y_m[k])
-        head[k] = abs((plant.x[4] - ref.theta_rad[k] + math.pi) % (2 * math.pi) - math.pi)
-    return RunResult(times * 1e3, err, head, controller.failures)
+def closed_loop(controller: PoseController, reference: Reference, vehicle: VehicleParams) -> RunResult:
+    """Run one pose controller in the product's closed loop (``agvctl run``'s): the tuned PI wheel loops with
+    Coulomb feed-forward, the DA/amplifier and the full plant, over the reference plus :data:`SETTLE_S`."""
+    design = default_pi_gains(vehicle)
+    result = run_closed_loop(
+        plant_vehicle=vehicle,
+        controller_vehicle=vehicle,
+        reference=reference,
+        pose_controller=controller,
+        wheel_controller=PIWheelController(vehicle, design.gains, coulomb_feedforward=True),
+        settle_s=SETTLE_S,
+    )
+    log = result.log
+    failures = int(getattr(controller, "failures", result.solver_failures))
+    return RunResult(
+        log["solve_time_s"][:-1] * 1e3, log["position_error_m"], np.abs(log["heading_error_rad"]), failures
+    )
 
 
 class DoMpcController:
@@ -181,9 +106,10 @@ class DoMpcController:
         model.set_rhs("ur_prev", s[1])
         model.setup()
         c = config
-        pose_cost = c.weight_position * ((xs[0] - ref[0]) ** 2 + (xs[1] - ref[1]) ** 2) + c.weight_heading * (
-            xs[2] - ref[2]
-        ) ** 2
+        pose_cost = (
+            c.weight_position * ((xs[0] - ref[0]) ** 2 + (xs[1] - ref[1]) ** 2)
+            + c.weight_heading * (xs[2] - ref[2]) ** 2
+        )
         input_cost = c.weight_input * ((s[0] - ref[3]) ** 2 + (s[1] - ref[4]) ** 2)
         mpc = do_mpc.controller.MPC(model)
         mpc.settings.n_horizon = c.horizon
@@ -281,7 +207,7 @@ def main(argv: list[str] | None = None) -> int:
 
     vehicle = load_vehicle(None)
     reference = plan_file(ROOT / "trajectories" / "figure8.toml", vehicle)
-    tau = identify_wheel_loop_time_constant(vehicle)
+    tau = default_pi_gains(vehicle).loop_time_constant_s
     config = MpcConfig(
         horizon=args.horizon,
         prediction_model=args.prediction_model,
@@ -291,10 +217,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"figure-8 at 0.5 m/s: {reference.duration_s:.2f} s + {SETTLE_S:.0f} s settle, "
           f"T_s = {vehicle.control.sample_period_s * 1e3:.0f} ms, horizon {config.horizon}, "
           f"{config.prediction_model} model, {config.error_frame} frame; "
-          f"bench wheel loop τ = {tau * 1e3:.0f} ms (identified from a 0.30 → 0.35 m/s step)")  # fmt: skip
-    print(f"weights: position {config.weight_position:g}/m², heading {config.weight_heading:g}/rad², input "
-          f"{config.weight_input:g}, rate {config.weight_input_rate:g} (m/s)⁻²; limits "
-          f"{resolved_limits(config, vehicle)[0]:.3f} m/s, {resolved_limits(config, vehicle)[1]:.3f} m/s²")
+          f"wheel-loop τ = {tau * 1e3:.0f} ms (first-order fit to the tuned PI's closed loop)")  # fmt: skip
+    print(
+        f"weights: position {config.weight_position:g}/m², heading {config.weight_heading:g}/rad², input "
+        f"{config.weight_input:g}, rate {config.weight_input_rate:g} (m/s)⁻²; limits "
+        f"{resolved_limits(config, vehicle)[0]:.3f} m/s, {resolved_limits(config, vehicle)[1]:.3f} m/s²"
+    )
 
     makers: list[tuple[str, Callable[[], object]]] = [
         ("OSQP LTV MPC", lambda: LtvMpcController(vehicle, config)),
