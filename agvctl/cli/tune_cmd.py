@@ -4,7 +4,6 @@ plant."""
 from __future__ import annotations
 
 import argparse
-import io
 import json
 import math
 from pathlib import Path
@@ -19,15 +18,14 @@ from agvctl.controllers.tuning import (
     TuningResult,
     TuningSpec,
     design_pi,
-    frequency_response,
-    loop_polynomials,
 )
 from agvctl.errors import ConfigError
 from agvctl.fileio import atomic_open, write_text
-from agvctl.params import VehicleParams, load_vehicle
+from agvctl.params import load_vehicle
+from agvctl.plots import render_tuning_plots
 from agvctl.sim.wheel_step import WheelStepResult, wheel_step_response
 
-__all__ = ["register", "render_plots", "run", "summary"]
+__all__ = ["register", "run", "summary"]
 
 STEP_M_S = 0.3
 """The verification step: a 0.3 m/s wheel-speed step on both wheels (issue 4)."""
@@ -49,12 +47,8 @@ def register(sub: Any) -> None:
         f"for a {STEP_M_S:g} m/s wheel-speed step.",
     )
     add_vehicle_options(p)
-    p.add_argument(
-        "--phase-margin", type=float, metavar="DEG", default=60.0, help="minimum phase margin (default 60)"
-    )
-    p.add_argument(
-        "--gain-margin", type=float, metavar="DB", default=10.0, help="minimum gain margin (default 10)"
-    )
+    p.add_argument("--phase-margin", type=float, metavar="DEG", default=60.0, help="minimum phase margin (default 60)")
+    p.add_argument("--gain-margin", type=float, metavar="DB", default=10.0, help="minimum gain margin (default 10)")
     p.add_argument(
         "--bandwidth",
         type=float,
@@ -96,91 +90,6 @@ def summary(design: TuningResult, step: WheelStepResult) -> dict[str, Any]:
     }
 
 
-def render_plots(design: TuningResult, step: WheelStepResult, vehicle: VehicleParams) -> dict[str, bytes]:
-    """Bode, Nyquist and step-response figures as PNG bytes, keyed by file name (matplotlib imported here)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    ts = design.gains.dt_s
-    w_nyq = math.pi / ts
-    w = np.geomspace(w_nyq * 1e-4, w_nyq, 2000)
-    num, den = loop_polynomials(design.gains, design.plant_left, design.chain_gain)
-    resp = frequency_response(num, den, ts, w)
-    m = design.margins_left
-    out: dict[str, bytes] = {}
-
-    def png(fig: Any) -> bytes:
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=110)
-        plt.close(fig)
-        return buf.getvalue()
-
-    fig, (ax_m, ax_p) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
-    ax_m.semilogx(w, 20 * np.log10(np.abs(resp)))
-    ax_m.axhline(0, color="k", lw=0.6)
-    ax_m.axhline(-m.gain_margin_db, color="tab:red", ls=":", label=f"GM {m.gain_margin_db:.2f} dB at Nyquist")
-    ax_m.set_ylabel("|L| (dB)")
-    ax_m.legend(loc="lower left")
-    ax_p.semilogx(w, np.degrees(np.unwrap(np.angle(resp))))
-    ax_p.axhline(-180, color="k", lw=0.6)
-    ax_p.axvline(
-        m.crossover_rad_s,
-        color="tab:green",
-        ls=":",
-        label=f"crossover {m.crossover_rad_s:.2f} rad/s, PM {m.phase_margin_deg:.1f}°",
-    )
-    ax_p.set_ylabel("∠L (deg)")
-    ax_p.set_xlabel("ω (rad/s); the axis ends at the Nyquist frequency π/T_s")
-    ax_p.legend(loc="lower left")
-    for ax in (ax_m, ax_p):
-        ax.axvline(w_nyq, color="0.5", lw=0.8)
-        ax.grid(True, which="both", alpha=0.3)
-    fig.suptitle("Wheel loop L(z) = C(z)·k_chain·G_zoh(z), left wheel")
-    out["bode.png"] = png(fig)
-
-    fig, ax = plt.subplots(figsize=(6, 6))
-    wl = np.linspace(w_nyq * 1e-3, w_nyq, 4000)
-    r = frequency_response(num, den, ts, wl)
-    ax.plot(r.real, r.imag, label="L(e^{jωT}), 0 < ω ≤ π/T")
-    ax.plot(r.real, -r.imag, ls="--", color="tab:blue", alpha=0.5)
-    ax.plot([-1], [0], "r+", ms=12, label="−1")
-    circle = np.exp(1j * np.linspace(0, 2 * np.pi, 200))
-    ax.plot(circle.real, circle.imag, color="0.6", lw=0.6)
-    nyq = r[-1]
-    ax.plot([nyq.real], [nyq.imag], "ko", label=f"z = −1: L = {nyq.real:.3f}")
-    ax.set_xlim(-2.5, 1.0)
-    ax.set_ylim(-2.5, 2.5)
-    ax.set_aspect("equal")
-    ax.grid(True, alpha=0.3)
-    ax.legend(loc="lower left")
-    ax.set_title("Nyquist, left wheel loop")
-    out["nyquist.png"] = png(fig)
-
-    fig, (ax_w, ax_u, ax_i) = plt.subplots(3, 1, sharex=True, figsize=(7, 8))
-    for i, side in enumerate(("left", "right")):
-        ax_w.plot(step.t_s, step.omega_motor_rad_s[:, i], marker=".", label=f"ω {side}")
-        ax_u.step(step.t_s[:-1], step.motor_voltage_v[:, i], where="post", label=side)
-        ax_i.step(step.t_s[:-1], step.current_peak_a[:, i], where="post", label=f"peak |i| {side}")
-    ax_w.axhline(step.setpoint_rad_s[0], color="k", ls="--", lw=0.8, label="setpoint")
-    ax_w.set_ylabel("motor speed (rad/s)")
-    ax_u.set_ylabel("motor voltage (V)")
-    ax_i.axhline(vehicle.amplifier.current_limit_a, color="tab:red", ls=":", label="I_max")
-    ax_i.set_ylabel("current (A)")
-    ax_i.set_xlabel("t (s)")
-    for ax in (ax_w, ax_u, ax_i):
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="lower right")
-    s = step.metrics
-    fig.suptitle(
-        f"{STEP_M_S:g} m/s wheel-speed step on the nonlinear plant\nrise {s.rise_time_s:.3f} s, "
-        f"overshoot {s.overshoot_pct:.2f} %, settling {s.settling_time_s:.3f} s"
-    )
-    out["step.png"] = png(fig)
-    return out
-
-
 def _spec(args: argparse.Namespace) -> TuningSpec:
     try:
         return TuningSpec(
@@ -212,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
     data = summary(design, step)
 
     # render everything before writing anything: no half-written output on error
-    figures = render_plots(design, step, vehicle) if plot_dir is not None else {}
+    figures = render_tuning_plots(design, step, vehicle, STEP_M_S) if plot_dir is not None else {}
     gains_text = None
     if args.out:
         m = design.margins
@@ -245,10 +154,7 @@ def run(args: argparse.Namespace) -> int:
     )
     print(f"{vehicle.name}: PI wheel-speed loops at T_s = {g.dt_s * 1e3:g} ms")
     print(f"  spec             PM >= {spec.phase_margin_deg:g}°, GM >= {spec.gain_margin_db:g} dB, {wc_note}")
-    print(
-        f"  C(z)             ({g.num[0]:.6g} z − {-g.num[1]:.6g}) / (z − 1)"
-        "   [motor-speed error rad/s → motor V]"
-    )
+    print(f"  C(z)             ({g.num[0]:.6g} z − {-g.num[1]:.6g}) / (z − 1)   [motor-speed error rad/s → motor V]")
     print(f"  gains            kp = {g.kp:.6g} V s/rad   ki = {g.ki:.6g} V/rad")
     print(
         f"  margins          GM {m.gain_margin_db:.2f} dB at {m.phase_crossover_rad_s:.2f} rad/s "
