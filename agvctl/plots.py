@@ -16,7 +16,13 @@ from agvctl.params import VehicleParams
 from agvctl.sim.log import SimLog
 from agvctl.sim.wheel_step import WheelStepResult
 
-__all__ = ["CLOSED_LOOP_PLOTS", "render_tuning_plots", "save_closed_loop_plots", "save_metric_histograms"]
+__all__ = [
+    "CLOSED_LOOP_PLOTS",
+    "render_tuning_plots",
+    "save_closed_loop_plots",
+    "save_metric_histograms",
+    "save_open_loop_plot",
+]
 
 CLOSED_LOOP_PLOTS = (
     "path.png",
@@ -258,4 +264,37 @@ def render_tuning_plots(
         f"overshoot {s.overshoot_pct:.2f} %, settling {s.settling_time_s:.3f} s"
     )
     out["step.png"] = png(fig)
+    return out
+
+
+def save_open_loop_plot(log: SimLog, vehicle: VehicleParams, path: str | Path, title: str = "") -> Path:
+    """One PNG of an open-loop run: path, motor speeds, DA commands, currents against the limit."""
+    plt = _pyplot()
+    t = log["t_s"]
+    fig = plt.figure(figsize=(11, 7))
+    grid = fig.add_gridspec(3, 2, width_ratios=(1.0, 1.6))
+    ax_path = fig.add_subplot(grid[:, 0])
+    ax_path.plot(log["x_m"], log["y_m"], "C0")
+    ax_path.plot(log["x_m"][0], log["y_m"][0], "o", color="C0")
+    ax_path.set(xlabel="x [m]", ylabel="y [m]", aspect="equal", title="path")
+    ax_path.grid(alpha=0.3)
+    axes = [fig.add_subplot(grid[i, 1]) for i in range(3)]
+    for side, c in (("left", "C0"), ("right", "C1")):
+        axes[0].plot(t, log[f"omega_motor_{side}_rad_s"], color=c, lw=1, label=side)
+        axes[1].step(t, log[f"da_voltage_{side}_v"], where="post", color=c, lw=1, label=side)
+        axes[2].plot(t, log[f"current_{side}_a"], color=c, lw=1, label=side)
+    i_max = vehicle.amplifier.current_limit_a
+    for v in (i_max, -i_max):
+        axes[2].axhline(v, color="r", ls=":", lw=1)
+    for ax, label in zip(axes, ("motor speed [rad/s]", "DA output [V]", "armature current [A]"), strict=True):
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="best", fontsize=8)
+    axes[2].set_xlabel("t [s]")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    out = Path(path)
+    _save(fig, out)
+    plt.close(fig)
     return out

@@ -188,3 +188,9 @@ def test_bad_profile(capsys, tmp_path, content, message):
     code, _, err = run(capsys, "simulate", "--input", str(prof), "--duration", "1", "--out", str(out))
     assert code == 2 and message in err and err.count("\n") == 1
     assert not out.exists()  # nothing half-written
+
+
+def test_simulate_plot(capsys, tmp_path):
+    png = tmp_path / "sim.png"
+    code, out, _ = run(capsys, "simulate", "--da-left", "3", "--da-right", "-1", "--duration", "2", "--plot", str(png))
+    assert code == 0 and png.stat().st_size > 10_000 and str(png) in out

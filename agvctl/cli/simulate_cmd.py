@@ -31,6 +31,7 @@ def register(sub: Any) -> None:
     add_vehicle_options(p)
     p.add_argument("--json", action="store_true", help="print the final state, peaks and timings as JSON")
     p.add_argument("--out", metavar="LOG.csv", help="write the per-sample log")
+    p.add_argument("--plot", metavar="PLOT.png", help="draw the path, motor speeds, DA commands and currents")
     p.set_defaults(func=run)
 
 
@@ -78,6 +79,10 @@ def run(args: argparse.Namespace) -> int:
     result = simulate_open_loop(vehicle, da)
     if args.out:
         result.log.to_csv(args.out)
+    if args.plot:
+        from agvctl.plots import save_open_loop_plot  # matplotlib only when asked for
+
+        save_open_loop_plot(result.log, vehicle, args.plot, title=f"{vehicle.name}: open loop")
     data = summary(result)
     if args.json:
         print(json.dumps(data, indent=2))
@@ -99,4 +104,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"  wall time        {wall * 1e3:.1f} ms simulating ({rtf:,.0f}x real time), {setup * 1e3:.0f} ms setup")
     if args.out:
         print(f"  log              {args.out}")
+    if args.plot:
+        print(f"  plot             {args.plot}")
     return 0
