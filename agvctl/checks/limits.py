@@ -12,22 +12,24 @@ from agvctl.params import VehicleParams
 from agvctl.sim.experiment import LimitsSpec
 from agvctl.sim.log import SimLog
 
-__all__ = ["LimitResult", "all_passed", "evaluate_limits", "limit_series"]
+__all__ = ["LimitResult", "all_passed", "evaluate_limits", "format_limit_message", "limit_series"]
 
-_UNITS = {
-    "wheel_speed_m_s": "m/s",
-    "wheel_accel_m_s2": "m/s²",
-    "motor_current_a": "A",
-    "current_limited_fraction": "",
-    "da_saturation_fraction": "",
-    "tracking_error_max_m": "m",
-    "tracking_error_rms_m": "m",
-    "heading_error_max_deg": "°",
-    "final_position_error_m": "m",
-    "solve_time_p99_ms": "ms",
-    "deadline_misses": "",
-    "solver_failures": "",
-}
+
+def format_limit_message(
+    limit: str, value: float, bound: float, passed: bool, worst_time_s: float | None, first_time_s: float | None
+) -> str:
+    """``"tracking_error_max_m: 0.0012 m against the limit 0.03 m — ok"`` (with the times when violated)."""
+    units = {"_m": " m", "_m_s": " m/s", "_m_s2": " m/s²", "_a": " A", "_deg": "°", "_ms": " ms"}
+    suffix = next((u for k, u in sorted(units.items(), key=lambda kv: -len(kv[0])) if limit.endswith(k)), "")
+    text = f"{limit}: {value:.6g}{suffix} against the limit {bound:.6g}{suffix}"
+    if passed:
+        return text + " — ok"
+    text += " — VIOLATED"
+    if worst_time_s is not None:
+        text += f", worst at t = {worst_time_s:.2f} s"
+    if first_time_s is not None:
+        text += f", first exceeded at t = {first_time_s:.2f} s"
+    return text
 
 
 @dataclass(frozen=True)
@@ -47,16 +49,9 @@ class LimitResult:
 
     @property
     def message(self) -> str:
-        unit = _UNITS.get(self.limit, "")
-        u = f" {unit}" if unit and unit != "°" else unit
-        verdict = "ok" if self.passed else "VIOLATED"
-        text = f"{self.limit}: {self.value:.6g}{u} (limit {self.bound:.6g}{u}) {verdict}"
-        if not self.passed:
-            if self.worst_time_s is not None:
-                text += f"; worst at t = {self.worst_time_s:.2f} s"
-            if self.first_time_s is not None:
-                text += f", first exceeded at t = {self.first_time_s:.2f} s"
-        return text
+        return format_limit_message(
+            self.limit, self.value, self.bound, self.passed, self.worst_time_s, self.first_time_s
+        )
 
     def as_dict(self) -> dict[str, object]:
         d = asdict(self)

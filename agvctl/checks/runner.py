@@ -22,7 +22,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from agvctl.checks.limits import LimitResult, evaluate_limits
+from agvctl.checks.limits import LimitResult, evaluate_limits, format_limit_message
 from agvctl.config import to_dict
 from agvctl.errors import ConfigError
 from agvctl.sim.experiment import Experiment, PreparedExperiment, load_experiment, prepare_experiment, run_experiment
@@ -86,16 +86,11 @@ class LimitVerdict:
 
     @property
     def message(self) -> str:
-        unit = {"m": " m", "m_s": " m/s", "m_s2": " m/s²", "a": " A", "deg": "°", "ms": " ms"}
-        suffix = next((u for k, u in unit.items() if self.limit.endswith("_" + k)), "")
-        text = f"{self.limit}: {self.value:.6g}{suffix} against the limit {self.bound:.6g}{suffix}"
+        text = format_limit_message(
+            self.limit, self.value, self.bound, self.passed, self.worst_time_s, self.first_time_s
+        )
         if self.passed:
-            return text + " — ok"
-        text += " — VIOLATED"
-        if self.worst_time_s is not None:
-            text += f", worst at t = {self.worst_time_s:.2f} s"
-        if self.first_time_s is not None:
-            text += f", first exceeded at t = {self.first_time_s:.2f} s"
+            return text
         if self.sample is not None:
             params = ", ".join(f"{k} = {v:.6g}" for k, v in self.parameters.items())
             text += f"; sample {self.sample} of {self.runs} ({self.failed_runs} failed): {params}"
