@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -28,7 +28,7 @@ from agvctl.actuator import Actuator
 from agvctl.controllers.base import PoseController, WheelSpeedController
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
-from agvctl.plant.full import AUX_NAMES, STATE_NAMES, PlantOptions, parameter_vector
+from agvctl.plant.full import AUX_NAMES, PlantOptions, parameter_vector
 from agvctl.sim.integrator import STATS_NAMES, compiled_plant, sample_splits
 from agvctl.sim.log import PLANT_LOG_COLUMNS, SimLog
 
@@ -78,7 +78,6 @@ class ClosedLoopResult:
     solver_failures: int
     n_samples: int
     sample_period_s: float
-    extras: dict[str, float] = field(default_factory=dict)
 
 
 def _wrap(angle: NDArray[np.float64] | float) -> NDArray[np.float64]:
@@ -241,7 +240,6 @@ def run_closed_loop(
     cols["ref_wheel_speed_right_m_s"] = ref.wheel_speed_right_m_s
     cols["position_error_m"] = np.hypot(cols["x_m"] - ref.x_m, cols["y_m"] - ref.y_m)
     cols["heading_error_rad"] = _wrap(cols["theta_rad"] - ref.theta_rad)
-    assert len(STATE_NAMES) == 5
     return ClosedLoopResult(
         log=SimLog(cols),
         reference=reference,
