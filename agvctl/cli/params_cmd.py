@@ -37,6 +37,8 @@ _DERIVED_LABELS = [
     ("k_lrr", "k_lrr (eq 51)", "kg m²"),
     ("inertia_equivalent_left_kg_m2", "J̃_l, equivalent inertia (eq 60)", "kg m²"),
     ("inertia_equivalent_right_kg_m2", "J̃_r, equivalent inertia (eq 61)", "kg m²"),
+    ("damping_left_n_m_s_rad", "damping k_e k_t/R + f_m, left (eq 1)", "N m s/rad"),
+    ("damping_right_n_m_s_rad", "damping k_e k_t/R + f_m, right (eq 1)", "N m s/rad"),
     ("friction_gain_p_left", "P_l, friction gain (eq 62)", "N m s/rad"),
     ("friction_gain_p_right", "P_r, friction gain (eq 62)", "N m s/rad"),
     ("accel_limit_m_s2", "a_lim, acceleration limit (eq 5)", "m/s²"),

@@ -29,11 +29,10 @@ def decoupled_wheel_models(vehicle: VehicleParams) -> DecoupledModels:
     for side, consts in (("left", d.left), ("right", d.right)):
         m = vehicle.motor.side(side)  # type: ignore[arg-type]
         k_u = m.torque_constant_n_m_a / m.resistance_ohm
-        damping = m.voltage_constant_v_s_rad * m.torque_constant_n_m_a / m.resistance_ohm + m.viscous_friction_n_m_s_rad
         out.append(
             control.tf(
                 [k_u],
-                [consts.inertia_equivalent_kg_m2, damping],
+                [consts.inertia_equivalent_kg_m2, consts.damping_n_m_s_rad],
                 inputs=f"voltage_{side}_v",
                 outputs=f"omega_motor_{side}_rad_s",
                 name=f"agv_wheel_{side}",

@@ -21,7 +21,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from agvctl.params import VehicleParams, coupling_constants, inertia_rotation_point
+from agvctl.params import VehicleParams, coupling_constants, inertia_rotation_point, motor_damping
 from agvctl.plant.friction import friction_torque, motor_speed
 
 __all__ = [
@@ -159,8 +159,7 @@ class FullModel:
         omega_pre = [x[0], x[1]]
         omega, friction, current, limited = [], [], [], []
         for s, w_pre, u_s in zip(sides, omega_pre, [u[0], u[1]], strict=True):
-            damping = s.k_e * s.k_t / s.R + s.f_m
-            P = p_factor * damping  # eq 62
+            P = p_factor * motor_damping(s.k_e, s.k_t, s.R, s.f_m)  # eq 62
             if opt.friction:
                 w = motor_speed(w_pre, s.tau_s, P)  # eq 2 (corrected)
                 friction.append(friction_torque(w_pre, w, s.tau_s, s.tau_c, P))  # eqs 3-4: τ₁ − τ₂

@@ -25,12 +25,7 @@ def linear_model_matrices(vehicle: VehicleParams) -> tuple[np.ndarray, np.ndarra
     # eqs 35 + 37 and 36 + 38: (J + k_ll) ω̇_l + k_lr ω̇_r = k_t/R u_l − (k_e k_t/R + f_m) ω_l, and mirrored
     mass = np.array([[ml.inertia_kg_m2 + d.k_ll, d.k_lr], [d.k_lr, mr.inertia_kg_m2 + d.k_rr]])
     gain = np.diag([m.torque_constant_n_m_a / m.resistance_ohm for m in (ml, mr)])
-    damping = np.diag(
-        [
-            m.voltage_constant_v_s_rad * m.torque_constant_n_m_a / m.resistance_ohm + m.viscous_friction_n_m_s_rad
-            for m in (ml, mr)
-        ]
-    )
+    damping = np.diag([d.left.damping_n_m_s_rad, d.right.damping_n_m_s_rad])
     A = -np.linalg.solve(mass, damping)
     B = np.linalg.solve(mass, gain)
     return A, B

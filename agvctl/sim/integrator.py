@@ -79,10 +79,7 @@ def choose_substeps(vehicle: VehicleParams) -> int:
     d = vehicle.derived
     ml, mr = vehicle.motor.left, vehicle.motor.right
     mass = np.array([[ml.inertia_kg_m2 + d.k_ll, d.k_lr], [d.k_lr, mr.inertia_kg_m2 + d.k_rr]])
-    stiffness = []
-    for m, side in ((ml, d.left), (mr, d.right)):
-        damping = m.voltage_constant_v_s_rad * m.torque_constant_n_m_a / m.resistance_ohm + m.viscous_friction_n_m_s_rad
-        stiffness.append(max(side.friction_gain_p, damping))
+    stiffness = [max(side.friction_gain_p, side.damping_n_m_s_rad) for side in (d.left, d.right)]
     lam = float(np.max(np.abs(np.linalg.eigvals(np.linalg.solve(mass, np.diag(stiffness))))))
     ts = vehicle.control.sample_period_s
     needed = max(ts * MIN_SUBSTEPS_PER_SAMPLE_S, ts * lam / STIFFNESS_STEP, 1.0)
