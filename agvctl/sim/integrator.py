@@ -9,27 +9,17 @@ spring P/J̃ is the stiffest loop), at least 8 per 40 ms sample. One kernel of 8
 vehicle splits each sample into 2^k sub-samples with the input held, so every vehicle shares one library.
 
 The sample step is built in CasADi, accumulated over chunks of samples (``mapaccum``) and over vehicles
-(``map``), generated as C and compiled once with the system C compiler. The shared object is cached on disk,
-keyed by a hash of the generated code, so later runs only load it. Without a C compiler the same CasADi
-functions run in CasADi's virtual machine, about ten times slower.
+(``map``); :mod:`agvctl.sim.codegen` turns it into C, compiles it once and caches the library on disk (or,
+without a C compiler, runs it in CasADi's virtual machine).
 """
 
 from __future__ import annotations
 
-import ctypes
-import hashlib
 import math
 import os
-import shutil
-import subprocess
-import sys
-import tempfile
 import threading
-import time
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -37,6 +27,7 @@ from numpy.typing import NDArray
 
 from agvctl.params import VehicleParams
 from agvctl.plant.full import AUX_NAMES, INPUT_NAMES, PARAMETER_NAMES, STATE_NAMES, FullModel, PlantOptions
+from agvctl.sim.codegen import NumericFunction, cache_dir, native_functions
 
 __all__ = [
     "KERNEL_SUBSTEPS",
@@ -101,16 +92,6 @@ def _merge_stats(stats: NDArray[np.float64], splits: int) -> NDArray[np.float64]
     return np.concatenate([s[..., :2].mean(axis=-2), s[..., 2:].max(axis=-2)], axis=-1)
 
 
-def cache_dir() -> Path:
-    """Where compiled plant code is kept: ``$AGVCTL_CACHE_DIR``, else ``$XDG_CACHE_HOME/agvctl``, else
-    ``~/.cache/agvctl``."""
-    env = os.environ.get("AGVCTL_CACHE_DIR")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "agvctl"
-
-
 def _rk4_sample_step(model: FullModel, substeps: int) -> ca.Function:
     """One sample: ``(x, u, p, dt) -> (x_next, aux at the start, STATS over the substeps)``."""
     f = model.rhs
@@ -146,66 +127,12 @@ def _rk4_sample_step(model: FullModel, substeps: int) -> ca.Function:
     return ca.Function("agv_step", [x, u, p, dt], [xk, aux0, stats], ["x", "u", "p", "dt"], ["x_next", "aux", "stats"])
 
 
-class _CasadiCall:
-    """Evaluate a CasADi function in its virtual machine; outputs as 2-D numpy arrays."""
-
-    def __init__(self, fn: ca.Function) -> None:
-        self.fn = fn
-
-    def __call__(self, *inputs: Any) -> tuple[NDArray[np.float64], ...]:
-        return tuple(np.asarray(o, dtype=float) for o in self.fn.call(list(inputs)))
-
-
-class _CCall:
-    """Call a function of CasADi-generated C code through ctypes, on numpy buffers without copies.
-
-    CasADi's own Python wrapper converts every output to a ``DM`` and back, which costs more than the
-    integration for large batches; here inputs are passed as pointers and outputs written in place.
-    """
-
-    def __init__(self, lib: ctypes.CDLL, fn: ca.Function) -> None:
-        name = fn.name()
-        self._fn = getattr(lib, name)
-        self._fn.restype = ctypes.c_int
-        sizes = [ctypes.c_longlong() for _ in range(4)]
-        work = getattr(lib, f"{name}_work")
-        if work(*[ctypes.byref(v) for v in sizes]) != 0:
-            raise RuntimeError(f"{name}_work failed")
-        self._n_arg, self._n_res, self._n_iw, self._n_w = (int(v.value) for v in sizes)
-        getattr(lib, f"{name}_incref")()
-        self._in_shapes = [(fn.size1_in(i), fn.size2_in(i)) for i in range(fn.n_in())]
-        self._out_shapes = [(fn.size1_out(i), fn.size2_out(i)) for i in range(fn.n_out())]
-        self.name = name
-
-    def __call__(self, *inputs: Any) -> tuple[NDArray[np.float64], ...]:
-        arg = (ctypes.c_void_p * max(1, self._n_arg))()
-        res = (ctypes.c_void_p * max(1, self._n_res))()
-        keep = []
-        for i, (value, (rows, cols)) in enumerate(zip(inputs, self._in_shapes, strict=True)):
-            # CasADi stores column-major: an (rows, cols) matrix is a C-contiguous (cols, rows) array
-            a = np.asarray(value, dtype=float)
-            if a.shape != (rows, cols) and a.size != rows * cols:
-                raise ValueError(f"{self.name}: input {i} has shape {a.shape}, expected ({rows}, {cols})")
-            a = np.ascontiguousarray(a.T if a.ndim == 2 else a.reshape(cols, rows))
-            keep.append(a)
-            arg[i] = a.ctypes.data
-        outs = [np.empty((cols, rows)) for rows, cols in self._out_shapes]
-        for j, o in enumerate(outs):
-            res[j] = o.ctypes.data
-        iw = np.empty(max(1, self._n_iw), dtype=np.int64)
-        w = np.empty(max(1, self._n_w))
-        status = self._fn(arg, res, iw.ctypes.data_as(ctypes.c_void_p), w.ctypes.data_as(ctypes.c_void_p), 0)
-        if status != 0:
-            raise RuntimeError(f"{self.name} returned {status}")
-        return tuple(o.T for o in outs)
-
-
 @dataclass
 class _Functions:
-    step: Callable[..., tuple[NDArray[np.float64], ...]]
-    chunk: Callable[..., tuple[NDArray[np.float64], ...]]
-    batch: Callable[..., tuple[NDArray[np.float64], ...]]
-    aux: Callable[..., tuple[NDArray[np.float64], ...]]
+    step: NumericFunction
+    chunk: NumericFunction
+    batch: NumericFunction
+    aux: NumericFunction
 
 
 class CompiledPlant:
@@ -214,11 +141,9 @@ class CompiledPlant:
     Use :func:`compiled_plant` to get a shared, cached instance.
     """
 
-    def __init__(self, options: PlantOptions, *, compile: bool = True) -> None:
-        t0 = time.perf_counter()
-        self.options = options
-        self.model = FullModel(options)
-        step = _rk4_sample_step(self.model, KERNEL_SUBSTEPS)
+    def __init__(self, options: PlantOptions) -> None:
+        model = FullModel(options)
+        step = _rk4_sample_step(model, KERNEL_SUBSTEPS)
         acc = step.mapaccum("agv_acc", CHUNK_SAMPLES, [0], [0], {})
         # parameters and dt are the same for every sample of a chunk: repeat them inside the generated code
         cx, cu, cp, cdt = (
@@ -238,52 +163,8 @@ class CompiledPlant:
         batch = chunk.map(BATCH_VEHICLES, "thread", n_threads)
         args = batch.mx_in()
         batch = ca.Function("agv_batch", args, batch.call(args), ["x0", "u", "p", "dt"], ["x", "aux", "stats"])
-        aux = ca.Function("agv_aux", [self.model.x, self.model.u, self.model.p], [self.model.aux])
-        self.compiled = False
-        self.compile_note = ""
-        sym = (step, chunk, batch, aux)
-        fns = _Functions(*(_CasadiCall(f) for f in sym))
-        if compile and os.environ.get("AGVCTL_NO_COMPILE", "") in ("", "0"):
-            try:
-                fns = self._compile(sym)
-                self.compiled = True
-            except (OSError, subprocess.CalledProcessError, RuntimeError) as exc:
-                self.compile_note = f"compiling the plant failed ({exc}); using CasADi's virtual machine"
-                print(f"agvctl: warning: {self.compile_note}", file=sys.stderr)
-        self._fns = fns
-        self.setup_time_s = time.perf_counter() - t0
-
-    def _compile(self, sym: tuple[ca.Function, ...]) -> _Functions:
-        cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
-        if not cc:
-            raise OSError("no C compiler (cc/gcc) found")
-        with tempfile.TemporaryDirectory(prefix="agvctl-cg-") as tmp:
-            gen = ca.CodeGenerator("agv_plant.c", {"with_header": False})
-            for f in sym:
-                gen.add(f)
-            gen.generate(tmp + os.sep)
-            source = Path(tmp, "agv_plant.c").read_bytes()
-            flags = ["-O2", "-fPIC", "-shared"]
-            key = hashlib.sha256(
-                source + " ".join(flags).encode() + str(getattr(ca, "__version__", "")).encode() + sys.platform.encode()
-            ).hexdigest()[:20]
-            target = cache_dir() / f"agv_plant_{key}.so"
-            if not target.exists():
-                target.parent.mkdir(parents=True, exist_ok=True)
-                fd, partial = tempfile.mkstemp(prefix=".agv_plant_", suffix=".so", dir=target.parent)
-                os.close(fd)
-                try:
-                    cmd = [cc, *flags, "-o", partial, str(Path(tmp, "agv_plant.c")), "-lm"]
-                    try:
-                        subprocess.run([*cmd, "-fopenmp"], check=True, capture_output=True)
-                    except subprocess.CalledProcessError:
-                        subprocess.run(cmd, check=True, capture_output=True)
-                    os.replace(partial, target)
-                finally:
-                    if os.path.exists(partial):
-                        os.unlink(partial)
-        lib = ctypes.CDLL(str(target))
-        return _Functions(*(_CCall(lib, f) for f in sym))
+        aux = ca.Function("agv_aux", [model.x, model.u, model.p], [model.aux])
+        self._fns = _Functions(*native_functions((step, chunk, batch, aux), "agv_plant"))
 
     # -- evaluation -------------------------------------------------------------------------------------------
 

@@ -1,0 +1,45 @@
+"""The compiled plant's code generation: the disk cache, and CasADi's virtual machine when no compiler works."""
+
+import numpy as np
+import pytest
+
+from agvctl.plant.full import PlantOptions, parameter_vector, state_from_motor_speeds
+from agvctl.sim.integrator import CompiledPlant, compiled_plant
+
+
+def _sliding_and_sticking(vehicle):
+    """A state with one motor sliding forward and one backward, and a held input that stops one of them."""
+    x0 = state_from_motor_speeds(vehicle, (60.0, -25.0), (0.3, -0.2, 0.4))
+    u = np.array([4.0, 0.5])
+    return x0, u, parameter_vector(vehicle)
+
+
+def test_without_a_compiler_the_plant_runs_in_casadis_vm_and_says_so(vehicle, tmp_path, monkeypatch):
+    native = compiled_plant()  # compiled (or loaded) before the compiler disappears
+    monkeypatch.setenv("AGVCTL_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("CC", str(tmp_path / "no-such-cc"))
+    with pytest.warns(RuntimeWarning, match="virtual machine"):
+        vm = CompiledPlant(PlantOptions())
+    assert list(tmp_path.iterdir()) == []  # nothing half-written left in the cache
+    x0, u, p = _sliding_and_sticking(vehicle)
+    ts = vehicle.control.sample_period_s
+    # the same equations, evaluated by CasADi instead of the C compiler: equal to rounding
+    for a, b in zip(vm.step(x0, u, p, ts), native.step(x0, u, p, ts), strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
+    us = np.tile(u, (30, 1))
+    for a, b in zip(vm.run(x0, us, p, ts), native.run(x0, us, p, ts), strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
+
+
+def test_compiled_library_is_cached_and_reused(vehicle, tmp_path, monkeypatch):
+    monkeypatch.setenv("AGVCTL_CACHE_DIR", str(tmp_path))
+    first = CompiledPlant(PlantOptions(centrifugal=False))
+    libraries = sorted(tmp_path.iterdir())
+    assert [f.suffix for f in libraries] == [".so"] and libraries[0].name.startswith("agv_plant_")
+    stamp = libraries[0].stat().st_mtime_ns
+    second = CompiledPlant(PlantOptions(centrifugal=False))  # same generated code: loads, does not rebuild
+    assert sorted(tmp_path.iterdir()) == libraries and libraries[0].stat().st_mtime_ns == stamp
+    x0, u, p = _sliding_and_sticking(vehicle)
+    ts = vehicle.control.sample_period_s
+    for a, b in zip(first.step(x0, u, p, ts), second.step(x0, u, p, ts), strict=True):
+        np.testing.assert_array_equal(a, b)
