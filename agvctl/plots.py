@@ -1,4 +1,9 @@
-"""Plots of closed-loop runs (matplotlib, imported only when a plot is drawn, Agg backend, PNG files)."""
+"""Plots of closed-loop runs, open-loop runs, the wheel-loop design and Monte Carlo checks, as PNG.
+
+Figures are ``matplotlib.figure.Figure`` objects drawn on their own Agg canvas: no pyplot, no global figure
+state, and the user's matplotlib backend is left as it is (a notebook keeps its own). matplotlib is imported
+only when a plot is drawn.
+"""
 
 from __future__ import annotations
 
@@ -35,13 +40,20 @@ CLOSED_LOOP_PLOTS = (
 )
 
 
-def _pyplot() -> Any:
-    import matplotlib
+def _figure(**kwargs: Any) -> Any:
+    """A new ``Figure`` on an Agg canvas (``kwargs`` as for ``Figure``)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    fig = Figure(**kwargs)
+    FigureCanvasAgg(fig)
+    return fig
 
-    return plt
+
+def _subplots(*grid: int, figsize: tuple[float, float], **kwargs: Any) -> tuple[Any, Any]:
+    """``(figure, axes)`` like ``pyplot.subplots``, without pyplot."""
+    fig = _figure(figsize=figsize)
+    return fig, fig.subplots(*grid, **kwargs)
 
 
 def _save(fig: Any, path: Path) -> None:
@@ -51,7 +63,6 @@ def _save(fig: Any, path: Path) -> None:
 
 def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | Path, title: str = "") -> list[Path]:
     """Write the closed-loop figures of :data:`CLOSED_LOOP_PLOTS` into ``out_dir``; returns their paths."""
-    plt = _pyplot()
     out = Path(out_dir)
     t = log["t_s"]
     written: list[Path] = []
@@ -61,10 +72,9 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
             fig.suptitle(title)
         fig.tight_layout()
         _save(fig, out / name)
-        plt.close(fig)
         written.append(out / name)
 
-    fig, ax = plt.subplots(figsize=(6.5, 6))
+    fig, ax = _subplots(figsize=(6.5, 6))
     ax.plot(log["ref_x_m"], log["ref_y_m"], "k--", lw=1, label="reference")
     ax.plot(log["x_m"], log["y_m"], "C0", lw=1.5, label="vehicle (true)")
     if not np.allclose(log["est_x_m"], log["x_m"]):
@@ -75,7 +85,7 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
     ax.grid(alpha=0.3)
     finish(fig, "path.png")
 
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
+    fig, (a1, a2) = _subplots(2, 1, figsize=(8, 5), sharex=True)
     a1.plot(t, log["position_error_m"] * 100, "C3")
     a1.set(ylabel="position error [cm]")
     a2.plot(t, np.degrees(log["heading_error_rad"]), "C4")
@@ -84,7 +94,7 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
         a.grid(alpha=0.3)
     finish(fig, "tracking_error.png")
 
-    fig, axes = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
+    fig, axes = _subplots(2, 1, figsize=(8, 5), sharex=True)
     for a, side in zip(axes, ("left", "right"), strict=True):
         a.plot(t, log[f"ref_wheel_speed_{side}_m_s"], "k--", lw=1, label="reference")
         a.plot(t, log[f"setpoint_wheel_speed_{side}_m_s"], "C1", lw=1, label="setpoint")
@@ -95,7 +105,7 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
     axes[-1].set(xlabel="t [s]")
     finish(fig, "wheel_speeds.png")
 
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
+    fig, (a1, a2) = _subplots(2, 1, figsize=(8, 5), sharex=True)
     alpha = vehicle.da.volts_per_code
     for side, c in (("left", "C0"), ("right", "C1")):
         a1.step(t, log[f"da_voltage_{side}_v"], where="post", color=c, lw=1, label=side)
@@ -113,7 +123,7 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
     finish(fig, "da.png")
 
     def both_sides_against(column: str, bound: float, bound_label: str, ylabel: str, name: str) -> None:
-        fig, ax = plt.subplots(figsize=(8, 3.5))
+        fig, ax = _subplots(figsize=(8, 3.5))
         for side, c in (("left", "C0"), ("right", "C1")):
             ax.plot(t, log[column.format(side=side)], color=c, lw=1, label=side)
         ax.axhline(bound, color="r", ls=":", lw=1, label=bound_label)
@@ -134,7 +144,7 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
         "wheel_accel.png",
     )
 
-    fig, ax = plt.subplots(figsize=(6, 3.5))
+    fig, ax = _subplots(figsize=(6, 3.5))
     ms = log["solve_time_s"][:-1] * 1e3
     ax.hist(ms, bins=50, color="C0")
     p50, p99 = np.percentile(ms, [50, 99])
@@ -148,7 +158,6 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
 
 def save_metric_histograms(report: CheckReport, out_dir: str | Path) -> list[Path]:
     """For each Monte Carlo experiment, ``<name>_<metric>.png``: the metric over the samples, its limit if any."""
-    plt = _pyplot()
     out = Path(out_dir)
     written: list[Path] = []
     for exp in report.experiments:
@@ -166,7 +175,7 @@ def save_metric_histograms(report: CheckReport, out_dir: str | Path) -> list[Pat
             values = values[np.isfinite(values)]
             if values.size == 0:
                 continue
-            fig, ax = plt.subplots(figsize=(6, 3.5))
+            fig, ax = _subplots(figsize=(6, 3.5))
             ax.hist(values, bins=min(40, max(5, values.size // 5)), color="C0")
             if metric in limit_of:
                 ax.axvline(limit_of[metric], color="r", ls="--", lw=1.2, label=f"limit {limit_of[metric]:.4g}")
@@ -175,7 +184,6 @@ def save_metric_histograms(report: CheckReport, out_dir: str | Path) -> list[Pat
             fig.tight_layout()
             path = out / f"{exp.name}_{metric}.png"
             _save(fig, path)
-            plt.close(fig)
             written.append(path)
     return written
 
@@ -184,11 +192,6 @@ def render_tuning_plots(
     design: TuningResult, step: WheelStepResult, vehicle: VehicleParams, step_m_s: float
 ) -> dict[str, bytes]:
     """Bode, Nyquist and step-response figures as PNG bytes, keyed by file name (matplotlib imported here)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     ts = design.gains.dt_s
     w_nyq = math.pi / ts
     w = np.geomspace(w_nyq * 1e-4, w_nyq, 2000)
@@ -200,10 +203,9 @@ def render_tuning_plots(
     def png(fig: Any) -> bytes:
         buf = io.BytesIO()
         fig.savefig(buf, format="png", dpi=110)
-        plt.close(fig)
         return buf.getvalue()
 
-    fig, (ax_m, ax_p) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
+    fig, (ax_m, ax_p) = _subplots(2, 1, sharex=True, figsize=(7, 6))
     ax_m.semilogx(w, 20 * np.log10(np.abs(resp)))
     ax_m.axhline(0, color="k", lw=0.6)
     ax_m.axhline(-m.gain_margin_db, color="tab:red", ls=":", label=f"GM {m.gain_margin_db:.2f} dB at Nyquist")
@@ -226,7 +228,7 @@ def render_tuning_plots(
     fig.suptitle("Wheel loop L(z) = C(z)·k_chain·G_zoh(z), left wheel")
     out["bode.png"] = png(fig)
 
-    fig, ax = plt.subplots(figsize=(6, 6))
+    fig, ax = _subplots(figsize=(6, 6))
     wl = np.linspace(w_nyq * 1e-3, w_nyq, 4000)
     r = frequency_response(num, den, ts, wl)
     ax.plot(r.real, r.imag, label="L(e^{jωT}), 0 < ω ≤ π/T")
@@ -244,7 +246,7 @@ def render_tuning_plots(
     ax.set_title("Nyquist, left wheel loop")
     out["nyquist.png"] = png(fig)
 
-    fig, (ax_w, ax_u, ax_i) = plt.subplots(3, 1, sharex=True, figsize=(7, 8))
+    fig, (ax_w, ax_u, ax_i) = _subplots(3, 1, sharex=True, figsize=(7, 8))
     for i, side in enumerate(("left", "right")):
         ax_w.plot(step.t_s, step.omega_motor_rad_s[:, i], marker=".", label=f"ω {side}")
         ax_u.step(step.t_s[:-1], step.motor_voltage_v[:, i], where="post", label=side)
@@ -269,9 +271,8 @@ def render_tuning_plots(
 
 def save_open_loop_plot(log: SimLog, vehicle: VehicleParams, path: str | Path, title: str = "") -> Path:
     """One PNG of an open-loop run: path, motor speeds, DA commands, currents against the limit."""
-    plt = _pyplot()
     t = log["t_s"]
-    fig = plt.figure(figsize=(11, 7))
+    fig = _figure(figsize=(11, 7))
     grid = fig.add_gridspec(3, 2, width_ratios=(1.0, 1.6))
     ax_path = fig.add_subplot(grid[:, 0])
     ax_path.plot(log["x_m"], log["y_m"], "C0")
@@ -296,5 +297,4 @@ def save_open_loop_plot(log: SimLog, vehicle: VehicleParams, path: str | Path, t
     fig.tight_layout()
     out = Path(path)
     _save(fig, out)
-    plt.close(fig)
     return out
