@@ -3,12 +3,17 @@
 The physics is that of the technical report "Models for IAU's Autonomous Guided Vehicle" (IMM-REP-1997-15),
 with the corrections listed in the README's model notes. Data flows one way::
 
-    vehicles/*.toml ─► params ─► plant (full | linear | decoupled) ◄─ actuator (DA 12-bit, amplifier)
-    trajectories/*.toml ─► planning (Ruckig) ─► Reference
-                         Reference ─► controllers (MPC pose ─► PI wheel) ─► actuator ─► plant
-    experiments/*.toml ─► sim loop ─► SimLog ─► checks (limits, JUnit) / plots / identify ─► cli
+    vehicles/*.toml ──► params.load_vehicle ──► VehicleParams (.derived: eqs 5, 47-51, 60-64)
+                            plant: FullModel (CasADi, eqs 2-4, 39-59) | linear_model | decoupled_wheel_models
+    trajectories/*.toml ──► planning.plan ──► Reference
+    experiments/*.toml ──► sim.experiment.load_experiment ──► sim.experiment.run_experiment:
+        every sample: controllers (MPC pose ─► PI wheel) ─► actuator.Actuator (DA, amplifier)
+                      ─► sim.integrator.CompiledPlant (RK4, generated C) ─► SimLog
+    SimLog ──► checks.runner.check_experiments (limits, JUnit) | plots | calibration (identify) ──► cli.main
 
-Start with :func:`agvctl.params.load_vehicle` and :class:`agvctl.sim.Simulator`.
+Start with :func:`agvctl.params.load_vehicle`, :func:`agvctl.sim.simulate_open_loop` (DA voltages in, a
+:class:`~agvctl.sim.SimLog` out) and :func:`agvctl.sim.experiment.run_experiment` on
+:func:`agvctl.sim.experiment.load_experiment` (a closed-loop run from an experiment file).
 """
 
 from agvctl.errors import AgvctlError, ConfigError, PlanningError, SolverError
