@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import math
 import os
 import time
 from collections.abc import Callable, Sequence
@@ -25,6 +24,7 @@ import numpy as np
 from agvctl.checks.limits import LimitResult, evaluate_limits, format_limit_message
 from agvctl.config import to_dict
 from agvctl.errors import ConfigError
+from agvctl.fileio import json_safe
 from agvctl.sim.experiment import Experiment, PreparedExperiment, load_experiment, prepare_experiment, run_experiment
 from agvctl.sim.metrics import closed_loop_metrics
 
@@ -121,7 +121,7 @@ class ExperimentReport:
         return any(o.task.sample is not None for o in self.outcomes)
 
     def as_dict(self) -> dict[str, Any]:
-        metrics = [{"sample": o.task.sample, **_json_safe(o.metrics)} for o in self.outcomes]
+        metrics = [{"sample": o.task.sample, **json_safe(o.metrics)} for o in self.outcomes]
         return {
             "experiment": self.name,
             "path": self.path,
@@ -150,10 +150,6 @@ class CheckReport:
             "wall_time_s": self.wall_time_s,
             "experiments": [e.as_dict() for e in self.experiments],
         }
-
-
-def _json_safe(d: dict[str, float]) -> dict[str, float | None]:
-    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}
 
 
 # -- Monte Carlo samples ----------------------------------------------------------------------------------------
