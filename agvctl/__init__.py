@@ -11,9 +11,9 @@ with the corrections listed in the README's model notes. Data flows one way::
 Start with :func:`agvctl.params.load_vehicle` and :class:`agvctl.sim.Simulator`.
 """
 
-from agvctl.errors import AgvctlError, ConfigError, PlanningError, SolverError
+from agvctl.errors import AgvctlError, ConfigError, PlanningError
 from agvctl.params import VehicleParams, load_vehicle
 
 __version__ = "0.1.0"
 
-__all__ = ["AgvctlError", "ConfigError", "PlanningError", "SolverError", "VehicleParams", "load_vehicle", "__version__"]
+__all__ = ["AgvctlError", "ConfigError", "PlanningError", "VehicleParams", "load_vehicle", "__version__"]

@@ -43,4 +43,3 @@ def run_summary(prepared: PreparedExperiment, result: ClosedLoopResult) -> dict[
         "simulated_s": result.n_samples * result.sample_period_s,
         "limits": [r.as_dict() for r in limits],
     }
-
