@@ -5,7 +5,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from agvctl.checks.runner import CheckReport
+from agvctl.checks.report import CheckReport
 from agvctl.fileio import write_text
 
 __all__ = ["junit_xml", "write_junit"]

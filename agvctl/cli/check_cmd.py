@@ -9,7 +9,8 @@ from pathlib import Path
 from typing import Any
 
 from agvctl.checks.junit import junit_xml
-from agvctl.checks.runner import CheckReport, check_experiments
+from agvctl.checks.report import CheckReport
+from agvctl.checks.runner import check_experiments
 from agvctl.cli.progress import ProgressBar
 from agvctl.errors import ConfigError
 from agvctl.fileio import write_text
