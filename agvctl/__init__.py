@@ -16,9 +16,9 @@ Start with :func:`agvctl.params.load_vehicle`, :func:`agvctl.sim.simulate_open_l
 :func:`agvctl.sim.experiment.load_experiment` (a closed-loop run from an experiment file).
 """
 
-from agvctl.errors import AgvctlError, ConfigError, PlanningError, SolverError
+from agvctl.errors import AgvctlError, ConfigError, PlanningError
 from agvctl.params import VehicleParams, load_vehicle
 
 __version__ = "0.1.0"
 
-__all__ = ["AgvctlError", "ConfigError", "PlanningError", "SolverError", "VehicleParams", "load_vehicle", "__version__"]
+__all__ = ["AgvctlError", "ConfigError", "PlanningError", "VehicleParams", "load_vehicle", "__version__"]

@@ -24,7 +24,3 @@ class ConfigError(AgvctlError, ValueError):
 
 class PlanningError(AgvctlError):
     """A trajectory could not be planned within the limits."""
-
-
-class SolverError(AgvctlError):
-    """A numerical solver failed (integrator, QP, NLP)."""

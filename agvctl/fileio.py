@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import tempfile
 from collections.abc import Iterator, Mapping, Sequence
@@ -12,7 +13,7 @@ from typing import IO, Any
 
 import numpy as np
 
-__all__ = ["CSV_FLOAT_FORMAT", "atomic_open", "write_csv", "write_json", "write_text"]
+__all__ = ["CSV_FLOAT_FORMAT", "atomic_open", "json_safe", "write_csv", "write_json", "write_text"]
 
 CSV_FLOAT_FORMAT = "%.12g"
 """Twelve significant digits: every CSV the package writes carries at least nine."""
@@ -35,6 +36,15 @@ def atomic_open(path: str | Path, mode: str = "w") -> Iterator[IO[Any]]:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
         raise
+
+
+def json_safe(values: Mapping[str, float]) -> dict[str, float | None]:
+    """``values`` with every NaN and infinity as None (JSON ``null``).
+
+    JSON has no NaN or infinity; :func:`json.dumps` would write the non-standard ``NaN`` that strict readers
+    reject. Other values pass through unchanged.
+    """
+    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in values.items()}
 
 
 def write_text(path: str | Path, text: str) -> None:

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from agvctl.checks.runner import CheckReport
+from agvctl.checks.report import CheckReport
 from agvctl.controllers.tuning import TuningResult, frequency_response, loop_polynomials
 from agvctl.fileio import atomic_open
 from agvctl.params import VehicleParams

@@ -6,14 +6,13 @@ import json
 from pathlib import Path
 from typing import Any
 
-from agvctl.checks.runner import CheckReport
 from agvctl.config import dump_toml, to_dict
 from agvctl.fileio import write_text
-from agvctl.plots import save_closed_loop_plots, save_metric_histograms
+from agvctl.plots import save_closed_loop_plots
 from agvctl.sim.experiment import PreparedExperiment
 from agvctl.sim.loop import ClosedLoopResult
 
-__all__ = ["write_histograms", "write_run_outputs"]
+__all__ = ["write_run_outputs"]
 
 
 def write_run_outputs(
@@ -45,8 +44,3 @@ def write_run_outputs(
     if plots:
         written += save_closed_loop_plots(result.log, prepared.controller_vehicle, out_dir, title=exp.name)
     return written
-
-
-def write_histograms(report: CheckReport, out_dir: Path) -> list[Path]:
-    """One histogram PNG per metric and Monte Carlo experiment, the limit drawn where there is one."""
-    return save_metric_histograms(report, out_dir)

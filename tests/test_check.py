@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from agvctl.checks.runner import TIMING_METRICS, check_experiments
+from agvctl.checks.report import TIMING_METRICS
+from agvctl.checks.runner import check_experiments
 from agvctl.cli import main
 
 DATA = Path(__file__).resolve().parent / "data"

@@ -1,159 +1,38 @@
 """``agvctl check``: run experiments (nominal and Monte Carlo), enforce their limits, report.
 
 Everything is loaded and validated first — every experiment file, every Monte Carlo sample's vehicle — so bad
-input stops the check before anything runs. The runs then fan out over local processes or a Dask cluster; each
-returns only its metrics and limit verdicts. Samples are drawn in the parent from the experiment's seed, so the
+input stops the check before anything runs. The runs then go to one ``concurrent.futures`` executor — a worker
+thread, local worker processes or a Dask cluster's — and each returns only its metrics and limit verdicts (the
+report types are in :mod:`agvctl.checks.report`). Samples are drawn in the parent from the experiment's seed, so the
 same seed gives the same samples and the same physical results on any executor (the computation-time metrics,
 ``solve_time_p99_ms`` and ``deadline_misses``, are measured and so vary from run to run).
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
-import math
+import multiprocessing
 import os
 import time
-from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 
-from agvctl.checks.limits import LimitResult, evaluate_limits, format_limit_message
+from agvctl.checks.limits import evaluate_limits
+from agvctl.checks.report import CheckReport, ExperimentReport, Overrides, RunOutcome, RunTask, worst_run_verdicts
 from agvctl.config import to_dict
 from agvctl.errors import ConfigError
 from agvctl.sim.experiment import Experiment, PreparedExperiment, load_experiment, prepare_experiment, run_experiment
 from agvctl.sim.metrics import closed_loop_metrics
 
-__all__ = [
-    "CheckReport",
-    "ExperimentReport",
-    "Executor",
-    "LimitVerdict",
-    "RunOutcome",
-    "RunTask",
-    "check_experiments",
-    "monte_carlo_samples",
-]
+__all__ = ["ExecutorKind", "check_experiments", "monte_carlo_samples", "run_task"]
 
-Executor = Literal["local", "dask"]
-Overrides = tuple[tuple[str, float], ...]
-
-TIMING_METRICS = ("solve_time_p50_ms", "solve_time_p99_ms", "deadline_misses")
-"""Metrics measured on the wall clock: they vary between runs and executors."""
-
-
-@dataclass(frozen=True)
-class RunTask:
-    """One closed-loop run: an experiment file, and for a Monte Carlo sample its plant overrides."""
-
-    experiment_path: str
-    sample: int | None
-    overrides: Overrides = ()
-
-
-@dataclass(frozen=True)
-class RunOutcome:
-    """What a run sends back: metrics and limit verdicts (no log)."""
-
-    task: RunTask
-    metrics: dict[str, float]
-    limits: tuple[LimitResult, ...]
-    wall_time_s: float
-
-
-@dataclass(frozen=True)
-class LimitVerdict:
-    """One limit of one experiment over all its runs: the worst run decides."""
-
-    limit: str
-    bound: float
-    passed: bool
-    value: float
-    """The worst value over the runs."""
-    worst_time_s: float | None
-    first_time_s: float | None
-    sample: int | None
-    """The Monte Carlo sample that gave the worst value (None: the nominal run)."""
-    parameters: dict[str, float]
-    """That sample's plant parameters (the dotted keys that were varied)."""
-    runs: int
-    failed_runs: int
-    default: bool = False
-
-    @property
-    def message(self) -> str:
-        text = format_limit_message(
-            self.limit, self.value, self.bound, self.passed, self.worst_time_s, self.first_time_s
-        )
-        if self.passed:
-            return text
-        if self.sample is not None:
-            params = ", ".join(f"{k} = {v:.6g}" for k, v in self.parameters.items())
-            text += f"; sample {self.sample} of {self.runs} ({self.failed_runs} failed): {params}"
-        return text
-
-    def as_dict(self) -> dict[str, Any]:
-        d = dataclasses.asdict(self)
-        d["message"] = self.message
-        return d
-
-
-@dataclass
-class ExperimentReport:
-    """One experiment's verdicts, with the raw outcomes of its runs."""
-
-    name: str
-    path: str
-    verdicts: list[LimitVerdict]
-    outcomes: list[RunOutcome]
-    wall_time_s: float
-
-    @property
-    def passed(self) -> bool:
-        return all(v.passed for v in self.verdicts)
-
-    @property
-    def monte_carlo(self) -> bool:
-        return any(o.task.sample is not None for o in self.outcomes)
-
-    def as_dict(self) -> dict[str, Any]:
-        metrics = [{"sample": o.task.sample, **_json_safe(o.metrics)} for o in self.outcomes]
-        return {
-            "experiment": self.name,
-            "path": self.path,
-            "passed": self.passed,
-            "runs": len(self.outcomes),
-            "wall_time_s": self.wall_time_s,
-            "limits": [v.as_dict() for v in self.verdicts],
-            "metrics": metrics if self.monte_carlo else metrics[0],
-        }
-
-
-@dataclass
-class CheckReport:
-    """Every experiment's report."""
-
-    experiments: list[ExperimentReport] = field(default_factory=list)
-    wall_time_s: float = 0.0
-
-    @property
-    def passed(self) -> bool:
-        return all(e.passed for e in self.experiments)
-
-    def as_dict(self) -> dict[str, Any]:
-        return {
-            "passed": self.passed,
-            "wall_time_s": self.wall_time_s,
-            "experiments": [e.as_dict() for e in self.experiments],
-        }
-
-
-def _json_safe(d: dict[str, float]) -> dict[str, float | None]:
-    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}
+ExecutorKind = Literal["local", "dask"]
 
 
 # -- Monte Carlo samples ----------------------------------------------------------------------------------------
@@ -243,110 +122,86 @@ def run_task(task: RunTask) -> RunOutcome:
     return RunOutcome(task, metrics, tuple(limits), time.perf_counter() - t0)
 
 
-def _execute(
-    tasks: Sequence[RunTask],
-    *,
-    jobs: int,
-    executor: Executor,
-    scheduler: str | None,
-    progress: Callable[[int, int], None] | None,
-) -> list[RunOutcome]:
-    n = len(tasks)
-    done = 0
-    out: list[RunOutcome] = []
-    if executor == "dask":
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
+
+
+@contextlib.contextmanager
+def _open_executor(kind: ExecutorKind, jobs: int, scheduler: str | None, n_tasks: int) -> Iterator[Executor]:
+    """The executor the runs go to, shut down (its workers and any cluster of ours stopped) on leaving.
+
+    ``"local"``: ``jobs`` spawned worker processes, or, for one job or one task, one worker thread in this process
+    (no start-up cost; the runs go one after another). ``"dask"``: the ``concurrent.futures`` executor of a Dask
+    client of the scheduler at ``scheduler``, or of a local cluster of ``jobs`` worker processes.
+    """
+    if kind == "dask":
         try:
-            from dask.distributed import Client, as_completed
+            from dask.distributed import Client
         except ImportError:
             raise ConfigError("--executor", "dask", "needs the dask extra: pip install 'agvctl[dask]'") from None
         # no scheduler: a local cluster of `jobs` worker processes
         client = Client(scheduler) if scheduler else Client(n_workers=jobs, threads_per_worker=1, processes=True)
         try:
-            futures = client.map(run_task, list(tasks), pure=False)
-            index = {f.key: i for i, f in enumerate(futures)}
-            results: list[RunOutcome | None] = [None] * n
-            for fut in as_completed(futures):
-                results[index[fut.key]] = fut.result()
-                done += 1
-                if progress:
-                    progress(done, n)
-            out = [r for r in results if r is not None]
+            with client.get_executor(pure=False) as dask_pool:
+                yield dask_pool
         finally:
             client.close()  # our own connection (and, without a scheduler, our own local cluster)
-        return out
-    if jobs <= 1 or n <= 1:
-        for task in tasks:
-            out.append(run_task(task))
-            done += 1
-            if progress:
-                progress(done, n)
-        return out
-    import multiprocessing
-
+        return
+    if jobs <= 1 or n_tasks <= 1:
+        with ThreadPoolExecutor(max_workers=1) as serial:
+            yield serial
+        return
     # one thread per worker for the numerical libraries (as Dask does for its workers): with N workers on N cores
     # their own thread pools would oversubscribe the machine several times over
     saved = {k: os.environ.get(k) for k in _THREAD_VARS}
     os.environ.update({k: "1" for k, v in saved.items() if v is None})
     try:
         with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-            for outcome in pool.map(run_task, tasks, chunksize=max(1, n // (4 * jobs))):
-                out.append(outcome)
-                done += 1
-                if progress:
-                    progress(done, n)
+            yield pool
     finally:
         for k, v in saved.items():
             if v is None:
                 os.environ.pop(k, None)
-    return out
 
 
-_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
-
-
-def _verdicts(outcomes: Sequence[RunOutcome]) -> list[LimitVerdict]:
-    keys = [r.limit for r in outcomes[0].limits]
-    verdicts = []
-    for idx, key in enumerate(keys):
-        per_run = [o.limits[idx] for o in outcomes]
-        worst_i = int(np.argmax([r.value for r in per_run]))
-        worst = per_run[worst_i]
-        failed = [i for i, r in enumerate(per_run) if not r.passed]
-        # report the worst run; among failed runs the worst is also the one that exceeded
-        task = outcomes[worst_i].task
-        params = dict(task.overrides)
-        verdicts.append(
-            LimitVerdict(
-                limit=key,
-                bound=worst.bound,
-                passed=not failed,
-                value=worst.value,
-                worst_time_s=worst.worst_time_s,
-                first_time_s=worst.first_time_s,
-                sample=task.sample,
-                parameters=params,
-                runs=len(per_run),
-                failed_runs=len(failed),
-                default=worst.default,
-            )
-        )
-    return verdicts
+def _execute(pool: Executor, tasks: Sequence[RunTask], progress: Callable[[int, int], None] | None) -> list[RunOutcome]:
+    """Every task's outcome, in the order of ``tasks`` whatever order they finish in; the first error stops all."""
+    futures = [pool.submit(run_task, task) for task in tasks]
+    outcomes: dict[Future[RunOutcome], RunOutcome] = {}
+    try:
+        for done, future in enumerate(as_completed(futures), start=1):
+            outcomes[future] = future.result()
+            if progress:
+                progress(done, len(futures))
+    finally:
+        for future in futures:
+            future.cancel()  # after an error or an interrupt: the runs not started yet
+    return [outcomes[f] for f in futures]
 
 
 def check_experiments(
     paths: Sequence[str | Path],
     *,
     jobs: int | None = None,
-    executor: Executor = "local",
+    executor: ExecutorKind = "local",
     scheduler: str | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> CheckReport:
     """Run every experiment (its Monte Carlo samples too) and check its limits.
 
-    ``jobs`` processes (default: all cores) for the local executor; ``executor="dask"`` sends the runs to the
-    Dask scheduler at ``scheduler`` (``tcp://host:8786``). Raises :class:`ConfigError` on bad input before any run.
-    Local workers are spawned processes, which import the calling script again: from a script, call this under
-    ``if __name__ == "__main__":``.
+    Parameters
+    ----------
+    paths
+        Experiment files.
+    jobs
+        Local worker processes (default: all cores); with one job, or one run in all, the runs go one after another
+        in a worker thread of this process. With ``executor="dask"`` and no scheduler: the local cluster's workers.
+    executor
+        ``"local"``, or ``"dask"`` to send the runs to the Dask scheduler at ``scheduler`` (``tcp://host:8786``).
+    progress
+        Called as ``progress(done, total)`` in this thread after each run.
+
+    Raises :class:`ConfigError` on bad input before any run. Local workers are spawned processes, which import the
+    calling script again: from a script, call this under ``if __name__ == "__main__":``.
     """
     t0 = time.perf_counter()
     jobs = jobs if jobs is not None else (os.cpu_count() or 1)
@@ -365,14 +220,14 @@ def check_experiments(
         experiments.append(exp)
         tasks_of.append(tasks)
     all_tasks = [t for ts in tasks_of for t in ts]
-    outcomes = _execute(all_tasks, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress)
+    with _open_executor(executor, jobs, scheduler, len(all_tasks)) as pool:
+        outcomes = _execute(pool, all_tasks, progress)
     report = CheckReport()
     pos = 0
     for exp, path, tasks in zip(experiments, paths, tasks_of, strict=True):
         mine = outcomes[pos : pos + len(tasks)]
         pos += len(tasks)
-        report.experiments.append(
-            ExperimentReport(exp.name, str(path), _verdicts(mine), list(mine), sum(o.wall_time_s for o in mine))
-        )
+        wall_time_s = sum(o.wall_time_s for o in mine)
+        report.experiments.append(ExperimentReport(exp.name, str(path), worst_run_verdicts(mine), mine, wall_time_s))
     report.wall_time_s = time.perf_counter() - t0
     return report

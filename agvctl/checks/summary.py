@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from agvctl.checks.limits import all_passed, evaluate_limits
+from agvctl.fileio import json_safe
 from agvctl.sim.experiment import PreparedExperiment
 from agvctl.sim.loop import ClosedLoopResult
 from agvctl.sim.metrics import closed_loop_metrics
@@ -36,15 +37,9 @@ def run_summary(prepared: PreparedExperiment, result: ClosedLoopResult) -> dict[
     return {
         "experiment": exp.name,
         "passed": all_passed(limits),
-        "metrics": _json_safe(ordered),
+        "metrics": json_safe(ordered),
         "wall_time_s": result.wall_time_s,
         "setup_time_s": result.setup_time_s,
         "simulated_s": result.n_samples * result.sample_period_s,
         "limits": [r.as_dict() for r in limits],
     }
-
-
-def _json_safe(d: dict[str, float]) -> dict[str, float | None]:
-    import math
-
-    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}

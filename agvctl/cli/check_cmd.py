@@ -9,11 +9,12 @@ from pathlib import Path
 from typing import Any
 
 from agvctl.checks.junit import junit_xml
-from agvctl.checks.runner import CheckReport, check_experiments
+from agvctl.checks.report import CheckReport
+from agvctl.checks.runner import check_experiments
 from agvctl.cli.progress import ProgressBar
 from agvctl.errors import ConfigError
 from agvctl.fileio import write_text
-from agvctl.reports import write_histograms
+from agvctl.plots import save_metric_histograms
 
 
 def register(sub: Any) -> None:
@@ -79,6 +80,6 @@ def run(args: argparse.Namespace) -> int:
     for path, text in outputs.items():
         write_text(path, text)
     if any(e.monte_carlo for e in report.experiments):
-        write_histograms(report, Path(args.report_dir or "out/check"))
+        save_metric_histograms(report, Path(args.report_dir or "out/check"))
     print(format_report(report))
     return 0 if report.passed else 1

@@ -1,0 +1,175 @@
+"""What ``agvctl check`` reports: each run's outcome, each limit's verdict over an experiment's runs, the whole check.
+
+These are plain data, apart from how they are computed (:mod:`agvctl.checks.runner`) and written
+(:mod:`agvctl.checks.junit`, ``as_dict`` for JSON). A limit's verdict over several runs (the nominal run, or every
+Monte Carlo sample) is decided by the worst run: the one with the largest value, since every limit is an upper bound.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from agvctl.checks.limits import LimitResult, format_limit_message
+from agvctl.fileio import json_safe
+
+__all__ = [
+    "TIMING_METRICS",
+    "CheckReport",
+    "ExperimentReport",
+    "LimitVerdict",
+    "Overrides",
+    "RunOutcome",
+    "RunTask",
+    "worst_run_verdicts",
+]
+
+Overrides = tuple[tuple[str, float], ...]
+"""A Monte Carlo sample's plant: ``(dotted vehicle key, value)`` pairs."""
+
+TIMING_METRICS = ("solve_time_p50_ms", "solve_time_p99_ms", "deadline_misses")
+"""Metrics measured on the wall clock: they vary between runs and executors."""
+
+
+@dataclass(frozen=True)
+class RunTask:
+    """One closed-loop run: an experiment file, and for a Monte Carlo sample its plant overrides."""
+
+    experiment_path: str
+    sample: int | None
+    """The Monte Carlo sample's index (None: the nominal run)."""
+    overrides: Overrides = ()
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """What a run sends back: metrics and limit verdicts (no log)."""
+
+    task: RunTask
+    metrics: dict[str, float]
+    limits: tuple[LimitResult, ...]
+    wall_time_s: float
+
+
+@dataclass(frozen=True)
+class LimitVerdict:
+    """One limit of one experiment over all its runs: the worst run decides."""
+
+    limit: str
+    bound: float
+    passed: bool
+    value: float
+    """The worst value over the runs."""
+    worst_time_s: float | None
+    first_time_s: float | None
+    sample: int | None
+    """The Monte Carlo sample that gave the worst value (None: the nominal run)."""
+    parameters: dict[str, float]
+    """That sample's plant parameters (the dotted keys that were varied)."""
+    runs: int
+    failed_runs: int
+    default: bool = False
+
+    @property
+    def message(self) -> str:
+        """The limit message; when violated on a Monte Carlo sample, that sample and its parameters too."""
+        text = format_limit_message(
+            self.limit, self.value, self.bound, self.passed, self.worst_time_s, self.first_time_s
+        )
+        if self.passed:
+            return text
+        if self.sample is not None:
+            params = ", ".join(f"{k} = {v:.6g}" for k, v in self.parameters.items())
+            text += f"; sample {self.sample} of {self.runs} ({self.failed_runs} failed): {params}"
+        return text
+
+    def as_dict(self) -> dict[str, Any]:
+        d = dataclasses.asdict(self)
+        d["message"] = self.message
+        return d
+
+
+def worst_run_verdicts(outcomes: Sequence[RunOutcome]) -> list[LimitVerdict]:
+    """One verdict per limit over the runs of one experiment, each naming the run with the largest (worst) value.
+
+    The limit fails when any run fails; among failed runs the worst is also one that exceeded the bound, so the
+    verdict's value, times and sample are those of a violating run.
+    """
+    verdicts = []
+    for idx, first in enumerate(outcomes[0].limits):
+        per_run = [o.limits[idx] for o in outcomes]
+        worst_i = int(np.argmax([r.value for r in per_run]))
+        worst = per_run[worst_i]
+        failed = sum(not r.passed for r in per_run)
+        task = outcomes[worst_i].task
+        verdicts.append(
+            LimitVerdict(
+                limit=first.limit,
+                bound=worst.bound,
+                passed=not failed,
+                value=worst.value,
+                worst_time_s=worst.worst_time_s,
+                first_time_s=worst.first_time_s,
+                sample=task.sample,
+                parameters=dict(task.overrides),
+                runs=len(per_run),
+                failed_runs=failed,
+                default=worst.default,
+            )
+        )
+    return verdicts
+
+
+@dataclass
+class ExperimentReport:
+    """One experiment's verdicts, with the raw outcomes of its runs."""
+
+    name: str
+    path: str
+    verdicts: list[LimitVerdict]
+    outcomes: list[RunOutcome]
+    wall_time_s: float
+    """The runs' summed wall time (they may have run in parallel)."""
+
+    @property
+    def passed(self) -> bool:
+        return all(v.passed for v in self.verdicts)
+
+    @property
+    def monte_carlo(self) -> bool:
+        return any(o.task.sample is not None for o in self.outcomes)
+
+    def as_dict(self) -> dict[str, Any]:
+        metrics = [{"sample": o.task.sample, **json_safe(o.metrics)} for o in self.outcomes]
+        return {
+            "experiment": self.name,
+            "path": self.path,
+            "passed": self.passed,
+            "runs": len(self.outcomes),
+            "wall_time_s": self.wall_time_s,
+            "limits": [v.as_dict() for v in self.verdicts],
+            "metrics": metrics if self.monte_carlo else metrics[0],
+        }
+
+
+@dataclass
+class CheckReport:
+    """Every experiment's report."""
+
+    experiments: list[ExperimentReport] = field(default_factory=list)
+    wall_time_s: float = 0.0
+
+    @property
+    def passed(self) -> bool:
+        return all(e.passed for e in self.experiments)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "passed": self.passed,
+            "wall_time_s": self.wall_time_s,
+            "experiments": [e.as_dict() for e in self.experiments],
+        }
