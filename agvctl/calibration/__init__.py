@@ -3,8 +3,8 @@
 * :mod:`~agvctl.calibration.mass`: total mass and centre of mass from three scale readings (eq 63), moment of
   inertia from the frame and battery dimensions (eq 64).
 * :mod:`~agvctl.calibration.friction`: viscous and Coulomb friction per side by least squares over
-  constant-speed runs on the PI speed loops (eqs 66-69 corrected per the ERRATA), stiction from a slow voltage
-  ramp (eq 65 corrected).
+  constant-speed runs on the PI speed loops (eqs 66-69 as corrected in the README's "Model notes"), stiction
+  from a slow voltage ramp (eq 65 corrected).
 * :mod:`~agvctl.calibration.umbmark`: wheel-radius ratio and wheel base from Borenstein & Feng's UMBmark.
 
 Each works on a user's measurements (scale readings, a CSV log) or runs the experiment on the simulator, the

@@ -25,8 +25,8 @@ margin there is unique (solve C(e^{jω_c T}) = e^{j(PM − 180°)} / (k_chain G(
 a fixed ω_c it also has the best gain margin of all PIs with that crossover and at least that phase margin
 (more phase lead means a larger C(−1) = k_p + k_i T_s/2), and its gain margin falls as ω_c rises. So the
 fastest design is the largest ω_c at which that PI has k_i > 0 and meets the gain margin: found by a scan
-and bisection. With a crossover demand, the PI with the required phase margin at that ω_c is checked
-against the gain margin.
+and Brent's method (``scipy.optimize.brentq``). With a crossover demand, the PI with the required phase
+margin at that ω_c is checked against the gain margin.
 """
 
 from __future__ import annotations
@@ -61,6 +61,8 @@ GRID_POINTS = 20_000
 """Frequency points (linear in ω, up to π/T_s inclusive) for the final margins."""
 _SEARCH_GRID_POINTS = 2_000
 _PM_DESIGN_EXTRA_DEG = 1e-4
+_CROSSOVER_XTOL_RAD_S, _CROSSOVER_RTOL = 1e-13, 4 * float(np.finfo(float).eps)
+"""Brent's method tolerances for the fastest feasible crossover (the smallest relative tolerance it accepts)."""
 """Designed phase margin above the spec, so the achieved margin is >= the spec despite rounding."""
 SPEC_SOURCE = "tuning specification"
 
@@ -253,6 +255,28 @@ def _worst(a: LoopMargins, b: LoopMargins) -> LoopMargins:
     )
 
 
+def _spec_excess(
+    plants: tuple[control.TransferFunction, ...],
+    chain: float,
+    crossover_rad_s: float,
+    pm_design_deg: float,
+    dt_s: float,
+    spec: TuningSpec,
+) -> float:
+    """> 0 where a PI with crossover ``crossover_rad_s`` meets ``spec`` on both wheels: for the better of the
+    sides' designs, its smallest GM − spec (dB) and PM − spec (deg) over the wheels; −1 where no design has
+    k_i > 0."""
+    best = -1.0
+    for plant in plants:
+        gains = _pi_for_crossover(plant, chain, crossover_rad_s, pm_design_deg, dt_s)
+        if gains is not None:
+            m = [loop_margins(*loop_polynomials(gains, p, chain), dt_s, grid_points=_SEARCH_GRID_POINTS)
+                 for p in plants]
+            best = max(best, min(min(x.gain_margin_db - spec.gain_margin_db,
+                                     x.phase_margin_deg - spec.phase_margin_deg) for x in m))
+    return best
+
+
 def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningResult:
     """Design the wheel-speed PI for ``spec`` (default: PM >= 60°, GM >= 10 dB, fastest crossover).
 
@@ -281,7 +305,11 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
                 best = (gains, m[0], m[1])
         return best
 
-    # the fastest feasible crossover: scan (log-spaced) then bisect between the last feasible and the next
+    def excess(wc: float) -> float:
+        return _spec_excess(plants, chain, wc, pm_design, ts, spec)
+
+    # the fastest feasible crossover: scan (log-spaced), then Brent's method between the last feasible point and
+    # the next
     scan = np.geomspace(w_nyq * 1e-4, w_nyq * (1 - 1e-6), 160)
     feasible = [candidate(float(wc), _SEARCH_GRID_POINTS) is not None for wc in scan]
     if not any(feasible):
@@ -295,15 +323,12 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
     last = max(i for i, ok in enumerate(feasible) if ok)
     lo = float(scan[last])
     hi = float(scan[last + 1]) if last + 1 < len(scan) else w_nyq
-    for _ in range(50):
-        mid = 0.5 * (lo + hi)
-        if candidate(mid, _SEARCH_GRID_POINTS) is not None:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo < 1e-7 * hi:
-            break
-    max_wc = lo
+    if not excess(hi) < 0:  # feasible (or undefined) up to the Nyquist frequency: the last scanned point
+        max_wc = lo
+    else:
+        max_wc = float(brentq(excess, lo, hi, xtol=_CROSSOVER_XTOL_RAD_S, rtol=_CROSSOVER_RTOL))
+        if excess(max_wc) < 0:  # Brent's answer lies within its tolerance of the boundary: take the feasible side
+            max_wc -= 2.0 * (_CROSSOVER_XTOL_RAD_S + _CROSSOVER_RTOL * max_wc)
 
     if spec.crossover_rad_s is None:
         wc_target = max_wc

@@ -1,0 +1,166 @@
+"""UMBmark on the simulator: the squares driven closed loop on odometry, before and after the correction."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.calibration.umbmark.model import Method, UmbmarkCorrection, e_max_syst, umbmark_correction
+from agvctl.controllers.mpc_common import MpcConfig
+from agvctl.controllers.mpc_ltv import LtvMpcController
+from agvctl.controllers.pi import PIWheelController
+from agvctl.params import VehicleParams
+from agvctl.planning import LineSegment, TurnSegment, WheelLimits, plan_segments
+from agvctl.sim.controllers import default_pi_gains
+from agvctl.sim.loop import run_closed_loop
+
+__all__ = ["POSITION_NOISE_M", "Direction", "UmbmarkConfig", "UmbmarkResult", "drive_square", "simulate_umbmark"]
+
+Direction = Literal["cw", "ccw"]
+
+POSITION_NOISE_M = 0.003
+"""Standard deviation, per axis, of a measured end position at ``noise_scale = 1`` (m): marking the vehicle's
+reference point on the floor and measuring it with a tape."""
+
+
+@dataclass(frozen=True)
+class UmbmarkConfig:
+    """The simulated UMBmark runs."""
+
+    side_length_m: float = 4.0
+    """L, the side of the square (Borenstein & Feng: 4 m; smaller works, with less resolution)."""
+    runs_per_direction: int = 5
+    """n: measured end positions per direction."""
+    wheel_speed_m_s: float = 0.5
+    wheel_accel_m_s2: float = 0.5
+    wheel_jerk_m_s3: float = 3.0
+    settle_s: float = 2.0
+    """Time after the reference ends for the controller to come to rest on its odometry."""
+
+    def __post_init__(self) -> None:
+        for name in ("side_length_m", "wheel_speed_m_s", "wheel_accel_m_s2", "wheel_jerk_m_s3"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"UmbmarkConfig.{name} must be > 0 (got {value})")
+        if self.runs_per_direction < 1:
+            raise ValueError(f"UmbmarkConfig.runs_per_direction must be >= 1 (got {self.runs_per_direction})")
+        if not (math.isfinite(self.settle_s) and self.settle_s >= 0):
+            raise ValueError(f"UmbmarkConfig.settle_s must be >= 0 (got {self.settle_s})")
+
+
+
+def drive_square(
+    plant_vehicle: VehicleParams,
+    controller_vehicle: VehicleParams,
+    direction: Direction,
+    config: UmbmarkConfig | None = None,
+) -> NDArray[np.float64]:
+    """Drive one UMBmark square closed-loop on odometry and return its return-position error (x, y) in m.
+
+    The LTV MPC pose controller and the PI wheel loops (with Coulomb feed-forward and gentle stops, as in
+    ``experiments/square.toml``) are designed for ``controller_vehicle`` and see the pose integrated from the
+    measured wheel speeds with its radii and wheel base; the plant is ``plant_vehicle``. The error is the true
+    end position minus the odometry's, in the start frame.
+    """
+    cfg = config or UmbmarkConfig()
+    turn = 90.0 if direction == "ccw" else -90.0
+    segments = [seg for _ in range(4) for seg in (LineSegment(length_m=cfg.side_length_m), TurnSegment(angle_deg=turn))]
+    reference = plan_segments(
+        segments,
+        limits=WheelLimits(cfg.wheel_speed_m_s, cfg.wheel_accel_m_s2, cfg.wheel_jerk_m_s3),
+        separation_m=controller_vehicle.wheels.separation_m,
+        sample_period_s=controller_vehicle.control.sample_period_s,
+        name=f"umbmark-{direction}",
+    )
+    gains, loop_tau_s = default_pi_gains(controller_vehicle)
+    mpc = LtvMpcController(controller_vehicle, MpcConfig(wheel_loop_time_constant_s=loop_tau_s))
+    wheels = PIWheelController(controller_vehicle, gains, coulomb_feedforward=True, gentle_stop=True)
+    result = run_closed_loop(
+        plant_vehicle=plant_vehicle,
+        controller_vehicle=controller_vehicle,
+        reference=reference,
+        pose_controller=mpc,
+        wheel_controller=wheels,
+        settle_s=cfg.settle_s,
+        localization="odometry",
+    )
+    log = result.log
+    return np.array([log["x_m"][-1] - log["est_x_m"][-1], log["y_m"][-1] - log["est_y_m"][-1]], dtype=float)
+
+
+@dataclass(frozen=True)
+class UmbmarkResult:
+    """A simulated UMBmark: runs with the believed geometry, the correction, runs with the corrected one."""
+
+    correction: UmbmarkCorrection
+    corrected_vehicle: VehicleParams
+    errors_before_m: dict[str, NDArray[np.float64]]
+    """Measured return-position errors per direction (n × 2), believed geometry."""
+    errors_after_m: dict[str, NDArray[np.float64]]
+    """The same with the corrected geometry."""
+    error_before_m: float
+    """E_max,syst before the correction."""
+    error_after_m: float
+    """E_max,syst after it."""
+    notes: tuple[str, ...] = field(default=())
+
+
+def _measured_runs(
+    true_error: NDArray[np.float64], n: int, sigma_m: float, rng: np.random.Generator
+) -> NDArray[np.float64]:
+    runs = np.repeat(true_error[None, :], n, axis=0)
+    if sigma_m > 0:
+        runs = runs + rng.normal(0.0, sigma_m, runs.shape)
+    return runs
+
+
+def simulate_umbmark(
+    plant_vehicle: VehicleParams,
+    controller_vehicle: VehicleParams,
+    config: UmbmarkConfig | None = None,
+    *,
+    noise_scale: float = 0.0,
+    seed: int | None = None,
+    method: Method = "exact",
+) -> UmbmarkResult:
+    """UMBmark on the simulator: squares cw and ccw with the believed geometry (``controller_vehicle``) on the
+    true plant, the correction, and the squares again with the corrected geometry.
+
+    The simulator is deterministic, so each direction is simulated once and its n runs differ only by the
+    measurement noise on the end position (``noise_scale`` × :data:`POSITION_NOISE_M` per axis).
+    """
+    cfg = config or UmbmarkConfig()
+    if not (math.isfinite(noise_scale) and noise_scale >= 0):
+        raise ValueError(f"noise_scale must be >= 0 (got {noise_scale})")
+    rng = np.random.default_rng(seed)
+    sigma = noise_scale * POSITION_NOISE_M
+    n = cfg.runs_per_direction
+
+    def runs(believed: VehicleParams) -> dict[str, NDArray[np.float64]]:
+        return {d: _measured_runs(drive_square(plant_vehicle, believed, d, cfg), n, sigma, rng)
+                for d in ("cw", "ccw")}
+
+    before = runs(controller_vehicle)
+    correction = umbmark_correction(
+        before["cw"], before["ccw"], side_length_m=cfg.side_length_m, vehicle=controller_vehicle, method=method,
+        truth=plant_vehicle,
+    )
+    corrected = correction.apply(controller_vehicle)
+    after = runs(corrected)
+    notes = (
+        f"each direction simulated once (the simulator is deterministic); its {n} runs differ by the "
+        f"end-position measurement noise only (σ = {sigma * 1000:g} mm per axis)",
+    )
+    return UmbmarkResult(
+        correction=correction,
+        corrected_vehicle=corrected,
+        errors_before_m=before,
+        errors_after_m=after,
+        error_before_m=e_max_syst(before["cw"], before["ccw"]),
+        error_after_m=e_max_syst(after["cw"], after["ccw"]),
+        notes=notes,
+    )

@@ -1,0 +1,222 @@
+"""The UMBmark error model (the package notes' arcs and corners) and the correction it gives."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import least_squares
+
+from agvctl.calibration.common import Estimate
+from agvctl.params import VehicleParams
+
+__all__ = ["Method", "UmbmarkCorrection", "e_max_syst", "square_end_errors", "umbmark_correction"]
+
+Method = Literal["exact", "first_order"]
+
+
+
+def square_end_errors(alpha_rad: float, beta_rad: float, side_length_m: float) -> NDArray[np.float64]:
+    """The exact return-position errors ``[[x_cw, y_cw], [x_ccw, y_ccw]]`` of the UMBmark error model: four
+    legs, each an arc of length L turning by β (a chord of 2(L/β) sin(β/2) at heading θ + β/2), and corners
+    of ∓(90° − α)."""
+    out = np.empty((2, 2))
+    chord = side_length_m if beta_rad == 0 else 2.0 * side_length_m / beta_rad * math.sin(0.5 * beta_rad)
+    for row, turn in enumerate((-1.0, 1.0)):
+        x = y = theta = 0.0
+        for _ in range(4):
+            x += chord * math.cos(theta + 0.5 * beta_rad)
+            y += chord * math.sin(theta + 0.5 * beta_rad)
+            theta += beta_rad + turn * (0.5 * math.pi - alpha_rad)
+        out[row] = (x, y)
+    return out
+
+
+def e_max_syst(cw_errors_m: ArrayLike, ccw_errors_m: ArrayLike) -> float:
+    """Borenstein & Feng's measure of systematic odometry error: max(|c_cw|, |c_ccw|), c the centre of gravity of
+    each direction's return-position errors (rows (x, y) in m)."""
+    c_cw = np.mean(np.asarray(cw_errors_m, dtype=float).reshape(-1, 2), axis=0)
+    c_ccw = np.mean(np.asarray(ccw_errors_m, dtype=float).reshape(-1, 2), axis=0)
+    return float(max(np.hypot(*c_cw), np.hypot(*c_ccw)))
+
+
+@dataclass(frozen=True)
+class UmbmarkCorrection:
+    """What one set of UMBmark runs says about the geometry."""
+
+    alpha_rad: Estimate
+    """α, the corner turn error (type A, wheel base): the true corner is 90° − α."""
+    beta_rad: Estimate
+    """β, the heading change over a leg (type B, unequal wheel diameters)."""
+    alpha_first_order_rad: float
+    """α from Borenstein & Feng's first-order formulas (x and y averaged)."""
+    beta_first_order_rad: float
+    wheel_radius_ratio: Estimate
+    """r_r/r_l after correction (the believed ratio times E_d)."""
+    diameter_ratio_correction: float
+    """E_d = (R + b/2)/(R − b/2), R = (L/2)/sin(β/2): the true ratio over the believed one."""
+    separation_m: Estimate
+    """b_actual = 90°/(90° − α) · b_believed."""
+    radius_left_m: Estimate
+    radius_right_m: Estimate
+    error_m: float
+    """E_max,syst of the runs the correction comes from."""
+    centroid_cw_m: tuple[float, float]
+    centroid_ccw_m: tuple[float, float]
+    side_length_m: float
+    runs_per_direction: tuple[int, int]
+
+    def apply(self, vehicle: VehicleParams) -> VehicleParams:
+        """``vehicle`` with the corrected wheel radii and wheel base."""
+        return vehicle.with_overrides(
+            [
+                ("wheels.radius_left_m", self.radius_left_m.estimate),
+                ("wheels.radius_right_m", self.radius_right_m.estimate),
+                ("wheels.separation_m", self.separation_m.estimate),
+            ],
+            source="UMBmark correction",
+        )
+
+
+def _first_order(centroids: NDArray[np.float64], side_length_m: float) -> tuple[float, float]:
+    """Borenstein & Feng's α, β from the centroids ``[[x_cw, y_cw], [x_ccw, y_ccw]]`` (x and y averaged)."""
+    (x_cw, y_cw), (x_ccw, y_ccw) = centroids
+    k = -4.0 * side_length_m
+    alpha = 0.5 * ((x_cw + x_ccw) / k + (y_cw - y_ccw) / k)
+    beta = 0.5 * ((x_cw - x_ccw) / k + (y_cw + y_ccw) / k)
+    return alpha, beta
+
+
+def _fit_exact(centroids: NDArray[np.float64], side_length_m: float, start: tuple[float, float]) -> NDArray[np.float64]:
+    """Least squares of :func:`square_end_errors` to the four centroid coordinates, from ``start``
+    (Levenberg-Marquardt, every tolerance at machine precision)."""
+    target = centroids.ravel()
+
+    def residuals(p: NDArray[np.float64]) -> NDArray[np.float64]:
+        return square_end_errors(float(p[0]), float(p[1]), side_length_m).ravel() - target
+
+    eps = float(np.finfo(float).eps)
+    fit = least_squares(residuals, np.array(start, dtype=float), jac=lambda p: _jacobian(p, side_length_m),
+                        method="lm", ftol=eps, xtol=eps, gtol=eps)
+    return np.asarray(fit.x, dtype=float)
+
+
+def _jacobian(p: NDArray[np.float64], side_length_m: float) -> NDArray[np.float64]:
+    """d(square_end_errors)/d(α, β), 4 × 2, by central differences (step 1e-7 rad)."""
+    h = 1e-7
+    cols = []
+    for i in range(2):
+        d = np.zeros(2)
+        d[i] = h
+        plus = square_end_errors(float(p[0] + d[0]), float(p[1] + d[1]), side_length_m).ravel()
+        minus = square_end_errors(float(p[0] - d[0]), float(p[1] - d[1]), side_length_m).ravel()
+        cols.append((plus - minus) / (2 * h))
+    return np.column_stack(cols)
+
+
+def _geometry(alpha: float, beta: float, vehicle: VehicleParams, side_length_m: float) -> NDArray[np.float64]:
+    """(ratio r_r/r_l, b, r_l, r_r) after correcting ``vehicle``'s believed geometry by α, β."""
+    w = vehicle.wheels
+    separation = 0.5 * math.pi / (0.5 * math.pi - alpha) * w.separation_m  # b_actual = 90°/(90° − α) b_nominal
+    if beta == 0.0:
+        e_d = 1.0
+    else:
+        radius = 0.5 * side_length_m / math.sin(0.5 * beta)  # R = (L/2)/sin(β/2)
+        e_d = (radius + 0.5 * separation) / (radius - 0.5 * separation)  # E_d = (R + b/2)/(R − b/2)
+    ratio = w.radius_right_m / w.radius_left_m * e_d
+    mean = 0.5 * (w.radius_left_m + w.radius_right_m)
+    return np.array([ratio, separation, 2.0 * mean / (ratio + 1.0), 2.0 * mean * ratio / (ratio + 1.0)])
+
+
+def umbmark_correction(
+    cw_errors_m: ArrayLike,
+    ccw_errors_m: ArrayLike,
+    *,
+    side_length_m: float,
+    vehicle: VehicleParams,
+    method: Method = "exact",
+    truth: VehicleParams | None = None,
+) -> UmbmarkCorrection:
+    """The corrected wheel radii and wheel base from UMBmark return-position errors (n × 2 arrays of (x, y) in m,
+    true minus odometry, in the start frame) of squares of side ``side_length_m`` driven with ``vehicle``'s
+    (believed) geometry.
+
+    Standard errors come from each cluster's scatter (the centroid's standard error per coordinate, s/√n),
+    propagated to α, β linearly and on to the geometry by the delta method; with one run per direction they are
+    NaN. ``truth`` (simulations only) fills the truths of the geometry estimates; the ``separation_m`` truth is
+    b·r̄_believed/r̄_true, the wheel base the odometry needs (see the notes of :mod:`agvctl.calibration.umbmark`).
+    """
+    cw = np.asarray(cw_errors_m, dtype=float).reshape(-1, 2)
+    ccw = np.asarray(ccw_errors_m, dtype=float).reshape(-1, 2)
+    if not (math.isfinite(side_length_m) and side_length_m > 0):
+        raise ValueError(f"side_length_m must be > 0 (got {side_length_m})")
+    if len(cw) < 1 or len(ccw) < 1:
+        raise ValueError("umbmark_correction: at least one run per direction")
+    centroids = np.array([cw.mean(axis=0), ccw.mean(axis=0)])
+    var = np.full(4, math.nan)
+    if len(cw) > 1 and len(ccw) > 1:
+        var = np.concatenate([cw.var(axis=0, ddof=1) / len(cw), ccw.var(axis=0, ddof=1) / len(ccw)])
+        var[var < 1e-24] = 0.0  # identical runs: rounding, not scatter
+    a1, b1 = _first_order(centroids, side_length_m)
+    params = np.array([a1, b1]) if method == "first_order" else _fit_exact(centroids, side_length_m, (a1, b1))
+    if method == "first_order":
+        # the linear map from the centroids (x_cw, y_cw, x_ccw, y_ccw) to (α, β), x and y formulas averaged
+        k = -4.0 * side_length_m
+        G: NDArray[np.float64] = 0.5 / k * np.array([[1.0, 1.0, 1.0, -1.0], [1.0, 1.0, -1.0, 1.0]])
+    else:
+        J = _jacobian(params, side_length_m)
+        G = np.asarray(np.linalg.pinv(J), dtype=float)
+    cov_p: NDArray[np.float64] = np.asarray(G @ np.diag(var) @ G.T, dtype=float)
+    geom = _geometry(float(params[0]), float(params[1]), vehicle, side_length_m)
+    h = 1e-8
+    Jg = np.column_stack([
+        (_geometry(float(params[0]) + h * (i == 0), float(params[1]) + h * (i == 1), vehicle, side_length_m)
+         - _geometry(float(params[0]) - h * (i == 0), float(params[1]) - h * (i == 1), vehicle, side_length_m))
+        / (2 * h)
+        for i in range(2)
+    ])
+    cov_g = Jg @ cov_p @ Jg.T
+    se_p = np.sqrt(np.diag(cov_p))
+    se_g = np.sqrt(np.diag(cov_g))
+
+    true_geom: list[float | None] = [None] * 4
+    true_ab: list[float | None] = [None, None]
+    if truth is not None:
+        tw, bw = truth.wheels, vehicle.wheels
+        mean_believed = 0.5 * (bw.radius_left_m + bw.radius_right_m)
+        mean_true = 0.5 * (tw.radius_left_m + tw.radius_right_m)
+        ratio_true = tw.radius_right_m / tw.radius_left_m
+        true_geom = [
+            ratio_true,
+            tw.separation_m * mean_believed / mean_true,
+            2.0 * mean_believed / (ratio_true + 1.0),
+            2.0 * mean_believed * ratio_true / (ratio_true + 1.0),
+        ]
+        alpha_true = 0.5 * math.pi * (1.0 - bw.separation_m / (tw.separation_m * mean_believed / mean_true))
+        # a leg the odometry sees straight: s_r/s_l = (r_r/r̂_r)/(r_l/r̂_l); its heading change over L
+        rel = (tw.radius_right_m / bw.radius_right_m) / (tw.radius_left_m / bw.radius_left_m)
+        beta_true = side_length_m * 2.0 * (rel - 1.0) / ((rel + 1.0) * true_geom[1])  # type: ignore[operator]
+        true_ab = [alpha_true, beta_true]
+
+    def est(i: int) -> Estimate:
+        return Estimate(float(geom[i]), float(se_g[i]), true_geom[i])
+
+    return UmbmarkCorrection(
+        alpha_rad=Estimate(float(params[0]), float(se_p[0]), true_ab[0]),
+        beta_rad=Estimate(float(params[1]), float(se_p[1]), true_ab[1]),
+        alpha_first_order_rad=a1,
+        beta_first_order_rad=b1,
+        wheel_radius_ratio=est(0),
+        diameter_ratio_correction=float(geom[0]) / (vehicle.wheels.radius_right_m / vehicle.wheels.radius_left_m),
+        separation_m=est(1),
+        radius_left_m=est(2),
+        radius_right_m=est(3),
+        error_m=e_max_syst(cw, ccw),
+        centroid_cw_m=(float(centroids[0, 0]), float(centroids[0, 1])),
+        centroid_ccw_m=(float(centroids[1, 0]), float(centroids[1, 1])),
+        side_length_m=side_length_m,
+        runs_per_direction=(len(cw), len(ccw)),
+    )
