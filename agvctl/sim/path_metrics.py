@@ -1,0 +1,191 @@
+"""Errors against the reference *path*, separating lag from error: cross-track, along-track lag, path heading.
+
+The time-indexed position error |p(t) − p_d(t)| of a run mixes two things: being off the path and being behind
+(or ahead of) the clock. Here the path is the curve the reference's point of rotation traces, as a polyline of
+its positions sampled at most ``spacing_m`` apart in arc length s; for a vehicle sample at time t:
+
+- cross-track error: the distance from the vehicle's position to the nearest point of the polyline (exact
+  projection onto its segments; the polyline's chords sit within spacing²/(8ρ) of an arc of radius ρ);
+- along-track lag: s_d(t) − s*, the arc length of the time-indexed reference point minus that of the nearest
+  path point (positive: the vehicle is behind the reference point);
+- heading error: θ − θ_path(s*), wrapped to [−π, π), with θ_path the reference's heading along the path (so a
+  path driven in reverse has the heading of the vehicle, not of the tangent). Where the path stops and turns in
+  place, the nearest point is a vertex with a range of headings; the error is the distance to that range.
+
+Where the path crosses, retraces or ends on itself, the nearest point is ambiguous, and the lag would jump by
+a lap. Lag and heading therefore use the nearest point of the *branch* that minimises
+distance + ``branch_weight``·|s − s_d(t)|: another part of the path is taken only if it is nearer by more than
+``branch_weight`` times its arc length from the clock (with the default 0.1, 10 cm nearer per metre). Along one
+branch the nearest point itself is unbiased. The cross-track error is always the true distance to the path.
+
+The nearest points come from a k-d tree (``scipy.spatial.cKDTree``) on the polyline's vertices: each vehicle
+sample is projected onto the segments next to its ``neighbours`` nearest vertices, and onto those around the
+time-indexed reference point (so that the clock's branch is a candidate even where the path retraces
+itself). Pure numpy/scipy.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
+
+from agvctl.planning.reference import Reference
+
+__all__ = ["PathErrors", "ReferencePath", "path_errors"]
+
+FloatArray = NDArray[np.float64]
+
+
+def _wrap(angle_rad: FloatArray) -> FloatArray:
+    return np.asarray((angle_rad + np.pi) % (2.0 * np.pi) - np.pi, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class PathErrors:
+    """Errors of vehicle samples against the reference path; arrays of the samples' length (SI units)."""
+
+    cross_track_m: FloatArray
+    """Distance from the vehicle's position to the path (≥ 0)."""
+    along_track_lag_m: FloatArray
+    """s_d(t) − s*: how far (arc length) the nearest path point is behind the time-indexed reference point."""
+    heading_error_rad: FloatArray
+    """θ − θ_path at the nearest point, wrapped to [−π, π)."""
+    path_length_m: FloatArray
+    """s*, the arc length of the nearest path point."""
+
+
+class ReferencePath:
+    """The reference's path as a polyline with arc length and heading per vertex, and a k-d tree on it.
+
+    Parameters
+    ----------
+    reference
+        The planned reference; the path is its positions over [0, duration].
+    spacing_m
+        Largest arc length between vertices (on a line or arc; a stop adds a vertex), m.
+    """
+
+    def __init__(self, reference: Reference, spacing_m: float = 0.01) -> None:
+        if not spacing_m > 0:
+            raise ValueError(f"spacing_m must be > 0 (got {spacing_m})")
+        speed = max(reference.peaks()["peak_wheel_speed_m_s"], 1e-9)  # bounds |U| (eqs 39-43)
+        # samples at most spacing/2 apart, one vertex per spacing/2 of arc length: vertices at most spacing apart
+        half = 0.5 * spacing_m
+        n = max(2, min(4_000_000, math.ceil(reference.duration_s * speed / half) + 1))
+        # every motion's end is sampled exactly and kept as a vertex (a stop, where the heading may turn back)
+        stops = np.array([m.t_end_s for m in reference.motions])
+        times = np.union1d(np.linspace(0.0, reference.duration_s, n), stops)
+        n = len(times)
+        d = reference.sample(times)
+        x, y, s, th = d.x_m, d.y_m, d.path_length_m, d.theta_rad
+        # runs of samples at one position (stops, turns in place) become one vertex with a heading range
+        moved = np.hypot(np.diff(x), np.diff(y)) > 1e-12
+        first = np.concatenate(([0], np.nonzero(moved)[0] + 1))
+        last = np.concatenate((first[1:] - 1, [n - 1]))
+        # thin to about spacing_m / 2, keeping every stop and the end
+        cell = np.floor(s[first] / half)
+        keep = np.concatenate(([True], cell[1:] != cell[:-1]))
+        keep |= last > first
+        keep[np.searchsorted(first, np.searchsorted(times, stops), side="right") - 1] = True
+        keep[-1] = True
+        first, last = first[keep], last[keep]
+        self.x_m: FloatArray = x[first]
+        self.y_m: FloatArray = y[first]
+        self.s_m: FloatArray = s[first]
+        self.theta_arrive_rad: FloatArray = th[first]
+        """The reference heading on arriving at each vertex."""
+        self.theta_leave_rad: FloatArray = th[last]
+        """The heading on leaving it (differs from the arrival after a turn in place)."""
+        self.spacing_m = spacing_m
+        self.tree = cKDTree(np.column_stack([self.x_m, self.y_m]), balanced_tree=False, compact_nodes=False)
+        self.reference = reference
+
+    def __len__(self) -> int:
+        return len(self.x_m)
+
+    def errors(
+        self,
+        t_s: ArrayLike,
+        x_m: ArrayLike,
+        y_m: ArrayLike,
+        theta_rad: ArrayLike,
+        *,
+        neighbours: int = 8,
+        branch_weight: float = 0.1,
+    ) -> PathErrors:
+        """Cross-track error, along-track lag and heading error of vehicle samples (times in s, poses in m, rad)."""
+        t, px, py, th = (np.atleast_1d(np.asarray(a, dtype=np.float64)).ravel() for a in (t_s, x_m, y_m, theta_rad))
+        if not len(t) == len(px) == len(py) == len(th):
+            raise ValueError("t_s, x_m, y_m and theta_rad must have the same length")
+        s_ref = self.reference.sample(t).path_length_m
+        if len(self) == 1:  # a path that never moves: the distance to its point
+            zero = np.zeros_like(px)
+            d = np.hypot(px - self.x_m[0], py - self.y_m[0])
+            heading = self._vertex_heading_error(th, np.zeros(len(th), dtype=np.int64))
+            return PathErrors(d, s_ref - self.s_m[0], heading, zero + self.s_m[0])
+        dist, seg, u = self._candidates(px, py, s_ref, neighbours)
+        rows = np.arange(len(px))
+        s_c = self.s_m[seg] + u * (self.s_m[seg + 1] - self.s_m[seg])
+        d_min = np.min(dist, axis=1)
+        # the branch (a stretch of arc length) nearest with a preference for the clock's, then its nearest point
+        seed = np.argmin(dist + branch_weight * np.abs(s_c - s_ref[:, None]), axis=1)
+        branch = np.abs(s_c - s_c[rows, seed][:, None]) <= neighbours * self.spacing_m
+        pick = np.argmin(np.where(branch, dist, np.inf), axis=1)
+        j, uj = seg[rows, pick], u[rows, pick]
+        heading = self._heading_error(th, j, uj)
+        return PathErrors(d_min, s_ref - s_c[rows, pick], heading, s_c[rows, pick])
+
+    def _candidates(
+        self, px: FloatArray, py: FloatArray, s_ref: FloatArray, neighbours: int
+    ) -> tuple[FloatArray, NDArray[np.int64], FloatArray]:
+        """(distance, segment index, projection parameter u ∈ [0, 1]) onto the candidate segments of each
+        sample, shape (samples, 3·neighbours): those next to its ``neighbours`` nearest vertices (the global
+        nearest point) and the ``neighbours`` around the time-indexed reference point (its branch, where the
+        path overlaps itself)."""
+        k = min(max(1, neighbours), len(self))
+        _, idx = self.tree.query(np.column_stack([px, py]), k=k)
+        idx = np.asarray(idx, dtype=np.int64).reshape(len(px), k)
+        at_clock = np.searchsorted(self.s_m, s_ref)[:, None] + np.arange(-(k // 2), k - k // 2)
+        seg = np.clip(np.concatenate([idx - 1, idx, at_clock], axis=1), 0, len(self) - 2)
+        ax, ay = self.x_m[seg], self.y_m[seg]
+        bx, by = self.x_m[seg + 1] - ax, self.y_m[seg + 1] - ay
+        rx, ry = px[:, None] - ax, py[:, None] - ay
+        u = np.clip((rx * bx + ry * by) / np.maximum(bx * bx + by * by, 1e-300), 0.0, 1.0)
+        return np.hypot(rx - u * bx, ry - u * by), seg, u
+
+    def _heading_error(self, theta: FloatArray, seg: NDArray[np.int64], u: FloatArray) -> FloatArray:
+        """θ against the path heading at parameter u of segment seg; at a vertex, against its heading range."""
+        interior = self.theta_leave_rad[seg] + u * (self.theta_arrive_rad[seg + 1] - self.theta_leave_rad[seg])
+        error = _wrap(theta - interior)
+        at_start, at_end = u <= 0.0, u >= 1.0
+        if np.any(at_start):
+            error[at_start] = self._vertex_heading_error(theta[at_start], seg[at_start])
+        if np.any(at_end):
+            error[at_end] = self._vertex_heading_error(theta[at_end], seg[at_end] + 1)
+        return error
+
+    def _vertex_heading_error(self, theta: FloatArray, vertex: NDArray[np.int64]) -> FloatArray:
+        """Signed distance (wrapped) of θ to the range of headings the path takes at ``vertex``."""
+        lo, hi = self.theta_arrive_rad[vertex], self.theta_leave_rad[vertex]
+        half = 0.5 * np.abs(hi - lo)
+        d = _wrap(theta - 0.5 * (lo + hi))
+        return np.asarray(np.sign(d) * np.maximum(np.abs(d) - half, 0.0), dtype=np.float64)
+
+
+def path_errors(
+    t_s: ArrayLike,
+    x_m: ArrayLike,
+    y_m: ArrayLike,
+    theta_rad: ArrayLike,
+    reference: Reference,
+    *,
+    spacing_m: float = 0.01,
+) -> PathErrors:
+    """Cross-track error, along-track lag and heading error of the vehicle samples (t_s, x_m, y_m, theta_rad)
+    against the path of ``reference`` (see the module notes). Build a :class:`ReferencePath` once to evaluate
+    several runs of one reference."""
+    return ReferencePath(reference, spacing_m).errors(t_s, x_m, y_m, theta_rad)

@@ -1,0 +1,133 @@
+"""Yardsticks: WPILib's Ramsete and LTV unicycle laws against the default MPC, in the same closed loop.
+
+Each pose controller drops into the same cascade (the experiment's PI wheel loops, DA/amplifier, full plant) on:
+
+- the shipped ``figure8`` and ``figure8_offpath`` experiments;
+- issue 10's untuned scenario: a short line (0.3 m), two opposite 35° arcs (radius 2 m) and a full circle
+  (radius 1 m) at the default (physical) limits, the vehicle starting 3 cm / 2° off and the true right wheel
+  0.8 % larger than the controller thinks (written to a temporary directory as a path and an experiment file).
+
+Prints per run the time-indexed tracking error (RMS, max, final), the path errors (max cross-track, final
+cross-track, max |along-track lag|, max |heading error| against the path) and the distance from the end of the
+path at the end. No goals: these are yardsticks.
+
+Run:  python experiments/benchmarks/baselines.py [--keep DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from agvctl.controllers.base import PoseController
+from agvctl.controllers.ltv_lqr import LtvLqrController
+from agvctl.controllers.ramsete import RamseteController
+from agvctl.params import load_vehicle
+from agvctl.sim.controllers import build_controllers
+from agvctl.sim.experiment import initial_pose_of, load_experiment, prepare_experiment
+from agvctl.sim.loop import run_closed_loop
+from agvctl.sim.metrics import closed_loop_metrics
+from agvctl.sim.path_metrics import path_errors
+
+SHIPPED = Path(__file__).resolve().parents[1]
+
+ISSUE10_PATH = """\
+# issue 10: a short line, two opposite 35° arcs and a full circle, no [limits] (the defaults)
+name = "issue10-line-arcs-circle"
+[[segments]]
+type = "line"
+length_m = 0.3
+[[segments]]
+type = "arc"
+radius_m = 2.0
+angle_deg = 35
+[[segments]]
+type = "arc"
+radius_m = 2.0
+angle_deg = -35
+[[segments]]
+type = "arc"
+radius_m = 1.0
+angle_deg = 360
+"""
+
+ISSUE10_EXPERIMENT = """\
+name = "issue10_untuned"
+trajectory = "issue10_path.toml"
+vehicle = "default"
+settle_s = 2.0
+[plant]
+set = { "wheels.radius_right_m" = %r }
+initial_pose = { x_m = 0.0, y_m = -0.03, theta_deg = 2.0 }
+[controller]
+pose = "mpc"
+coulomb_feedforward = true
+"""
+
+
+def run(path: Path, which: str) -> dict[str, float]:
+    prepared = prepare_experiment(load_experiment(path))
+    exp, vehicle = prepared.experiment, prepared.controller_vehicle
+    mpc, wheel = build_controllers(exp, vehicle)
+    pose: PoseController = {"mpc": mpc, "ramsete": RamseteController(vehicle), "ltv_lqr": LtvLqrController(vehicle)}[
+        which
+    ]
+    result = run_closed_loop(
+        plant_vehicle=prepared.plant_vehicle,
+        controller_vehicle=vehicle,
+        reference=prepared.reference,
+        pose_controller=pose,
+        wheel_controller=wheel,
+        initial_pose=initial_pose_of(exp),
+        settle_s=exp.settle_s,
+        compute_delay=exp.controller.compute_delay,
+        localization=exp.controller.localization,
+    )
+    m = closed_loop_metrics(result)
+    log = result.log
+    pe = path_errors(log["t_s"], log["x_m"], log["y_m"], log["theta_rad"], prepared.reference)
+    end = prepared.reference.final_pose
+    finite = all(bool(np.all(np.isfinite(log[c]))) for c in ("x_m", "y_m", "setpoint_wheel_speed_left_m_s",
+                                                             "setpoint_wheel_speed_right_m_s"))
+    return {
+        "rms_mm": m["tracking_error_rms_m"] * 1e3,
+        "max_mm": m["tracking_error_max_m"] * 1e3,
+        "final_mm": m["final_position_error_m"] * 1e3,
+        "xtrack_max_mm": float(np.max(pe.cross_track_m)) * 1e3,
+        "xtrack_final_mm": float(pe.cross_track_m[-1]) * 1e3,
+        "lag_max_mm": float(np.max(np.abs(pe.along_track_lag_m))) * 1e3,
+        "path_heading_max_deg": math.degrees(float(np.max(np.abs(pe.heading_error_rad)))),
+        "to_end_mm": math.hypot(log["x_m"][-1] - end.x_m, log["y_m"][-1] - end.y_m) * 1e3,
+        "finite": float(finite),
+    }
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--keep", type=Path, help="write the issue-10 files to this directory (default: a temporary one)")
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        where = args.keep or Path(tmp)
+        where.mkdir(parents=True, exist_ok=True)
+        (where / "issue10_path.toml").write_text(ISSUE10_PATH, encoding="utf-8")
+        nominal = load_vehicle().wheels.radius_right_m
+        (where / "issue10_untuned.toml").write_text(ISSUE10_EXPERIMENT % (nominal * 1.008), encoding="utf-8")
+        cases = [SHIPPED / "figure8.toml", SHIPPED / "figure8_offpath.toml", where / "issue10_untuned.toml"]
+        header = ("rms_mm", "max_mm", "final_mm", "xtrack_max_mm", "xtrack_final_mm", "lag_max_mm",
+                  "path_heading_max_deg", "to_end_mm")
+        print(f"{'experiment':22s} {'pose':8s} " + " ".join(f"{h:>20s}" for h in header))
+        for case in cases:
+            for which in ("mpc", "ramsete", "ltv_lqr"):
+                r = run(case, which)
+                flag = "" if r["finite"] else "  NON-FINITE"
+                print(f"{case.stem:22s} {which:8s} " + " ".join(f"{r[h]:20.2f}" for h in header) + flag)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
