@@ -35,7 +35,9 @@ from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams, load_vehicle
 from agvctl.planning import load_path, plan
 from agvctl.planning.reference import Reference
-from agvctl.sim.loop import ClosedLoopResult, ComputeDelay, Localization, run_closed_loop
+from agvctl.sim.loop import ClosedLoopResult, ComputeDelay, run_closed_loop
+
+Localization = Literal["truth", "odometry"]
 
 __all__ = [
     "ControllerSpec",
