@@ -36,7 +36,7 @@ from agvctl.calibration import (
 from agvctl.calibration.friction import SIDES, SPEED_NOISE_RAD_S
 from agvctl.calibration.mass import SCALE_NOISE_KG
 from agvctl.calibration.umbmark import POSITION_NOISE_M
-from agvctl.cli import add_vehicle_options
+from agvctl.cli.options import add_vehicle_options
 from agvctl.config import dump_toml, to_dict
 from agvctl.errors import ConfigError
 from agvctl.fileio import write_text

@@ -193,4 +193,3 @@ class PlantStepper:
         """The rows recorded so far, as a :class:`~agvctl.sim.log.SimLog`."""
         rows = np.vstack(self._rows) if self._rows else np.zeros((0, len(PLANT_LOG_COLUMNS)))
         return SimLog({name: rows[:, j] for j, name in enumerate(PLANT_LOG_COLUMNS)})
-

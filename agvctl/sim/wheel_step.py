@@ -23,6 +23,7 @@ from agvctl.sim.stepper import PlantStepper
 
 __all__ = ["StepMetrics", "WheelStepResult", "step_metrics", "wheel_step_response"]
 
+
 @dataclass(frozen=True)
 class StepMetrics:
     """Step-response figures, all relative to the setpoint (the step size, from rest)."""
