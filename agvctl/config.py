@@ -135,7 +135,7 @@ def _file_keys(cls: type) -> dict[str, Any]:
         if f.metadata.get("derived"):
             continue
         keys[f.metadata.get("file_key", f.name)] = hints[f.name]
-    extra = getattr(cls, "__extra_file_keys__", None)
+    extra = getattr(cls, "extra_file_keys", None)
     if extra:
         keys.update(extra())
     return keys
@@ -257,14 +257,14 @@ def _check_bounds(value: float, meta: Mapping[str, Any] | None, source: str, key
 
 
 def _build_dataclass(cls: type, data: Mapping[str, Any], source: str, prefix: str) -> Any:
-    pre = getattr(cls, "__from_file__", None)
+    pre = getattr(cls, "from_file", None)
     if pre is not None:
         return pre(data, source=source, prefix=prefix)
     return build_fields(cls, data, source=source, prefix=prefix)
 
 
 def build_fields(cls: type, data: Mapping[str, Any], *, source: str, prefix: str) -> Any:
-    """Build a dataclass field by field (what :func:`build` does unless the class has ``__from_file__``)."""
+    """Build a dataclass field by field (what :func:`build` does unless the class has ``from_file``)."""
     hints = get_type_hints(cls)
     fields = {f.metadata.get("file_key", f.name): f for f in dataclasses.fields(cls) if not f.metadata.get("derived")}
     for k in data:
@@ -290,7 +290,7 @@ def build_fields(cls: type, data: Mapping[str, Any], *, source: str, prefix: str
 
 def to_dict(obj: Any) -> Any:
     """The nested plain-data form of a config dataclass (keys as in the file), for JSON and TOML output."""
-    to_file = getattr(obj, "__to_file__", None)
+    to_file = getattr(obj, "to_file", None)
     if to_file is not None:
         return to_file()
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):

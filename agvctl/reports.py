@@ -9,14 +9,14 @@ from typing import Any
 from agvctl.config import dump_toml, to_dict
 from agvctl.fileio import write_text
 from agvctl.plots import save_closed_loop_plots
-from agvctl.sim.experiment import PreparedExperiment
+from agvctl.sim.experiment import Experiment
 from agvctl.sim.loop import ClosedLoopResult
 
 __all__ = ["write_run_outputs"]
 
 
 def write_run_outputs(
-    prepared: PreparedExperiment,
+    experiment: Experiment,
     result: ClosedLoopResult,
     summary: dict[str, Any],
     out_dir: Path,
@@ -25,16 +25,15 @@ def write_run_outputs(
 ) -> list[Path]:
     """Write ``log.csv``, ``summary.json``, the resolved ``experiment.toml`` and the true vehicle, and (optionally)
     the plots. Every text is made before the first file is written, and each file is written atomically."""
-    exp = prepared.experiment
+    exp = experiment.spec
     resolved = to_dict(exp)
     resolved["trajectory"] = str(exp.resolve(exp.trajectory).resolve())
     if exp.vehicle != "default":
         resolved["vehicle"] = str(exp.resolve(exp.vehicle).resolve())
-    resolved["controller"].update(exp.controller.pose_settings)
     texts = {
         "summary.json": json.dumps(summary, indent=2) + "\n",
         "experiment.toml": dump_toml(resolved, header=f"resolved from {exp.source}"),
-        "plant_vehicle.toml": dump_toml(to_dict(prepared.plant_vehicle), header="the simulated truth of this run"),
+        "plant_vehicle.toml": dump_toml(to_dict(experiment.plant_vehicle), header="the simulated truth of this run"),
     }
     out_dir.mkdir(parents=True, exist_ok=True)
     result.log.to_csv(out_dir / "log.csv")
@@ -42,5 +41,5 @@ def write_run_outputs(
         write_text(out_dir / name, text)
     written = [out_dir / "log.csv", *(out_dir / name for name in texts)]
     if plots:
-        written += save_closed_loop_plots(result.log, prepared.controller_vehicle, out_dir, title=exp.name)
+        written += save_closed_loop_plots(result.log, experiment.controller_vehicle, out_dir, title=exp.name)
     return written

@@ -1,5 +1,6 @@
 """The closed loop: every shipped experiment runs; the acceptance figures of the figure-8; the run command."""
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -7,24 +8,29 @@ import numpy as np
 import pytest
 
 from agvctl.checks.summary import run_summary
-from agvctl.sim.experiment import load_experiment, prepare_experiment, run_experiment
+from agvctl.sim.experiment import Experiment, load_experiment, run_experiment
 from agvctl.sim.metrics import closed_loop_metrics
 
 EXPERIMENTS = Path(__file__).resolve().parent.parent / "experiments"
 SHIPPED = sorted(EXPERIMENTS.glob("*.toml"))
 
 
-def run_file(name, **edits):
+def run_file(name):
     exp = load_experiment(EXPERIMENTS / name)
-    prepared = prepare_experiment(exp)
-    result = run_experiment(prepared)
-    return prepared, result, closed_loop_metrics(result)
+    result = run_experiment(exp)
+    return exp, result, closed_loop_metrics(result)
+
+
+def with_controller(exp: Experiment, **changes) -> Experiment:
+    """``exp`` with some ``[controller]`` fields changed (those the run reads; not the wheel-loop design)."""
+    controller = dataclasses.replace(exp.spec.controller, **changes)
+    return dataclasses.replace(exp, spec=dataclasses.replace(exp.spec, controller=controller))
 
 
 @pytest.mark.parametrize("path", SHIPPED, ids=[p.stem for p in SHIPPED])
 def test_every_shipped_experiment_runs_and_passes_its_limits(path):
-    exp = load_experiment(path)
-    prepared = prepare_experiment(exp)
+    prepared = load_experiment(path)
+    exp = prepared.spec
     result = run_experiment(prepared)
     summary = run_summary(prepared, result)
     log = result.log
@@ -57,20 +63,9 @@ def test_figure8_acceptance_figures():
 
 
 def test_forced_solver_failure_completes_with_failures_counted():
-    from agvctl.sim.experiment import ControllerSpec
-
     exp = load_experiment(EXPERIMENTS / "line.toml")
-    spec = exp.controller
-    forced = ControllerSpec(
-        **{
-            **{f: getattr(spec, f) for f in ("pose", "compute_delay", "localization")},
-            "coulomb_feedforward": True,
-            "pose_settings": {"max_iterations": 1},
-        }
-    )
-    import dataclasses
-
-    prepared = prepare_experiment(dataclasses.replace(exp, controller=forced))
+    settings = dataclasses.replace(exp.spec.controller.pose_settings, max_iterations=1)
+    prepared = with_controller(exp, pose_settings=settings)
     result = run_experiment(prepared)
     metrics = closed_loop_metrics(result)
     assert result.solver_failures > 0 and metrics["solver_failures"] == result.solver_failures
@@ -83,12 +78,9 @@ def test_forced_solver_failure_completes_with_failures_counted():
 
 
 def test_one_sample_compute_delay_acts_a_sample_later():
-    import dataclasses
-
     exp = load_experiment(EXPERIMENTS / "line.toml")
-    delayed = dataclasses.replace(exp, controller=dataclasses.replace(exp.controller, compute_delay="one_sample"))
-    now = run_experiment(prepare_experiment(exp))
-    late = run_experiment(prepare_experiment(delayed))
+    now = run_experiment(exp)
+    late = run_experiment(with_controller(exp, compute_delay="one_sample"))
     # the first setpoint is zero (nothing computed yet), later ones are the undelayed run's one sample late
     assert late.log["setpoint_wheel_speed_left_m_s"][0] == 0.0
     assert now.log["setpoint_wheel_speed_left_m_s"][0] != 0.0
@@ -97,11 +89,8 @@ def test_one_sample_compute_delay_acts_a_sample_later():
 
 
 def test_odometry_with_a_radius_error_drifts_from_truth():
-    import dataclasses
-
     exp = load_experiment(EXPERIMENTS / "figure8_radius_error.toml")
-    odo = dataclasses.replace(exp, controller=dataclasses.replace(exp.controller, localization="odometry"))
-    log = run_experiment(prepare_experiment(odo)).log
+    log = run_experiment(with_controller(exp, localization="odometry")).log
     est_err = np.hypot(log["est_x_m"] - log["x_m"], log["est_y_m"] - log["y_m"])
     # the controller tracks its estimate well; the truth drifts: a 0.5 % larger right wheel over a 12.6 m path
     assert est_err[-1] > 0.02
@@ -175,7 +164,56 @@ def test_resolved_experiment_written_by_run_loads_back(capsys, tmp_path):
     for name in ("figure8_radius_error.toml", "robustness/figure8_mc.toml"):
         out = tmp_path / name.replace("/", "_")
         assert main(["run", str(EXPERIMENTS / name), "--out", str(out), "--no-plot"]) == 0
-        original, again = load_experiment(EXPERIMENTS / name), load_experiment(out / "experiment.toml")
+        original, again = load_experiment(EXPERIMENTS / name).spec, load_experiment(out / "experiment.toml").spec
         assert again.plant == original.plant and again.limits == original.limits
         assert again.controller == original.controller and again.robustness == original.robustness
     capsys.readouterr()
+
+
+class _RecordingPoseController:
+    """Drives straight at a constant 0.2 m/s per wheel and remembers what it was asked and answered."""
+
+    def __init__(self):
+        self.calls = []
+
+    def reset(self, reference):
+        self.reference = reference
+
+    def update(self, t_s, pose, wheel_speed_m_s):
+        from agvctl.controllers.base import PoseCommand
+
+        left, right = 0.2, 0.2 + 0.001 * len(self.calls) % 0.01  # distinct setpoints the log must show
+        self.calls.append((t_s, left, right))
+        return PoseCommand(left, right)
+
+
+def test_run_experiment_drives_the_run_with_a_users_pose_controller():
+    exp = load_experiment(EXPERIMENTS / "line.toml")
+    mine = _RecordingPoseController()
+    log = run_experiment(exp, pose_controller=mine).log
+    assert len(mine.calls) == len(log)  # asked once per sample, including the final one
+    np.testing.assert_array_equal(log["t_s"], [t for t, _, _ in mine.calls])
+    np.testing.assert_array_equal(log["setpoint_wheel_speed_left_m_s"], [sp for _, sp, _ in mine.calls])
+    np.testing.assert_array_equal(log["setpoint_wheel_speed_right_m_s"], [sp for _, _, sp in mine.calls])
+    # the PI loops follow it: after the start-up the rim speeds settle near 0.2 m/s, not the line's reference
+    late = log["t_s"] > 2.0
+    assert abs(np.mean(log["wheel_speed_left_m_s"][late]) - 0.2) < 0.01
+
+
+def test_readme_custom_pose_controller_runs():
+    readme = (EXPERIMENTS.parent / "README.md").read_text(encoding="utf-8")
+    blocks = readme.split("```python\n")[1:]
+    code = next(b.split("```")[0] for b in blocks if "class LateralP" in b)
+    namespace = {}
+    exec(compile(code.replace('"experiments/', f'"{EXPERIMENTS}/'), "README.md", "exec"), namespace)
+    metrics = closed_loop_metrics(namespace["result"])
+    assert metrics["tracking_error_max_m"] < 0.05  # a proportional correction keeps a straight line within 5 cm
+
+
+def test_readme_lists_every_registered_pose_controller_and_estimator():
+    from agvctl.sim.controllers import POSE_CONTROLLERS
+    from agvctl.sim.estimators import ESTIMATORS
+
+    readme = (EXPERIMENTS.parent / "README.md").read_text(encoding="utf-8")
+    for name in (*POSE_CONTROLLERS, *ESTIMATORS):
+        assert f'`"{name}"`' in readme, name

@@ -169,14 +169,22 @@ def test_nmpc_forced_failure_falls_back(vehicle: VehicleParams, line: Reference)
 
 
 def test_config_from_controller_table() -> None:
+    from agvctl.sim.spec import ControllerSpec
+
+    def from_table(table: dict[str, object]) -> ControllerSpec:
+        return ControllerSpec.from_file(table, source="exp.toml", prefix="controller")
+
     table = {"pose": "mpc", "compute_delay": "none", "horizon": 15, "weight_position": 2000.0,
              "prediction_model": "kinematic"}  # fmt: skip
-    config = MpcConfig.from_table(table, source="exp.toml")
+    config = from_table(table).pose_settings
+    assert isinstance(config, MpcConfig)
     assert (config.horizon, config.weight_position, config.prediction_model) == (15, 2000.0, "kinematic")
     message = r"^exp.toml: controller.horizn: unknown key \(did you mean controller.horizon\?\)$"
     with pytest.raises(ConfigError, match=message):
-        MpcConfig.from_table({"horizn": 10}, source="exp.toml")
+        from_table({"horizn": 10})
     with pytest.raises(ConfigError, match=r"controller.horizon: must be >= 1"):
-        MpcConfig.from_table({"horizon": 0}, source="exp.toml")
+        from_table({"horizon": 0})
     with pytest.raises(ConfigError, match=r"controller.prediction_model: must be one of"):
-        MpcConfig.from_table({"prediction_model": "dynamic"}, source="exp.toml")
+        from_table({"prediction_model": "dynamic"})
+    with pytest.raises(ConfigError, match=r"^exp.toml: controller.pose: must be one of 'mpc', 'nmpc', 'ramsete', 'ltv_lqr', 'none'"):
+        from_table({"pose": "lqr"})

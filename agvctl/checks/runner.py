@@ -27,7 +27,7 @@ from agvctl.checks.limits import evaluate_limits
 from agvctl.checks.report import CheckReport, ExperimentReport, Overrides, RunOutcome, RunTask, worst_run_verdicts
 from agvctl.config import to_dict
 from agvctl.errors import ConfigError
-from agvctl.sim.experiment import Experiment, PreparedExperiment, load_experiment, prepare_experiment, run_experiment
+from agvctl.sim.experiment import Experiment, load_experiment, run_experiment
 from agvctl.sim.metrics import closed_loop_metrics
 
 __all__ = ["ExecutorKind", "check_experiments", "monte_carlo_samples", "run_task"]
@@ -38,7 +38,7 @@ ExecutorKind = Literal["local", "dask"]
 # -- Monte Carlo samples ----------------------------------------------------------------------------------------
 
 
-def _nominal_values(prepared: PreparedExperiment, key: str) -> list[tuple[str, float]]:
+def _nominal_values(prepared: Experiment, key: str) -> list[tuple[str, float]]:
     """The plant's nominal value(s) of a dotted key; ``motor.X`` with different sides gives both sides."""
     data = to_dict(prepared.plant_vehicle)
     node: Any = data
@@ -57,16 +57,16 @@ def _nominal_values(prepared: PreparedExperiment, key: str) -> list[tuple[str, f
         ]
         if all(isinstance(v, float) for _k, v in sides):
             return [(k, float(v)) for k, v in sides]  # type: ignore[arg-type]
-    raise ConfigError(prepared.experiment.source, f"robustness.spread.{key}", "not a numeric vehicle key")
+    raise ConfigError(prepared.spec.source, f"robustness.spread.{key}", "not a numeric vehicle key")
 
 
-def monte_carlo_samples(prepared: PreparedExperiment) -> list[Overrides]:
+def monte_carlo_samples(prepared: Experiment) -> list[Overrides]:
     """The plant overrides of every Monte Carlo sample, drawn from the experiment's seed and validated.
 
     A sample that gives an invalid vehicle (say Coulomb friction above stiction) is bad input, named with its
     index. Keys are drawn in sorted order, one number per key and sample, so adding a sample keeps the others.
     """
-    exp = prepared.experiment
+    exp = prepared.spec
     rob = exp.robustness
     if rob is None:
         return []
@@ -102,8 +102,8 @@ def monte_carlo_samples(prepared: PreparedExperiment) -> list[Overrides]:
 
 
 @functools.lru_cache(maxsize=16)
-def _prepared(path: str) -> PreparedExperiment:
-    return prepare_experiment(load_experiment(path))
+def _prepared(path: str) -> Experiment:
+    return load_experiment(path)
 
 
 def run_task(task: RunTask) -> RunOutcome:
@@ -117,7 +117,7 @@ def run_task(task: RunTask) -> RunOutcome:
     result = run_experiment(prepared)
     metrics = closed_loop_metrics(result)
     limits = evaluate_limits(
-        prepared.experiment.limits, result.log, metrics, prepared.controller_vehicle, result.sample_period_s
+        prepared.spec.limits, result.log, metrics, prepared.controller_vehicle, result.sample_period_s
     )
     return RunOutcome(task, metrics, tuple(limits), time.perf_counter() - t0)
 
@@ -213,9 +213,8 @@ def check_experiments(
     tasks_of: list[list[RunTask]] = []
     for path in paths:
         exp = load_experiment(path)
-        prepared = prepare_experiment(exp)
         key = str(Path(path).resolve())
-        samples = monte_carlo_samples(prepared)
+        samples = monte_carlo_samples(exp)
         tasks = [RunTask(key, i, s) for i, s in enumerate(samples)] if samples else [RunTask(key, None, ())]
         experiments.append(exp)
         tasks_of.append(tasks)
@@ -228,6 +227,7 @@ def check_experiments(
         mine = outcomes[pos : pos + len(tasks)]
         pos += len(tasks)
         wall_time_s = sum(o.wall_time_s for o in mine)
-        report.experiments.append(ExperimentReport(exp.name, str(path), worst_run_verdicts(mine), mine, wall_time_s))
+        verdicts = worst_run_verdicts(mine)
+        report.experiments.append(ExperimentReport(exp.spec.name, str(path), verdicts, mine, wall_time_s))
     report.wall_time_s = time.perf_counter() - t0
     return report

@@ -6,7 +6,7 @@ from typing import Any
 
 from agvctl.checks.limits import all_passed, evaluate_limits
 from agvctl.fileio import json_safe
-from agvctl.sim.experiment import PreparedExperiment
+from agvctl.sim.experiment import Experiment
 from agvctl.sim.loop import ClosedLoopResult
 from agvctl.sim.metrics import closed_loop_metrics
 
@@ -27,11 +27,11 @@ SUMMARY_METRICS = (
 )
 
 
-def run_summary(prepared: PreparedExperiment, result: ClosedLoopResult) -> dict[str, Any]:
+def run_summary(experiment: Experiment, result: ClosedLoopResult) -> dict[str, Any]:
     """``{"experiment", "passed", "metrics", "wall_time_s", ...}`` with every limit's verdict."""
     metrics = closed_loop_metrics(result)
-    exp = prepared.experiment
-    limits = evaluate_limits(exp.limits, result.log, metrics, prepared.controller_vehicle, result.sample_period_s)
+    exp = experiment.spec
+    limits = evaluate_limits(exp.limits, result.log, metrics, experiment.controller_vehicle, result.sample_period_s)
     ordered = {k: metrics[k] for k in SUMMARY_METRICS}
     ordered.update({k: v for k, v in metrics.items() if k not in ordered})
     return {

@@ -14,9 +14,10 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 from agvctl import __version__
+from agvctl.cli.options import add_vehicle_options
 from agvctl.errors import AgvctlError, ConfigError
 
-__all__ = ["main"]
+__all__ = ["add_vehicle_options", "main"]
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -30,15 +31,6 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> NoReturn:
         raise _UsageError(f"{self.prog}: {message}")
-
-
-def add_vehicle_options(parser: argparse.ArgumentParser) -> None:
-    """``--vehicle FILE`` and repeatable ``--set KEY=VALUE``, shared by every command that takes a vehicle."""
-    parser.add_argument("--vehicle", metavar="FILE", default=None, help="vehicle TOML (default: the report's IAU AGV)")
-    parser.add_argument(
-        "--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
-        help="override one vehicle value by its dotted key, e.g. wheels.radius_right_m=0.101 (repeatable)",
-    )
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -14,7 +14,9 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from agvctl.cli import identify_friction_cmd, identify_mass_cmd, identify_umbmark_cmd
+import agvctl.cli.identify_friction_cmd as identify_friction_cmd
+import agvctl.cli.identify_mass_cmd as identify_mass_cmd
+import agvctl.cli.identify_umbmark_cmd as identify_umbmark_cmd
 
 __all__ = ["register"]
 

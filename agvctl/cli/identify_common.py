@@ -10,7 +10,7 @@ import sys
 from datetime import UTC, datetime
 
 from agvctl.calibration import Estimate
-from agvctl.cli import add_vehicle_options
+from agvctl.cli.options import add_vehicle_options
 from agvctl.config import dump_toml, to_dict
 from agvctl.errors import ConfigError
 from agvctl.fileio import write_text

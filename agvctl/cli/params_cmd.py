@@ -6,7 +6,7 @@ import argparse
 import json
 from typing import Any
 
-from agvctl.cli import add_vehicle_options
+from agvctl.cli.options import add_vehicle_options
 from agvctl.config import to_dict
 from agvctl.params import VehicleParams, load_vehicle
 

@@ -8,7 +8,7 @@ import sys
 import warnings
 from typing import Any
 
-from agvctl.cli import add_vehicle_options
+from agvctl.cli.options import add_vehicle_options
 from agvctl.errors import ConfigError
 from agvctl.fileio import atomic_open, write_csv
 from agvctl.params import load_vehicle

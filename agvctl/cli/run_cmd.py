@@ -10,7 +10,7 @@ from typing import Any
 from agvctl.checks.summary import run_summary
 from agvctl.cli.progress import ProgressBar
 from agvctl.reports import write_run_outputs
-from agvctl.sim.experiment import load_experiment, prepare_experiment, run_experiment
+from agvctl.sim.experiment import load_experiment, run_experiment
 
 
 def register(sub: Any) -> None:
@@ -53,16 +53,16 @@ def format_summary(summary: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    exp = load_experiment(args.experiment)
-    prepared = prepare_experiment(exp)
-    out_dir = Path(args.out) if args.out else Path("out") / exp.name
-    bar = ProgressBar(f"{exp.name}:")
+    experiment = load_experiment(args.experiment)
+    name = experiment.spec.name
+    out_dir = Path(args.out) if args.out else Path("out") / name
+    bar = ProgressBar(f"{name}:")
     try:
-        result = run_experiment(prepared, progress=bar)
+        result = run_experiment(experiment, progress=bar)
     finally:
         bar.close()
-    summary = run_summary(prepared, result)
-    written = write_run_outputs(prepared, result, summary, out_dir, plots=not args.no_plot)
+    summary = run_summary(experiment, result)
+    written = write_run_outputs(experiment, result, summary, out_dir, plots=not args.no_plot)
     if args.json:
         print(json.dumps(summary, indent=2))
     else:

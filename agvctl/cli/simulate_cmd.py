@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from agvctl.cli import add_vehicle_options
+from agvctl.cli.options import add_vehicle_options
 from agvctl.errors import ConfigError
 from agvctl.params import load_vehicle
 from agvctl.sim.open_loop import OpenLoopResult, load_input_profile, sample_count, simulate_open_loop

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from agvctl.cli import add_vehicle_options
+from agvctl.cli.options import add_vehicle_options
 from agvctl.controllers.pi import gains_toml
 from agvctl.controllers.tuning import (
     SPEC_SOURCE,

@@ -28,36 +28,33 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.config import build, number
+from agvctl.config import number
 from agvctl.controllers.base import PoseCommand, SolveStatus
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 
 __all__ = [
+    "DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S",
     "MpcStepper",
-    "RUNNER_KEYS",
     "HorizonReference",
     "MpcConfig",
     "SetpointFallback",
     "limit_command",
+    "resolved_config",
     "resolved_limits",
-    "wrap_angle",
+    "wheel_loop_time_constant_s",
 ]
 
 FloatArray = NDArray[np.float64]
 
 PredictionModel = Literal["kinematic", "kinematic+wheel_loop"]
 ErrorFrame = Literal["path", "world"]
-
-RUNNER_KEYS = frozenset({"pose", "compute_delay"})
-"""Keys of an experiment's ``[controller]`` table that belong to the closed-loop runner, not to the MPC."""
 
 
 @dataclass(frozen=True)
@@ -75,7 +72,9 @@ class MpcConfig:
     weight_input: float = number(ge=0, default=0.1, doc="on setpoint minus feed-forward, 1/(m/s)²")
     weight_input_rate: float = number(ge=0, default=10.0, doc="on setpoint change per sample, 1/(m/s)²")
     prediction_model: PredictionModel = "kinematic+wheel_loop"
-    wheel_loop_time_constant_s: float = number(gt=0, default=0.1, doc="τ of the closed wheel loop's lag")
+    wheel_loop_time_constant_s: float | None = number(gt=0, default=None, doc="τ of the closed wheel loop's lag")
+    """None (default): in an experiment, the best first-order fit to its own PI wheel loops; for a controller
+    built directly, :data:`DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S`."""
     error_frame: ErrorFrame = "path"
     """The LTV MPC's error coordinates: along/across the reference heading (``path``) or x/y (``world``)."""
     max_wheel_speed_m_s: float | None = number(gt=0, default=None, doc="default: the vehicle's max speed")
@@ -87,28 +86,23 @@ class MpcConfig:
     max_iterations: int = number(ge=1, default=400, doc="solver iteration limit per step")
     tolerance: float = number(gt=0, default=1.0e-3, doc="solver tolerance (OSQP eps_abs/eps_rel, IPOPT tol)")
 
-    @classmethod
-    def from_table(
-        cls,
-        table: Mapping[str, Any],
-        *,
-        source: str,
-        prefix: str = "controller",
-        ignore: Iterable[str] = RUNNER_KEYS,
-    ) -> MpcConfig:
-        """Build from an experiment's ``[controller]`` table, strictly (unknown keys raise
-        :class:`~agvctl.errors.ConfigError` with a "did you mean"), skipping the runner's keys ``ignore``."""
-        skip = frozenset(ignore)
-        return build(cls, {k: v for k, v in table.items() if k not in skip}, source=source, prefix=prefix)
 
-    def replace(self, **changes: Any) -> MpcConfig:
-        """A copy with some fields changed."""
-        return dataclasses.replace(self, **changes)
+DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S = 0.1
+"""τ (s) a directly built MPC assumes for the wheel loops when its config leaves it unset."""
 
 
-def wrap_angle(angle_rad: float) -> float:
-    """``angle_rad`` wrapped to [−π, π)."""
-    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
+def resolved_config(config: MpcConfig) -> MpcConfig:
+    """``config`` with the wheel-loop time constant set (:data:`DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S` if unset)."""
+    if config.wheel_loop_time_constant_s is not None:
+        return config
+    return dataclasses.replace(config, wheel_loop_time_constant_s=DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S)
+
+
+def wheel_loop_time_constant_s(config: MpcConfig) -> float:
+    """τ (s) of a :func:`resolved_config`."""
+    if config.wheel_loop_time_constant_s is None:
+        raise ValueError("MpcConfig.wheel_loop_time_constant_s: resolve the config first (resolved_config)")
+    return config.wheel_loop_time_constant_s
 
 
 class HorizonReference:
@@ -144,7 +138,7 @@ class HorizonReference:
         if config.prediction_model == "kinematic":
             ff = mid_wheel
         else:
-            a = math.exp(-T / config.wheel_loop_time_constant_s)
+            a = math.exp(-T / wheel_loop_time_constant_s(config))
             ff = (self.wheel_m_s[1:] - a * self.wheel_m_s[:-1]) / (1.0 - a)
         self.feedforward_m_s: FloatArray = np.ascontiguousarray(ff)
 

@@ -33,13 +33,15 @@ import scipy.linalg
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from agvctl.angles import wrap_angle
 from agvctl.controllers.mpc_common import (
     HorizonReference,
     MpcConfig,
     MpcStepper,
     SetpointFallback,
+    resolved_config,
     resolved_limits,
-    wrap_angle,
+    wheel_loop_time_constant_s,
 )
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
@@ -80,7 +82,7 @@ class LtvMpcController(MpcStepper):
         *,
         osqp_settings: Mapping[str, Any] | None = None,
     ) -> None:
-        self.config = config or MpcConfig()
+        self.config = resolved_config(config or MpcConfig())
         self._osqp_overrides = dict(osqp_settings or {})
         c = self.config
         self.sample_period_s = vehicle.control.sample_period_s
@@ -218,7 +220,7 @@ class LtvMpcController(MpcStepper):
             Be[:, 1, :] = 0.5 * st[:, None]
             Be[:, 2, :] = (-1.0 / b, 1.0 / b)
         if self._lag:
-            inv_tau = 1.0 / c.wheel_loop_time_constant_s
+            inv_tau = 1.0 / wheel_loop_time_constant_s(c)
             M[:, 0:3, 3:5] = Be
             M[:, 3, 3] = M[:, 4, 4] = -inv_tau
             M[:, 3, 5] = M[:, 4, 6] = inv_tau

@@ -24,7 +24,9 @@ from agvctl.controllers.mpc_common import (
     MpcConfig,
     MpcStepper,
     SetpointFallback,
+    resolved_config,
     resolved_limits,
+    wheel_loop_time_constant_s,
 )
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
@@ -82,7 +84,7 @@ class NonlinearMpcController(MpcStepper):
         *,
         ipopt_options: dict[str, Any] | None = None,
     ) -> None:
-        self.config = config or MpcConfig()
+        self.config = resolved_config(config or MpcConfig())
         self.sample_period_s = vehicle.control.sample_period_s
         self.separation_m = vehicle.wheels.separation_m
         self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 = resolved_limits(self.config, vehicle)
@@ -113,7 +115,7 @@ class NonlinearMpcController(MpcStepper):
 
     def _build(self, ipopt_options: dict[str, Any]) -> None:
         c, N, nx = self.config, self.config.horizon, self.nx
-        tau = c.wheel_loop_time_constant_s if self._lag else None
+        tau = wheel_loop_time_constant_s(c) if self._lag else None
         step = prediction_step(self.sample_period_s, self.separation_m, tau)
         X = ca.SX.sym("X", nx, N)  # x_1 … x_N
         S = ca.SX.sym("S", 2, N)  # s_0 … s_{N−1}

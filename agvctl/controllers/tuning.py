@@ -31,8 +31,10 @@ margin at that ω_c is checked against the gain margin.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import control
 import numpy as np
@@ -389,3 +391,18 @@ def closed_loop_time_constant_s(vehicle: VehicleParams, gains: PIGains, horizon_
         a_best = float(poles[int(np.argmin(errors))])
         taus.append(-ts / math.log(a_best))
     return max(taus)
+
+
+class WheelLoopDesign(NamedTuple):
+    """The PI gains and the first-order lag τ (s) that best fits their closed loop."""
+
+    gains: PIGains
+    loop_time_constant_s: float
+
+
+@functools.lru_cache(maxsize=32)
+def default_pi_gains(vehicle: VehicleParams) -> WheelLoopDesign:
+    """The PI designed for the default spec (PM ≥ 60°, GM ≥ 10 dB, fastest) and the time constant (s) of the
+    first-order lag that best fits its closed loop (the MPC's wheel-loop model)."""
+    gains = design_pi(vehicle).gains
+    return WheelLoopDesign(gains, closed_loop_time_constant_s(vehicle, gains))

@@ -126,11 +126,11 @@ class MotorPair:
     right: MotorParams
 
     @classmethod
-    def __extra_file_keys__(cls) -> dict[str, Any]:
+    def extra_file_keys(cls) -> dict[str, Any]:
         return {k: float for k in _MOTOR_KEYS}
 
     @classmethod
-    def __from_file__(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> MotorPair:
+    def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> MotorPair:
         allowed = [*_MOTOR_KEYS, "left", "right"]
         for k in data:
             if k not in allowed:
@@ -160,7 +160,7 @@ class MotorPair:
             sides[side] = motor
         return cls(left=sides["left"], right=sides["right"])
 
-    def __to_file__(self) -> dict[str, Any]:
+    def to_file(self) -> dict[str, Any]:
         left, right = dataclasses.asdict(self.left), dataclasses.asdict(self.right)
         out: dict[str, Any] = {k: left[k] for k in _MOTOR_KEYS if left[k] == right[k]}
         for side, values in (("left", left), ("right", right)):

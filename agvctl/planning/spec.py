@@ -148,7 +148,7 @@ class _AnySegment:
     """Loader shim: dispatches one ``[[segments]]`` table on its ``type`` key."""
 
     @classmethod
-    def __from_file__(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> Segment:
+    def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> Segment:
         if "type" not in data:
             raise ConfigError(source, f"{prefix}.type", f"missing key (one of {', '.join(SEGMENT_TYPES)})")
         kind = data["type"]

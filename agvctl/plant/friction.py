@@ -16,12 +16,16 @@ from __future__ import annotations
 from typing import Any
 
 import casadi as ca
+import numpy as np
 
 Num = Any
+_SYMBOLIC = (ca.SX, ca.MX, ca.DM)
 
 
 def _clip(x: Num, limit: Num) -> Num:
-    return ca.fmin(ca.fmax(x, -limit), limit)
+    if isinstance(x, _SYMBOLIC) or isinstance(limit, _SYMBOLIC):
+        return ca.fmin(ca.fmax(x, -limit), limit)
+    return np.clip(x, -limit, limit)  # numbers and numpy arrays: the same values, without CasADi's conversions
 
 
 def motor_speed(omega_pre: Num, tau_s: Num, P: Num) -> Num:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -66,15 +66,6 @@ class SimLog:
 
     def __len__(self) -> int:
         return len(self.columns["t_s"]) if self.columns else 0
-
-    @property
-    def names(self) -> list[str]:
-        return list(self.columns)
-
-    def add(self, columns: Mapping[str, NDArray[np.float64]]) -> None:
-        """Add columns (same length as the log)."""
-        for name, values in columns.items():
-            self.columns[name] = np.asarray(values)
 
     def row(self, index: int) -> dict[str, float]:
         """One row as a mapping (``-1``: the final sample)."""

@@ -8,24 +8,7 @@ import numpy as np
 
 from agvctl.sim.loop import ClosedLoopResult
 
-__all__ = ["METRIC_NAMES", "closed_loop_metrics", "time_to_converge_s"]
-
-METRIC_NAMES = (
-    "tracking_error_rms_m",
-    "tracking_error_max_m",
-    "heading_error_max_deg",
-    "final_position_error_m",
-    "peak_wheel_speed_m_s",
-    "peak_wheel_accel_m_s2",
-    "peak_motor_current_a",
-    "da_saturation_fraction",
-    "current_limited_fraction",
-    "solve_time_p50_ms",
-    "solve_time_p99_ms",
-    "deadline_misses",
-    "solver_failures",
-    "time_to_2cm_s",
-)
+__all__ = ["closed_loop_metrics", "time_to_converge_s"]
 
 
 def time_to_converge_s(t_s: np.ndarray, error_m: np.ndarray, threshold_m: float) -> float:

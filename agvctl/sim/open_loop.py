@@ -1,4 +1,9 @@
-"""Open-loop simulation of the full model from DA voltage commands, single or batched."""
+"""Open-loop simulation of the full model from DA voltage commands, single or batched.
+
+A single run is :meth:`PlantStepper.run <agvctl.sim.stepper.PlantStepper.run>` (compiled chunks of samples). A
+batch integrates many vehicles in one compiled call (:meth:`~agvctl.sim.integrator.CompiledPlant.run_batch`,
+vehicles in parallel threads), which a per-vehicle stepper cannot; its rows are recorded by the stepper's
+:func:`~agvctl.sim.stepper.plant_log_rows`, so the logs are the same either way."""
 
 from __future__ import annotations
 
@@ -14,9 +19,10 @@ from agvctl.actuator import Actuator
 from agvctl.config import read_text
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
-from agvctl.plant.full import AUX_NAMES, STATE_NAMES, PlantOptions, parameter_vector
-from agvctl.sim.integrator import STATS_NAMES, compiled_plant, sample_splits
-from agvctl.sim.log import SimLog
+from agvctl.plant.full import STATE_NAMES, PlantOptions, parameter_vector
+from agvctl.sim.integrator import compiled_plant, sample_splits
+from agvctl.sim.log import PLANT_LOG_COLUMNS, SimLog
+from agvctl.sim.stepper import PlantStepper, instant_stats, plant_log_rows
 
 __all__ = ["OpenLoopResult", "load_input_profile", "sample_count", "simulate_batch", "simulate_open_loop"]
 
@@ -39,61 +45,26 @@ def sample_count(duration_s: float, sample_period_s: float) -> int:
     return max(1, int(round(duration_s / sample_period_s)))
 
 
-def _log_from_arrays(
+def _batch_log(
     vehicle: VehicleParams,
-    actuator_out: dict[str, NDArray[np.float64]],
+    da_voltage_v: NDArray[np.float64],
     X: NDArray[np.float64],
     A: NDArray[np.float64],
     S: NDArray[np.float64],
     aux_final: NDArray[np.float64],
 ) -> SimLog:
+    """One vehicle's log of a batch run, recorded as :class:`~agvctl.sim.stepper.PlantStepper` records (the
+    final row: the end state, the last input still applied)."""
     n = A.shape[0]
     ts = vehicle.control.sample_period_s
-    A_full = np.vstack([A, aux_final[None, :]])
-    final_stats = np.array(
-        [aux_final[4], aux_final[5], abs(aux_final[2]), abs(aux_final[3]), abs(aux_final[6]), abs(aux_final[7])]
-    )
-    S_full = np.vstack([S, final_stats[None, :]])
-    aux = {name: A_full[:, i] for i, name in enumerate(AUX_NAMES)}
-    stats = {name: S_full[:, i] for i, name in enumerate(STATS_NAMES)}
-    cols: dict[str, NDArray[np.float64]] = {"t_s": np.arange(n + 1) * ts}
-    for key, values in actuator_out.items():
-        cols[key] = np.concatenate([values, values[-1:]])
-    cols["current_left_a"], cols["current_right_a"] = aux["current_left_a"], aux["current_right_a"]
-    cols["current_limited_left"] = (stats["current_limited_fraction_left"] > 0).astype(float)
-    cols["current_limited_right"] = (stats["current_limited_fraction_right"] > 0).astype(float)
-    for name in STATS_NAMES:
-        cols[name] = stats[name]
-    for name in (
-        "omega_motor_left_rad_s",
-        "omega_motor_right_rad_s",
-        "wheel_accel_left_m_s2",
-        "wheel_accel_right_m_s2",
-    ):
-        cols[name] = aux[name]
-    for i, name in enumerate(STATE_NAMES[2:], start=2):
-        cols[name] = X[:, i]
-    cols["speed_m_s"], cols["yaw_rate_rad_s"] = aux["speed_m_s"], aux["yaw_rate_rad_s"]
-    from agvctl.sim.log import PLANT_LOG_COLUMNS
-
-    return SimLog({name: cols[name] for name in PLANT_LOG_COLUMNS})
-
-
-def _actuate(
-    vehicle: VehicleParams, da_voltage_v: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], dict[str, NDArray[np.float64]]]:
-    out = Actuator(vehicle).apply(da_voltage_v)
-    cols = {
-        "da_code_left": out.da_code[..., 0].astype(float),
-        "da_code_right": out.da_code[..., 1].astype(float),
-        "da_voltage_left_v": out.da_voltage_v[..., 0],
-        "da_voltage_right_v": out.da_voltage_v[..., 1],
-        "da_clipped_left": out.da_clipped[..., 0].astype(float),
-        "da_clipped_right": out.da_clipped[..., 1].astype(float),
-        "motor_voltage_left_v": out.motor_voltage_v[..., 0],
-        "motor_voltage_right_v": out.motor_voltage_v[..., 1],
-    }
-    return out.motor_voltage_v, cols
+    actuator = Actuator(vehicle)
+    rows = plant_log_rows(np.arange(n) * ts, actuator.apply(da_voltage_v), A, S, X[:-1])
+    final = plant_log_rows(
+        np.array([n * ts]), actuator.apply(da_voltage_v[-1]), aux_final[None, :], instant_stats(aux_final)[None, :],
+        X[-1:],
+    )  # fmt: skip
+    both = np.vstack([rows, final])
+    return SimLog({name: both[:, j] for j, name in enumerate(PLANT_LOG_COLUMNS)})
 
 
 def _check_inputs(da_voltage_v: ArrayLike) -> NDArray[np.float64]:
@@ -120,16 +91,12 @@ def simulate_open_loop(
     """
     u_req = _check_inputs(da_voltage_v)
     t0 = time.perf_counter()
-    plant = compiled_plant(options)
-    splits = sample_splits(vehicle)
+    plant = PlantStepper(vehicle, initial_state=initial_state, options=options)
     setup = time.perf_counter() - t0
-    x0 = np.zeros(len(STATE_NAMES)) if initial_state is None else np.asarray(initial_state, dtype=float)
     t1 = time.perf_counter()
-    u_motor, act_cols = _actuate(vehicle, u_req)
-    p = parameter_vector(vehicle)
-    X, A, S = plant.run(x0, u_motor, p, vehicle.control.sample_period_s, splits)
-    aux_final = plant.aux(X[-1], u_motor[-1], p)
-    log = _log_from_arrays(vehicle, act_cols, X, A, S, aux_final)
+    plant.run(u_req)
+    plant.finish()
+    log = plant.log()
     wall = time.perf_counter() - t1
     return OpenLoopResult(log=log, wall_time_s=wall, setup_time_s=setup)
 
@@ -161,18 +128,14 @@ def simulate_batch(
         _check_inputs(u[b])
     plant = compiled_plant(options)
     splits = sample_splits(vs)
-    motor_v, act = [], []
-    for b, v in enumerate(vs):
-        mv, cols = _actuate(v, u[b])
-        motor_v.append(mv)
-        act.append(cols)
+    motor_v = np.stack([Actuator(v).apply(u[b]).motor_voltage_v for b, v in enumerate(vs)])
     P = np.stack([parameter_vector(v) for v in vs])
     x0 = np.zeros((len(vs), len(STATE_NAMES))) if initial_states is None else np.asarray(initial_states, dtype=float)
-    X, A, S = plant.run_batch(x0, np.stack(motor_v), P, ts, splits)
+    X, A, S = plant.run_batch(x0, motor_v, P, ts, splits)
     logs = []
     for b, v in enumerate(vs):
         aux_final = plant.aux(X[b, -1], motor_v[b][-1], P[b])
-        logs.append(_log_from_arrays(v, act[b], X[b], A[b], S[b], aux_final))
+        logs.append(_batch_log(v, u[b], X[b], A[b], S[b], aux_final))
     return logs
 
 

@@ -2,10 +2,10 @@
 DA/amplifier.
 
 Both wheels get the same rim-speed step (straight line), i.e. a motor-speed setpoint ω_ref = v N / r per side.
-Every sample: the motor speeds are measured at the sample time, the controller returns DA voltage commands,
-the actuator (12-bit DA, amplifier) turns them into motor voltages held over the sample, and the compiled
-full model (friction of eqs 2-4, coupling of eqs 52-59, current limit inside the right-hand side) advances
-one sample.
+Every sample (:class:`~agvctl.sim.stepper.PlantStepper`): the motor speeds are measured at the sample time,
+the controller returns DA voltage commands, the actuator (12-bit DA, amplifier) turns them into motor voltages
+held over the sample, and the compiled full model (friction of eqs 2-4, coupling of eqs 52-59, current limit
+inside the right-hand side) advances one sample.
 """
 
 from __future__ import annotations
@@ -16,18 +16,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.actuator import Actuator
 from agvctl.controllers.base import WheelSpeedController
 from agvctl.controllers.pi import PIGains, PIWheelController
 from agvctl.params import VehicleParams
-from agvctl.plant.full import AUX_NAMES, STATE_NAMES, parameter_vector
-from agvctl.sim.integrator import STATS_NAMES, compiled_plant, sample_splits
+from agvctl.sim.stepper import PlantStepper
 
 __all__ = ["StepMetrics", "WheelStepResult", "step_metrics", "wheel_step_response"]
-
-_I_OMEGA = AUX_NAMES.index("omega_motor_left_rad_s")
-_I_CURRENT = AUX_NAMES.index("current_left_a")
-_I_PEAK = STATS_NAMES.index("current_peak_left_a")
 
 
 @dataclass(frozen=True)
@@ -152,30 +146,18 @@ def wheel_step_response(
             wheel_speed_step_m_s * vehicle.motor.right.gear_ratio / vehicle.wheels.radius_right_m,
         ]
     )
-    plant = compiled_plant()
-    splits = sample_splits(vehicle)
-    p = parameter_vector(vehicle)
-    actuator = Actuator(vehicle)
+    plant = PlantStepper(vehicle)
     controller.reset()
+    for _ in range(n):
+        plant.step(controller.update(setpoint, plant.measure()))
+    plant.finish()
+    log = plant.log()
 
-    x = np.zeros(len(STATE_NAMES))
-    omega = np.empty((n + 1, 2))
-    current = np.empty((n + 1, 2))
-    codes = np.empty((n, 2), dtype=np.int64)
-    volts = np.empty((n, 2))
-    peaks = np.empty((n, 2))
-    u = np.zeros(2)
-    for k in range(n):
-        measured = plant.aux(x, u, p)[_I_OMEGA : _I_OMEGA + 2]  # the speeds at t_k (they depend on x only)
-        out = actuator.apply(controller.update(setpoint, measured))
-        u = np.asarray(out.motor_voltage_v, dtype=float)
-        x, aux, stats = plant.step(x, u, p, ts, splits)
-        omega[k] = aux[_I_OMEGA : _I_OMEGA + 2]
-        current[k] = aux[_I_CURRENT : _I_CURRENT + 2]
-        codes[k], volts[k], peaks[k] = out.da_code, u, stats[_I_PEAK : _I_PEAK + 2]
-    aux_end = plant.aux(x, u, p)
-    omega[n] = aux_end[_I_OMEGA : _I_OMEGA + 2]
-    current[n] = aux_end[_I_CURRENT : _I_CURRENT + 2]
+    def sides(name: str, rows: slice = slice(None)) -> NDArray[np.float64]:
+        return np.column_stack([log[name.format("left")][rows], log[name.format("right")][rows]])
+
+    omega = sides("omega_motor_{}_rad_s")
+    intervals = slice(0, n)
     t = np.asarray(np.arange(n + 1) * ts, dtype=np.float64)
     m_left = step_metrics(t, omega[:, 0], float(setpoint[0]))
     m_right = step_metrics(t, omega[:, 1], float(setpoint[1]))
@@ -183,10 +165,10 @@ def wheel_step_response(
         t_s=t,
         setpoint_rad_s=setpoint,
         omega_motor_rad_s=omega,
-        da_code=codes,
-        motor_voltage_v=volts,
-        current_a=current,
-        current_peak_a=peaks,
+        da_code=sides("da_code_{}", intervals).astype(np.int64),
+        motor_voltage_v=sides("motor_voltage_{}_v", intervals),
+        current_a=sides("current_{}_a"),
+        current_peak_a=sides("current_peak_{}_a", intervals),
         metrics=_worst(m_left, m_right),
         metrics_left=m_left,
         metrics_right=m_right,

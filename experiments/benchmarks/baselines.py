@@ -28,9 +28,7 @@ from agvctl.controllers.base import PoseController
 from agvctl.controllers.ltv_lqr import LtvLqrController
 from agvctl.controllers.ramsete import RamseteController
 from agvctl.params import load_vehicle
-from agvctl.sim.controllers import build_controllers
-from agvctl.sim.experiment import initial_pose_of, load_experiment, prepare_experiment
-from agvctl.sim.loop import run_closed_loop
+from agvctl.sim.experiment import load_experiment, run_experiment
 from agvctl.sim.metrics import closed_loop_metrics
 from agvctl.sim.path_metrics import path_errors
 
@@ -71,27 +69,18 @@ coulomb_feedforward = true
 
 
 def run(path: Path, which: str) -> dict[str, float]:
-    prepared = prepare_experiment(load_experiment(path))
-    exp, vehicle = prepared.experiment, prepared.controller_vehicle
-    mpc, wheel = build_controllers(exp, vehicle)
-    pose: PoseController = {"mpc": mpc, "ramsete": RamseteController(vehicle), "ltv_lqr": LtvLqrController(vehicle)}[
-        which
-    ]
-    result = run_closed_loop(
-        plant_vehicle=prepared.plant_vehicle,
-        controller_vehicle=vehicle,
-        reference=prepared.reference,
-        pose_controller=pose,
-        wheel_controller=wheel,
-        initial_pose=initial_pose_of(exp),
-        settle_s=exp.settle_s,
-        compute_delay=exp.controller.compute_delay,
-        localization=exp.controller.localization,
-    )
+    experiment = load_experiment(path)
+    vehicle = experiment.controller_vehicle
+    pose: PoseController | None = {
+        "mpc": None,  # the file's own controller
+        "ramsete": RamseteController(vehicle),
+        "ltv_lqr": LtvLqrController(vehicle),
+    }[which]
+    result = run_experiment(experiment, pose_controller=pose)
     m = closed_loop_metrics(result)
     log = result.log
-    pe = path_errors(log["t_s"], log["x_m"], log["y_m"], log["theta_rad"], prepared.reference)
-    end = prepared.reference.final_pose
+    pe = path_errors(log["t_s"], log["x_m"], log["y_m"], log["theta_rad"], experiment.reference)
+    end = experiment.reference.final_pose
     finite = all(bool(np.all(np.isfinite(log[c]))) for c in ("x_m", "y_m", "setpoint_wheel_speed_left_m_s",
                                                              "setpoint_wheel_speed_right_m_s"))
     return {

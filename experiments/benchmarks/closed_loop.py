@@ -21,9 +21,9 @@ from agvctl.controllers.base import FeedForwardPoseController, PoseController
 from agvctl.controllers.mpc_common import MpcConfig
 from agvctl.controllers.mpc_ltv import LtvMpcController
 from agvctl.controllers.pi import PIWheelController
+from agvctl.controllers.tuning import default_pi_gains
 from agvctl.params import load_vehicle
 from agvctl.planning import ArcSegment, WheelLimits, plan_segments
-from agvctl.sim.controllers import default_pi_gains
 from agvctl.sim.loop import run_closed_loop
 from agvctl.sim.metrics import closed_loop_metrics
 

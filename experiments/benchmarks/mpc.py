@@ -35,10 +35,10 @@ from agvctl.controllers.mpc_common import HorizonReference, MpcConfig, limit_com
 from agvctl.controllers.mpc_ltv import LtvMpcController
 from agvctl.controllers.mpc_nonlinear import NonlinearMpcController, prediction_step
 from agvctl.controllers.pi import PIWheelController
+from agvctl.controllers.tuning import default_pi_gains
 from agvctl.params import VehicleParams, load_vehicle
 from agvctl.planning import plan_file
 from agvctl.planning.reference import Reference
-from agvctl.sim.controllers import default_pi_gains
 from agvctl.sim.loop import run_closed_loop
 
 ROOT = Path(__file__).resolve().parents[2]

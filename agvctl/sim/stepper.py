@@ -1,0 +1,195 @@
+"""The plant stepper: measure → actuate → integrate → record, one sample at a time (do-mpc's ``make_step``).
+
+Every loop of the package drives the plant through :class:`PlantStepper`, so each of the four parts exists once:
+
+* **measure**: the motor speeds at t_k as the encoders see them — the dead zone of the pre-velocity state
+  (eq 2, :func:`agvctl.plant.friction.motor_speed`);
+* **actuate**: the DA voltage command through the DA converter and amplifier (:class:`~agvctl.actuator.Actuator`);
+* **integrate**: the compiled full model over [t_k, t_k+1) with the motor voltage held (the sample-and-hold rule:
+  the update at t_k sees the state just before it);
+* **record**: one row of :data:`~agvctl.sim.log.PLANT_LOG_COLUMNS`, every column picked by name.
+
+:meth:`PlantStepper.step` is one sample with feedback; :meth:`PlantStepper.run` applies a whole sequence of
+commands without feedback in compiled chunks (the open-loop simulator), recorded the same way. A loop of unknown
+length (a calibration experiment that runs until a wheel turns) just keeps calling :meth:`~PlantStepper.step`::
+
+    stepper = PlantStepper(vehicle)
+    while ...:
+        omega = stepper.measure()
+        stepper.step(controller.update(setpoint, omega))
+    stepper.finish()
+    log = stepper.log()
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agvctl.actuator import Actuator, ActuatorOutput
+from agvctl.params import VehicleParams
+from agvctl.plant.friction import motor_speed
+from agvctl.plant.full import AUX_NAMES, STATE_NAMES, PlantOptions, parameter_vector
+from agvctl.sim.integrator import STATS_NAMES, CompiledPlant, compiled_plant, sample_splits
+from agvctl.sim.log import PLANT_LOG_COLUMNS, SimLog
+
+__all__ = ["PlantStepper", "instant_stats", "plant_log_rows"]
+
+FloatArray = NDArray[np.float64]
+
+_SIDES = ("left", "right")
+_SOURCES = (
+    "t_s",
+    *(f"da_code_{s}" for s in _SIDES),
+    *(f"da_voltage_{s}_v" for s in _SIDES),
+    *(f"da_clipped_{s}" for s in _SIDES),
+    *(f"motor_voltage_{s}_v" for s in _SIDES),
+    *(f"aux.{name}" for name in AUX_NAMES),
+    *STATS_NAMES,
+    *(f"current_limited_{s}" for s in _SIDES),
+    *(f"state.{name}" for name in STATE_NAMES),
+)
+"""The quantities a row is made from, in the order :func:`plant_log_rows` stacks them."""
+
+
+def _source_of(column: str) -> int:
+    for name in (column, f"aux.{column}", f"state.{column}"):
+        if name in _SOURCES:
+            return _SOURCES.index(name)
+    raise KeyError(column)
+
+
+_PICK = np.array([_source_of(name) for name in PLANT_LOG_COLUMNS])
+"""Where each log column comes from: by name, once."""
+
+_AUX = {name: i for i, name in enumerate(AUX_NAMES)}
+_INSTANT_STATS = {
+    **{f"current_limited_fraction_{s}": (f"current_limited_{s}", False) for s in _SIDES},
+    **{f"current_peak_{s}_a": (f"current_{s}_a", True) for s in _SIDES},
+    **{f"wheel_accel_peak_{s}_m_s2": (f"wheel_accel_{s}_m_s2", True) for s in _SIDES},
+}
+"""Each interval statistic at one instant: the auxiliary output it summarises, and whether its peak is of |·|."""
+
+
+def instant_stats(aux: FloatArray) -> FloatArray:
+    """The statistics of :data:`~agvctl.sim.integrator.STATS_NAMES` at one instant (…×10 auxiliaries in, …×6
+    out): the final row of a log, where no interval follows."""
+    cols = []
+    for name in STATS_NAMES:
+        source, absolute = _INSTANT_STATS[name]
+        value = aux[..., _AUX[source]]
+        cols.append(np.abs(value) if absolute else value)
+    return np.stack(cols, axis=-1)
+
+
+def plant_log_rows(
+    t_s: ArrayLike, actuated: ActuatorOutput, aux: FloatArray, stats: FloatArray, state: FloatArray
+) -> FloatArray:
+    """Rows of :data:`~agvctl.sim.log.PLANT_LOG_COLUMNS` (m × columns) from m samples' times, actuator outputs
+    (m × 2 each), auxiliaries at the start (m × 10), interval statistics (m × 6) and states (m × 5)."""
+    limited = stats[:, [STATS_NAMES.index(f"current_limited_fraction_{s}") for s in _SIDES]] > 0
+    parts = (
+        np.reshape(t_s, (-1, 1)),
+        actuated.da_code,
+        actuated.da_voltage_v,
+        actuated.da_clipped,
+        actuated.motor_voltage_v,
+        aux,
+        stats,
+        limited,
+        state,
+    )
+    rows = np.concatenate([np.asarray(p, dtype=np.float64).reshape(len(stats), -1) for p in parts], axis=1)
+    return np.asarray(rows[:, _PICK], dtype=np.float64)
+
+
+class PlantStepper:
+    """The true vehicle's actuator chain and full plant, advanced and recorded one sample at a time.
+
+    Parameters
+    ----------
+    vehicle
+        The simulated truth (its parameters, DA converter, amplifier and sample period T_s in s).
+    initial_state
+        The plant state (:data:`~agvctl.plant.full.STATE_NAMES`: pre-velocities in rad/s, x_m, y_m, theta_rad);
+        default at rest at the origin.
+    options
+        Plant options (friction, current limit); default :class:`~agvctl.plant.full.PlantOptions`.
+    """
+
+    def __init__(
+        self, vehicle: VehicleParams, *, initial_state: ArrayLike | None = None, options: PlantOptions | None = None
+    ) -> None:
+        self.plant: CompiledPlant = compiled_plant(options)
+        self.sample_period_s = vehicle.control.sample_period_s
+        self._splits = sample_splits(vehicle)
+        self._p = parameter_vector(vehicle)
+        self._actuator = Actuator(vehicle)
+        self._friction = (options or PlantOptions()).friction
+        d = vehicle.derived
+        self._stiction_n_m = np.array([vehicle.motor.left.stiction_n_m, vehicle.motor.right.stiction_n_m])
+        self._friction_gain_p = np.array([d.left.friction_gain_p, d.right.friction_gain_p])
+        x0 = np.zeros(len(STATE_NAMES)) if initial_state is None else np.asarray(initial_state, dtype=float)
+        self.state: FloatArray = np.array(x0, dtype=float)
+        """The plant state at the current sample time."""
+        self.k = 0
+        """The index of the current sample (t_k = k·T_s)."""
+        self._rows: list[FloatArray] = []
+        self._last: ActuatorOutput | None = None
+
+    @property
+    def pose(self) -> FloatArray:
+        """The true pose (x_m, y_m, theta_rad) at the current sample time."""
+        return np.array(self.state[2:5])
+
+    def measure(self) -> FloatArray:
+        """The motor speeds (left, right) in rad/s at t_k: the dead zone of the pre-velocity (eq 2)."""
+        pre = self.state[:2]
+        if not self._friction:
+            return np.array(pre)
+        return np.asarray(motor_speed(pre, self._stiction_n_m, self._friction_gain_p), dtype=float)
+
+    def step(self, da_command_v: ArrayLike) -> ActuatorOutput:
+        """Actuate ``da_command_v`` (left, right, V), record row k and integrate to t_k+1."""
+        out = self._actuator.apply(da_command_v)
+        u = np.asarray(out.motor_voltage_v, dtype=float)
+        x_next, aux, stats = self.plant.step(self.state, u, self._p, self.sample_period_s, self._splits)
+        self._record(out, aux, stats)
+        self.state = x_next
+        self.k += 1
+        return out
+
+    def finish(self, da_command_v: ArrayLike | None = None) -> ActuatorOutput:
+        """Record the final row: the state at the end with ``da_command_v`` (default: the last command) applied,
+        not integrated further."""
+        if da_command_v is None:
+            if self._last is None:
+                raise RuntimeError("PlantStepper.finish: no command yet")
+            out = self._last
+        else:
+            out = self._actuator.apply(da_command_v)
+        aux = self.plant.aux(self.state, np.asarray(out.motor_voltage_v, dtype=float), self._p)
+        self._record(out, aux, instant_stats(aux))
+        return out
+
+    def run(self, da_commands_v: ArrayLike) -> None:
+        """Apply n commands (n × 2, V) without feedback, each held over one sample, in compiled chunks."""
+        out = self._actuator.apply(da_commands_v)
+        u = np.asarray(out.motor_voltage_v, dtype=float)
+        X, A, S = self.plant.run(self.state, u, self._p, self.sample_period_s, self._splits)
+        n = u.shape[0]
+        t = (self.k + np.arange(n)) * self.sample_period_s
+        self._rows.append(plant_log_rows(t, out, A, S, X[:-1]))
+        self._last = self._actuator.apply(np.asarray(da_commands_v, dtype=float)[-1])
+        self.state = X[-1]
+        self.k += n
+
+    def _record(self, out: ActuatorOutput, aux: FloatArray, stats: FloatArray) -> None:
+        t = np.array([self.k * self.sample_period_s])
+        self._rows.append(plant_log_rows(t, out, aux[None, :], stats[None, :], self.state[None, :]))
+        self._last = out
+
+    def log(self) -> SimLog:
+        """The rows recorded so far, as a :class:`~agvctl.sim.log.SimLog`."""
+        rows = np.vstack(self._rows) if self._rows else np.zeros((0, len(PLANT_LOG_COLUMNS)))
+        return SimLog({name: rows[:, j] for j, name in enumerate(PLANT_LOG_COLUMNS)})
