@@ -240,7 +240,7 @@ def test_time_optimal_for_random_limits(d, v, a, j, spin):
 # joining rule, speed caps, the Reference API
 
 
-def test_segments_with_equal_curvature_merge_and_curvature_jumps_stop():
+def test_join_stop_merges_equal_curvatures_and_stops_at_curvature_jumps():
     segs = [
         LineSegment(length_m=1.0),
         LineSegment(length_m=1.0),
@@ -249,8 +249,11 @@ def test_segments_with_equal_curvature_merge_and_curvature_jumps_stop():
         ArcSegment(radius_m=1.0, angle_deg=-90),
         TurnSegment(angle_deg=30),
     ]
-    ref = plan_segments(segs, limits=LIMITS, separation_m=B, sample_period_s=0.04)
+    ref = plan_segments(segs, limits=LIMITS, separation_m=B, sample_period_s=0.04, join="stop")
     assert [m.segment_indices for m in ref.motions] == [(0, 1), (2, 3), (4,), (5,)]
+    # the default drives through the curvature changes and stops only for the turn in place
+    smooth = plan_segments(segs, limits=LIMITS, separation_m=B, sample_period_s=0.04)
+    assert [m.segment_indices for m in smooth.motions] == [(0, 1, 2, 3, 4), (5,)]
     # the merged line is one rest-to-rest motion over 2 m
     assert ref.motions[0].duration_s == pytest.approx(
         closed_form_rest_to_rest(2.0, 0.8, 0.657, 3.0), rel=1e-6

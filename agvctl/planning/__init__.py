@@ -1,4 +1,5 @@
-"""Trajectory planning: path files → time-optimal, jerk-limited references within the wheel limits (Ruckig).
+"""Trajectory planning: path files (segments with smooth joins, or waypoints) → time-optimal, jerk-limited
+references within the wheel limits (Ruckig).
 
 Offline::
 
@@ -29,6 +30,7 @@ from agvctl.planning.spec import (
     Segment,
     StartPose,
     TurnSegment,
+    Waypoint,
     WheelLimits,
     default_jerk_limit_m_s3,
     load_path,
@@ -51,6 +53,7 @@ __all__ = [
     "StartPose",
     "TurnSegment",
     "VelocityCommandPlanner",
+    "Waypoint",
     "WheelCommand",
     "WheelLimits",
     "advance",
