@@ -103,17 +103,16 @@ class Curve:
         self._k = c
         self._dk = _derivative(c)
         self._ddk = _derivative(self._dk)
+        self._d3k = _derivative(self._ddk)
+        self._d4k = _derivative(self._d3k)
         self._th = _integral(c)
         self._const = np.all(c[:, 1:] == 0, axis=1)
-        x0, y0, th0 = [start.x_m], [start.y_m], [start.theta_rad]
-        ends = self._local(np.arange(len(lengths)), lengths, np.zeros(len(lengths)))
-        for p in range(len(lengths) - 1):  # each piece starts where the previous one ends
-            dx, dy, dth = ends[0][p], ends[1][p], ends[2][p]
-            cos0, sin0 = np.cos(th0[-1]), np.sin(th0[-1])
-            x0.append(x0[-1] + cos0 * dx - sin0 * dy)
-            y0.append(y0[-1] + sin0 * dx + cos0 * dy)
-            th0.append(th0[-1] + dth)
-        self._x0, self._y0, self._th0 = np.array(x0), np.array(y0), np.array(th0)
+        # each piece starts where the previous one ends: its displacement, turned by its start heading
+        dx, dy, dth = self._local(np.arange(len(lengths)), lengths, np.zeros(len(lengths)))
+        self._th0 = start.theta_rad + np.concatenate(([0.0], np.cumsum(dth)[:-1]))
+        cos0, sin0 = np.cos(self._th0), np.sin(self._th0)
+        self._x0 = start.x_m + np.concatenate(([0.0], np.cumsum(cos0 * dx - sin0 * dy)[:-1]))
+        self._y0 = start.y_m + np.concatenate(([0.0], np.cumsum(sin0 * dx + cos0 * dy)[:-1]))
 
     def _local(self, piece: NDArray[np.int64], sigma: FloatArray, theta0: FloatArray
                ) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -128,8 +127,8 @@ class Curve:
             nodes = sigma[var, None] * _GL_TAU[None, :]
             th = theta0[var, None] + polyval_rows(self._th[piece[var]][:, None, :], nodes)
             scale = self.direction * sigma[var]
-            dx[var] = scale * (np.cos(th) @ _GL_W)
-            dy[var] = scale * (np.sin(th) @ _GL_W)
+            dx[var] = scale * np.einsum("ij,j->i", np.cos(th), _GL_W)
+            dy[var] = scale * np.einsum("ij,j->i", np.sin(th), _GL_W)
         return dx, dy, dth
 
     def piece_at(self, s_m: FloatArray) -> NDArray[np.int64]:
@@ -158,8 +157,18 @@ class Curve:
         return Pose(float(e.x_m[0]), float(e.y_m[0]), float(e.theta_rad[0]))
 
     def piece_bounds(self) -> FloatArray:
-        """(pieces, 3): max |κ|, max |dκ/ds| and max |d²κ/ds²| on each piece (sampled, 65 points a piece)."""
+        """(pieces, 3): upper bounds of |κ|, |dκ/ds| and |d²κ/ds²| on each piece.
+
+        Each is the largest of 65 samples plus δ²/8 times the largest sample of its second derivative (δ the
+        spacing): between two samples a smooth f exceeds the larger by at most δ²/8 · max |f''|.
+        """
         u = np.linspace(0.0, 1.0, _BOUND_SAMPLES)
         sigma = self.lengths_m[:, None] * u[None, :]
-        rows = [np.max(np.abs(polyval_rows(c[:, None, :], sigma)), axis=1) for c in (self._k, self._dk, self._ddk)]
-        return np.column_stack(rows)
+        slack = (self.lengths_m / (_BOUND_SAMPLES - 1)) ** 2 / 8.0
+
+        def peak(c: FloatArray) -> FloatArray:
+            out: FloatArray = np.max(np.abs(polyval_rows(c[:, None, :], sigma)), axis=1)
+            return out
+
+        pairs = ((self._k, self._ddk), (self._dk, self._d3k), (self._ddk, self._d4k))
+        return np.column_stack([peak(f) + slack * peak(f2) for f, f2 in pairs])

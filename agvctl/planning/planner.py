@@ -31,11 +31,11 @@ from agvctl.planning.geometry import Pose, segment_kinematics
 from agvctl.planning.joins import JoinWindow, design_join
 from agvctl.planning.profile import _Solver, rest_to_rest
 from agvctl.planning.reference import Motion, Reference
-from agvctl.planning.spec import PathSpec, Segment, WheelLimits, load_path, resolve_limits
+from agvctl.planning.spec import PathSpec, Segment, Waypoint, WheelLimits, load_path, resolve_limits
 from agvctl.planning.speed import SectionLimits, plan_speed, section_limits
 from agvctl.planning.waypoints import waypoint_curve
 
-__all__ = ["plan", "plan_file", "plan_segments"]
+__all__ = ["plan", "plan_file", "plan_segments", "plan_waypoints"]
 
 Join = Literal["smooth", "stop"]
 _Part = tuple[int, float, float, float | None]  # segment index, distance, curvature, speed cap
@@ -65,8 +65,7 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
               "sample_period_s": vehicle.control.sample_period_s, "name": spec.name}
     try:
         if spec.waypoints:
-            curve, s_i, deviation = waypoint_curve(spec.waypoints, source=spec.source)
-            return _plan_curve(curve, s_i, deviation, **common)  # type: ignore[arg-type]
+            return plan_waypoints(spec.waypoints, source=spec.source, **common)  # type: ignore[arg-type]
         return plan_segments(spec.segments, start_pose=Pose.from_start(spec.start), join=spec.join,
                              **common)  # type: ignore[arg-type]
     except _Failure as exc:
@@ -122,16 +121,16 @@ def plan_segments(
     for kind, direction, parts in _groups(segments, join):
         try:
             if kind == "spin":
-                motion = _spin(parts, direction, pose, t, limits, half_b, solver)
+                new = [_spin(parts, direction, pose, t, limits, half_b, solver)]
             else:
-                motion, dev = _path(parts, direction, pose, t, limits, half_b, solver)
+                new, dev = _paths(parts, direction, pose, t, limits, half_b, solver)
                 deviation = max(deviation, dev)
         except _Failure:
             raise
         except (PlanningError, ValueError, ArithmeticError) as exc:
             raise _Failure(f"segments[{parts[0][0]}]", f"cannot be planned: {exc}") from None
-        motions.append(motion)
-        t, pose = motion.t_end_s, motion.end_pose
+        motions += new
+        t, pose = new[-1].t_end_s, new[-1].end_pose
     return Reference(name=name, motions=motions, limits=limits, separation_m=separation_m,
                      sample_period_s=sample_period_s, start_pose=motions[0].start_pose,
                      segment_count=len(segments), geometry_deviation_m=deviation)
@@ -154,10 +153,22 @@ def _spin(parts: list[_Part], direction: int, pose: Pose, t: float, limits: Whee
                   segment_starts=_starts([p[1] for p in parts]))
 
 
-def _windows(parts: list[_Part], limits: WheelLimits, half_b: float) -> list[JoinWindow | None]:
-    """The smooth join after each part (``None`` where the curvature does not change, and after the last)."""
+def _worth_driving(w: JoinWindow, speed: float, cap: float | None, kappa_max: float, limits: WheelLimits,
+                   half_b: float) -> bool:
+    """Whether crossing a window at its speed limit is quicker than driving the corner with a stop instead:
+    the window's length at ``speed`` plus what braking to rest and starting again add (speed/a + a/j with the
+    wheel limits divided by F = 1 + |κ| b/2 of the sharper neighbour)."""
+    lim = section_limits(w.length_m, w.bounds, cap, limits, half_b)
+    f = 1.0 + kappa_max * half_b
+    a, j = limits.wheel_accel_m_s2 / f, limits.wheel_jerk_m_s3 / f
+    return w.length_m / lim.speed_m_s <= w.length_m / speed + speed / a + a / j
+
+
+def _windows(parts: list[_Part], limits: WheelLimits, half_b: float) -> list[JoinWindow | None | bool]:
+    """The smooth join after each part: ``None`` where the curvature does not change (and after the last),
+    ``False`` where the segments are too short for a join worth driving (the reference stops there)."""
     joins = [parts[k][2] != parts[k + 1][2] for k in range(len(parts) - 1)] + [False]
-    out: list[JoinWindow | None] = []
+    out: list[JoinWindow | None | bool] = []
     for k, has in enumerate(joins):
         if not has:
             out.append(None)
@@ -170,17 +181,33 @@ def _windows(parts: list[_Part], limits: WheelLimits, half_b: float) -> list[Joi
         speeds = [limits.wheel_speed_m_s / (1.0 + abs(p[2]) * half_b) for p in (a, b)]
         caps = [p[3] for p in (a, b) if p[3] is not None]
         cap = min(caps) if caps else None
+        speed = min(speeds + caps)
         try:
-            out.append(design_join(a[2], b[2], speed_m_s=min(speeds + caps), cap_m_s=cap, limits=limits,
-                                   half_b_m=half_b, max_length_m=2.0 * min(room_a, room_b)))
-        except ValueError as exc:
-            raise _Failure(f"segments[{b[0]}]", f"no smooth join from the previous segment ({exc})") from None
+            w = design_join(a[2], b[2], speed_m_s=speed, cap_m_s=cap, limits=limits, half_b_m=half_b,
+                            max_length_m=2.0 * min(room_a, room_b))
+        except ValueError:
+            out.append(False)
+            continue
+        kappa_max = max(abs(a[2]), abs(b[2]))
+        out.append(w if _worth_driving(w, speed, cap, kappa_max, limits, half_b) else False)
     return out
 
 
-def _path(parts: list[_Part], direction: int, pose: Pose, t: float, limits: WheelLimits, half_b: float,
-          solver: _Solver) -> tuple[Motion, float]:
+def _paths(parts: list[_Part], direction: int, pose: Pose, t: float, limits: WheelLimits, half_b: float,
+           solver: _Solver) -> tuple[list[Motion], float]:
+    """The motions of a run of lines and arcs: one, or several where a join is not worth driving."""
     windows = _windows(parts, limits, half_b)
+    if False in windows:
+        k = windows.index(False) + 1
+        first, dev_a = _paths(parts[:k], direction, pose, t, limits, half_b, solver)
+        rest, dev_b = _paths(parts[k:], direction, first[-1].end_pose, first[-1].t_end_s, limits, half_b, solver)
+        return first + rest, max(dev_a, dev_b)
+    return _path(parts, [w if isinstance(w, JoinWindow) else None for w in windows], direction, pose, t,
+                 limits, half_b, solver)
+
+
+def _path(parts: list[_Part], windows: list[JoinWindow | None], direction: int, pose: Pose, t: float,
+          limits: WheelLimits, half_b: float, solver: _Solver) -> tuple[list[Motion], float]:
     lengths: list[float] = []
     coeffs: list[list[float]] = []
     sections: list[tuple[float, tuple[float, float, float], float | None, int]] = []
@@ -208,7 +235,7 @@ def _path(parts: list[_Part], direction: int, pose: Pose, t: float, limits: Whee
     motion = _motion(curve, limits_s, [s[3] for s in sections], "segments", solver, t,
                      tuple(p[0] for p in parts), _starts([p[1] for p in parts]))
     deviation = max((w.deviation_m for w in windows if w is not None), default=0.0)
-    return motion, deviation
+    return [motion], deviation
 
 
 def _pad(rows: list[list[float]]) -> np.ndarray:
@@ -232,9 +259,19 @@ def _motion(curve: Curve, sections: list[SectionLimits], owners: list[int], key:
                   curve=curve)
 
 
-def _plan_curve(curve: Curve, s_i: np.ndarray, deviation: float, *, limits: WheelLimits, separation_m: float,
-                sample_period_s: float, name: str) -> Reference:
-    """Plan a waypoint path's curve: sections of :data:`WAYPOINT_SECTION_PIECES` pieces."""
+def plan_waypoints(
+    waypoints: Sequence[Waypoint],
+    *,
+    limits: WheelLimits,
+    separation_m: float,
+    sample_period_s: float,
+    name: str = "path",
+    source: str = "<path>",
+) -> Reference:
+    """Plan a path through waypoints with explicit limits (no vehicle file): one motion, its speed planned on
+    sections of :data:`WAYPOINT_SECTION_PIECES` curve pieces. Bad waypoints raise a one-line
+    :class:`ConfigError` naming ``source``; a failure to plan a :class:`PlanningError` naming the waypoint."""
+    curve, s_i, deviation = waypoint_curve(waypoints, source=source)
     half_b = 0.5 * separation_m
     bounds = curve.piece_bounds()
     n = len(curve.lengths_m)

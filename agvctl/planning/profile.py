@@ -8,6 +8,7 @@ they are computed by a network service): each profile is one local ``calculate``
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -58,13 +59,14 @@ class JerkProfile:
 
     def min_velocity(self) -> float:
         """The lowest q̇ over the profile (at a phase end, or where q̈ = 0 inside a phase)."""
-        tau, j, v0, a0 = self.phase_durations_s, self.jerk, self.v0, self.a0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t_star = np.where(j != 0, -a0 / np.where(j != 0, j, 1.0), -1.0)
-        inside = (t_star > 0) & (t_star < tau)
-        v_in = np.where(inside, v0 + a0 * t_star + 0.5 * j * t_star**2, np.inf)
-        v_end = v0 + a0 * tau + 0.5 * j * tau**2
-        return float(min(np.min(v0), np.min(v_end), np.min(v_in)))
+        lowest = math.inf
+        for tau, j, v0, a0 in zip(self.phase_durations_s.tolist(), self.jerk.tolist(), self.v0.tolist(),
+                                  self.a0.tolist(), strict=True):  # seven phases: plain floats are faster
+            lowest = min(lowest, v0, v0 + a0 * tau + 0.5 * j * tau * tau)
+            t_star = -a0 / j if j != 0 else -1.0
+            if 0 < t_star < tau:
+                lowest = min(lowest, v0 + a0 * t_star + 0.5 * j * t_star * t_star)
+        return lowest
 
 
 class _Solver:
@@ -128,7 +130,11 @@ def between(
     s.inp.max_velocity = [max_velocity * keep]
     s.inp.max_acceleration = [max_acceleration * keep]
     s.inp.max_jerk = [max_jerk * keep]
-    result = s.otg.calculate(s.inp, s.traj)
+    try:
+        result = s.otg.calculate(s.inp, s.traj)
+    except (ruckig.RuckigError, RuntimeError) as exc:  # its input check: a multi-line message, keep one line
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise PlanningError(f"Ruckig refused the profile over {distance:g} ({first})") from None
     if result not in (ruckig.Result.Working, ruckig.Result.Finished):
         raise PlanningError(f"Ruckig could not plan {distance:g} within the limits ({result})")
     prof = s.traj.profiles[0][0]

@@ -33,9 +33,11 @@ from agvctl.planning.spec import WheelLimits
 
 __all__ = ["CURVATURE_SHARE", "SectionLimits", "plan_speed", "section_limits"]
 
-CURVATURE_SHARE = 0.75
+CURVATURE_SHARE = 0.85
 """Largest share of the wheel acceleration (and of the jerk) the change of curvature may take on a section;
-the rest is left for changing speed along it."""
+the rest is left for changing speed along it. Through a smooth join the speed is held at about the
+neighbours' speed, so most of the budget goes to the curvature (0.5 and 0.75 made the slalom 15 % and 3 %
+slower)."""
 
 
 @dataclass(frozen=True)

@@ -58,7 +58,8 @@ def _gram(t: FloatArray, nu: int) -> FloatArray:
     u = (0.5 * (b - a) * (_GL_X + 1.0) + a).ravel()
     w = (0.5 * (b - a) * _GL_W).ravel()
     d = _basis(t, u, nu)
-    return (d * w[:, None]).T @ d
+    gram: FloatArray = np.einsum("ki,k,kj->ij", d, w, d)  # einsum: no BLAS threads for a small product
+    return gram
 
 
 def _fit(points: FloatArray, headings: Sequence[float | None]) -> tuple[BSpline, FloatArray]:
