@@ -41,7 +41,8 @@ Join = Literal["smooth", "stop"]
 _Part = tuple[int, float, float, float | None]  # segment index, distance, curvature, speed cap
 
 WAYPOINT_SECTION_PIECES = 4
-"""Curve pieces per speed section of a waypoint path (a quarter of a waypoint interval)."""
+"""Curve pieces per speed section of a waypoint path (a quarter of a waypoint interval). Merging neighbouring
+sections whose limits differ by < 5 % was measured: fewer returns of s̈ to zero, but 8-20 % longer durations."""
 
 
 class _Failure(PlanningError):
