@@ -264,3 +264,15 @@ def test_help(capsys):
         main(["plan", "--help"])
     assert exc.value.code == 0
     assert "--force" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("text", "key"),
+    [
+        (_g("length_m = 1.0", "length_m = 1e12"), "segments[0]"),  # Ruckig refuses the profile
+        (_g("length_m = 1.0", "length_m = 1.0\nspeed_m_s = 1e-300"), "segments[0]"),
+    ],
+)
+def test_planning_failure_is_one_line(tmp_path, capsys, text, key):
+    code, err, path = _bad(tmp_path, capsys, text)
+    _assert_one_line(code, err, path, key, "cannot be planned")

@@ -94,8 +94,10 @@ class Curve:
         coeffs = np.atleast_2d(np.asarray(curvature_coeffs, dtype=float))
         if len(lengths) == 0 or len(lengths) != len(coeffs) or not np.all(lengths > 0):
             raise ValueError("Curve: one positive length per row of coefficients is required")
-        c = np.zeros((len(lengths), DEGREE + 1))
-        c[:, : coeffs.shape[1]] = coeffs
+        if coeffs.shape[1] > DEGREE + 1:
+            raise ValueError(f"Curve: curvature polynomials of degree at most {DEGREE}")
+        used = np.flatnonzero(np.any(coeffs != 0, axis=0))
+        c = coeffs[:, : (used[-1] + 1 if used.size else 1)].copy()  # Horner only over the powers in use
         self.direction = int(direction)
         self.lengths_m = lengths
         self.s0_m = np.concatenate(([0.0], np.cumsum(lengths)[:-1]))

@@ -58,7 +58,7 @@ def _gram(t: FloatArray, nu: int) -> FloatArray:
     u = (0.5 * (b - a) * (_GL_X + 1.0) + a).ravel()
     w = (0.5 * (b - a) * _GL_W).ravel()
     d = _basis(t, u, nu)
-    gram: FloatArray = np.einsum("ki,k,kj->ij", d, w, d)  # einsum: no BLAS threads for a small product
+    gram: FloatArray = np.einsum("ki,kj->ij", d * w[:, None], d)  # einsum: no BLAS threads, small product
     return gram
 
 
