@@ -46,6 +46,7 @@ def test_json_summary(capsys):
         "peak_wheel_speed_m_s",
         "peak_wheel_accel_m_s2",
         "peak_wheel_jerk_m_s3",
+        "geometry_deviation_m",
         "final_pose",
     }
     assert set(out["final_pose"]) == {"x_m", "y_m", "theta_rad"}
@@ -166,6 +167,34 @@ def test_bad_path_file(tmp_path, capsys, text, key, words):
     _assert_one_line(code, err, path, key, *words)
 
 
+def _wp(*points: str) -> str:
+    return 'name = "w"\n' + "".join(f"[[waypoints]]\n{p}\n" for p in points)
+
+
+@pytest.mark.parametrize(
+    ("text", "key", "words"),
+    [
+        (_wp("x_m = 0\ny_m = 0"), "waypoints", ("at least 2 waypoints", "got 1")),
+        ('name = "w"\nwaypoints = []\n', "waypoints", ("at least 2 waypoints", "got 0")),
+        (_wp("x_m = 0\ny_m = 0", "x_m = 1\ny_m = 0", "x_m = 1\ny_m = 0"), "waypoints[2]", ("same point",)),
+        (_wp("x_m = 0\ny_m = 0", "x_m = nan\ny_m = 0"), "waypoints[1].x_m", ("must be finite",)),
+        (_wp("x_m = 0\ny_m = 0", "y_m = 1"), "waypoints[1].x_m", ("missing key",)),
+        (_wp("x_m = 0\ny_m = 0\ntheta_deg = 180", "x_m = 1\ny_m = 0"), "waypoints[0].theta_deg", ("cusp",)),
+        (_wp("x_m = 0\ny_m = 0", "x_m = 1\ny_m = 0\ntheta_deg = 180", "x_m = 2\ny_m = 0"),
+         "waypoints[1].theta_deg", ("cusp",)),
+        (_wp("x_m = 0\ny_m = 0", "x_m = 1\ny_m = 0\nheading_deg = 5"), "waypoints[1].heading_deg",
+         ("unknown key",)),
+        (_wp("x_m = 0\ny_m = 0", "x_m = 1\ny_m = 0") + '[[segments]]\ntype = "line"\nlength_m = 1\n',
+         "waypoints", ("not both",)),
+        ('start = { x_m = 1.0 }\n' + _wp("x_m = 0\ny_m = 0", "x_m = 1\ny_m = 0"), "start", ("first waypoint",)),
+        (_g('name = "t"', 'name = "t"\njoin = "smoothly"'), "join", ("must be one of", "'stop'")),
+    ],
+)
+def test_bad_waypoint_file(tmp_path, capsys, text, key, words):
+    code, err, path = _bad(tmp_path, capsys, text)
+    _assert_one_line(code, err, path, key, *words)
+
+
 @pytest.mark.parametrize(
     ("text", "key", "values"),
     [
@@ -235,3 +264,15 @@ def test_help(capsys):
         main(["plan", "--help"])
     assert exc.value.code == 0
     assert "--force" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("text", "key"),
+    [
+        (_g("length_m = 1.0", "length_m = 1e12"), "segments[0]"),  # Ruckig refuses the profile
+        (_g("length_m = 1.0", "length_m = 1.0\nspeed_m_s = 1e-300"), "segments[0]"),
+    ],
+)
+def test_planning_failure_is_one_line(tmp_path, capsys, text, key):
+    code, err, path = _bad(tmp_path, capsys, text)
+    _assert_one_line(code, err, path, key, "cannot be planned")

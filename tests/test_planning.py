@@ -78,8 +78,10 @@ def test_wheel_limits_hold_by_finite_differences(shipped, vehicle):
         assert np.max(np.abs(a)) <= a_lim * 1.001
         assert np.max(np.abs(j)) <= j_lim * 1.01
         peak_a = max(peak_a, np.max(np.abs(a)))
-    # the limits are used, not just respected: the outer wheel reaches the acceleration limit on every path
-    assert peak_a >= 0.98 * a_lim
+    # the limits are used, not just respected: the outer wheel reaches the acceleration limit on every segment
+    # path (a waypoint path's curvature changes all along, and takes a share of the acceleration everywhere)
+    if "segments" in load_toml(path):
+        assert peak_a >= 0.98 * a_lim
     # the planner's own numbers agree with the differences (mid-point speeds)
     mid = ref.sample(t[:-1] + DT / 2)
     v_l, v_r = _wheel_speeds_by_differences(s.x_m, s.y_m, s.theta_rad, DT)
@@ -114,6 +116,9 @@ def _geometric_end(path: Path) -> tuple[float, float, float]:
     """Compose the file's segments with complex numbers, rotating about each arc's centre (independent of the
     planner's chord formula)."""
     data = load_toml(path)
+    if "waypoints" in data:  # the last waypoint, and its heading
+        last = data["waypoints"][-1]
+        return last["x_m"], last["y_m"], math.radians(last.get("theta_deg", math.nan))
     start = data.get("start", {})
     z = complex(start.get("x_m", 0.0), start.get("y_m", 0.0))
     th = math.radians(start.get("theta_deg", 0.0))
@@ -136,11 +141,11 @@ def test_final_pose_is_the_geometric_end(shipped):
     for t_end in (ref.duration_s, ref.duration_s + 1.0, ref.grid_times_s[-1]):
         s = ref.sample([t_end])
         assert math.hypot(s.x_m[0] - x, s.y_m[0] - y) <= 1e-3
-        assert abs(s.theta_rad[0] - th) <= math.radians(0.1)
+        assert abs(math.remainder(s.theta_rad[0] - th, 2 * math.pi)) <= math.radians(0.1) or math.isnan(th)
         assert s.wheel_speed_left_m_s[0] == 0 and s.wheel_speed_right_m_s[0] == 0
     pose = ref.final_pose
     assert math.hypot(pose.x_m - x, pose.y_m - y) <= 1e-3
-    assert abs(pose.theta_rad - th) <= math.radians(0.1)
+    assert abs(math.remainder(pose.theta_rad - th, 2 * math.pi)) <= math.radians(0.1) or math.isnan(th)
 
 
 def test_known_ends():
@@ -240,7 +245,7 @@ def test_time_optimal_for_random_limits(d, v, a, j, spin):
 # joining rule, speed caps, the Reference API
 
 
-def test_segments_with_equal_curvature_merge_and_curvature_jumps_stop():
+def test_join_stop_merges_equal_curvatures_and_stops_at_curvature_jumps():
     segs = [
         LineSegment(length_m=1.0),
         LineSegment(length_m=1.0),
@@ -249,8 +254,11 @@ def test_segments_with_equal_curvature_merge_and_curvature_jumps_stop():
         ArcSegment(radius_m=1.0, angle_deg=-90),
         TurnSegment(angle_deg=30),
     ]
-    ref = plan_segments(segs, limits=LIMITS, separation_m=B, sample_period_s=0.04)
+    ref = plan_segments(segs, limits=LIMITS, separation_m=B, sample_period_s=0.04, join="stop")
     assert [m.segment_indices for m in ref.motions] == [(0, 1), (2, 3), (4,), (5,)]
+    # the default drives through the curvature changes and stops only for the turn in place
+    smooth = plan_segments(segs, limits=LIMITS, separation_m=B, sample_period_s=0.04)
+    assert [m.segment_indices for m in smooth.motions] == [(0, 1, 2, 3, 4), (5,)]
     # the merged line is one rest-to-rest motion over 2 m
     assert ref.motions[0].duration_s == pytest.approx(
         closed_form_rest_to_rest(2.0, 0.8, 0.657, 3.0), rel=1e-6

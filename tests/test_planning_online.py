@@ -91,3 +91,29 @@ def test_for_vehicle_defaults(vehicle):
         cmd.sample_period_s == vehicle.control.sample_period_s
         and cmd.separation_m == vehicle.wheels.separation_m
     )
+
+
+def test_streaming_a_smooth_path_follows_it_within_the_limits(vehicle):
+    # the online mode fed the smooth figure-8's (U, ω) on the control grid, one period at a time
+    from pathlib import Path
+
+    from agvctl.planning import load_path, plan
+
+    path = Path(__file__).resolve().parents[1] / "trajectories" / "figure8.toml"
+    ref = plan(load_path(path), vehicle)
+    lim = ref.limits
+    cmd = VelocityCommandPlanner.for_vehicle(vehicle, lim)
+    g = ref.grid
+    out = [cmd.step(u, w) for u, w in zip(g.speed_m_s[1:], g.yaw_rate_rad_s[1:], strict=True)]
+    v = np.array([[c.wheel_speed_left_m_s, c.wheel_speed_right_m_s] for c in out])
+    a = np.array([[c.wheel_accel_left_m_s2, c.wheel_accel_right_m_s2] for c in out])
+    assert not any(c.saturated for c in out)  # the smooth reference is within the wheel speed limit
+    assert np.max(np.abs(v)) <= lim.wheel_speed_m_s and np.max(np.abs(a)) <= lim.wheel_accel_m_s2 * (1 + 1e-9)
+    # a jerk-limited follower of a target accelerating at up to a lags by at most a·(T_s + a/j)
+    ref_v = np.column_stack([g.wheel_speed_left_m_s[1:], g.wheel_speed_right_m_s[1:]])
+    lag = lim.wheel_accel_m_s2 * (TS + lim.wheel_accel_m_s2 / lim.wheel_jerk_m_s3)
+    assert np.max(np.abs(v - ref_v)) <= lag
+    # and comes to rest within a lag of the reference's end
+    settle = round((lim.wheel_accel_m_s2 / lim.wheel_jerk_m_s3 + lag / lim.wheel_accel_m_s2) / TS) + 2
+    last = [cmd.step(0.0, 0.0) for _ in range(settle)][-1]
+    assert abs(last.wheel_speed_left_m_s) < 1e-9 and abs(last.wheel_speed_right_m_s) < 1e-9

@@ -1,4 +1,5 @@
-"""Trajectory planning: path files → time-optimal, jerk-limited references within the wheel limits (Ruckig).
+"""Trajectory planning: path files (segments with smooth joins, or waypoints) → time-optimal, jerk-limited
+references within the wheel limits (Ruckig).
 
 Offline::
 
@@ -17,7 +18,7 @@ Ruckig's intermediate waypoints are never used (the free edition computes them w
 
 from agvctl.planning.geometry import Pose, advance, path_end_pose, segment_end_pose
 from agvctl.planning.online import VelocityCommandPlanner, WheelCommand
-from agvctl.planning.planner import plan, plan_file, plan_segments
+from agvctl.planning.planner import plan, plan_file, plan_segments, plan_waypoints
 from agvctl.planning.profile import JerkProfile, rest_to_rest
 from agvctl.planning.reference import CSV_COLUMNS, Motion, Reference, ReferenceSamples
 from agvctl.planning.spec import (
@@ -29,6 +30,7 @@ from agvctl.planning.spec import (
     Segment,
     StartPose,
     TurnSegment,
+    Waypoint,
     WheelLimits,
     default_jerk_limit_m_s3,
     load_path,
@@ -51,6 +53,7 @@ __all__ = [
     "StartPose",
     "TurnSegment",
     "VelocityCommandPlanner",
+    "Waypoint",
     "WheelCommand",
     "WheelLimits",
     "advance",
@@ -60,6 +63,7 @@ __all__ = [
     "plan",
     "plan_file",
     "plan_segments",
+    "plan_waypoints",
     "resolve_limits",
     "rest_to_rest",
     "segment_end_pose",

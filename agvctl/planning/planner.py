@@ -1,56 +1,101 @@
 """The offline planner: a path file's geometry → a time-optimal, wheel-limited :class:`Reference`.
 
-Joining rule: the reference **stops wherever the curvature or the direction of travel changes** (line → arc,
-arc → turn, left arc → right arc, forward → reverse), because the wheel speeds v = U(1 ± κ b/2) cannot jump
-while U ≠ 0. Consecutive segments with the same curvature, direction and speed cap form one *motion* driven
-without stopping. Each motion is one rest-to-rest Ruckig profile of a single coordinate q (distance for a
-line or an arc, heading for a turn) whose limits are the wheel limits mapped through the curvature:
+Joining rule (``join = "smooth"``, the default): the reference stops only where the direction of travel
+reverses, at a turn in place, and at the end. Where the curvature changes between consecutive lines and arcs,
+a smooth join (:mod:`agvctl.planning.joins`) replaces the corner, so the wheel speeds, accelerations and jerks
+stay continuous or bounded while driving through. A waypoint path (:mod:`agvctl.planning.waypoints`) is one
+motion. The speed along each motion is planned by :mod:`agvctl.planning.speed`: a velocity limit per
+section, forward and backward passes, and one Ruckig profile per section.
 
-    path:  |v_l|, |v_r| = |U| (1 ± κ b/2)  ⇒  q̇_max = v_wheel / (1 + |κ| b/2)  (same for q̈, q⃛)
-    spin:  |v_l| = |v_r| = |ω| b/2         ⇒  q̇_max = v_wheel / (b/2)
+``join = "stop"`` keeps the earlier rule: the reference stops wherever the curvature or the direction of
+travel changes; consecutive segments with the same curvature, direction and speed cap form one motion, one
+rest-to-rest Ruckig profile whose limits are the wheel limits divided by 1 + |κ| b/2 (b/2 for a turn).
 
-so each motion is time-optimal for itself and every wheel limit holds everywhere, joins included (both wheels
-are at rest there). Why one coordinate rather than the two wheels as phase-synchronised Ruckig degrees of
-freedom: both give the same durations (the wheel profiles are scaled copies of one another), and the single
-coordinate is about twice as fast to compute and keeps the path exactly on its geometry by construction; see
-``experiments/benchmarks/planning.py`` for the measurement.
+A failure to plan (Ruckig, or a pass) is one line naming the segment or waypoint: a
+:class:`~agvctl.errors.PlanningError` from :func:`plan_segments`, a :class:`~agvctl.errors.ConfigError`
+naming the file too from :func:`plan`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Literal
 
+import numpy as np
+
+from agvctl.errors import ConfigError, PlanningError
 from agvctl.params import VehicleParams, load_vehicle
-from agvctl.planning.geometry import Pose, advance, segment_kinematics
+from agvctl.planning.curve import Curve
+from agvctl.planning.geometry import Pose, segment_kinematics
+from agvctl.planning.joins import JoinWindow, design_join
 from agvctl.planning.profile import _Solver, rest_to_rest
 from agvctl.planning.reference import Motion, Reference
-from agvctl.planning.spec import PathSpec, Segment, WheelLimits, load_path, resolve_limits
+from agvctl.planning.spec import PathSpec, Segment, Waypoint, WheelLimits, load_path, resolve_limits
+from agvctl.planning.speed import SectionLimits, plan_speed, section_limits
+from agvctl.planning.waypoints import waypoint_curve
 
-__all__ = ["plan", "plan_file", "plan_segments"]
+__all__ = ["plan", "plan_file", "plan_segments", "plan_waypoints"]
+
+Join = Literal["smooth", "stop"]
+_Part = tuple[int, float, float, float | None]  # segment index, distance, curvature, speed cap
+
+WAYPOINT_SECTION_PIECES = 8
+"""Curve pieces per speed section of a waypoint path (half a waypoint interval). Measured: a quarter planned
+0.3-0.8 % shorter durations for twice the Ruckig calls; merging neighbouring sections whose limits differ by
+< 5 % fewer returns of s̈ to zero, but 8-20 % longer durations."""
+
+
+class _Failure(PlanningError):
+    """A planning failure with the file key it belongs to (``segments[i]`` or ``waypoints[i]``)."""
+
+    def __init__(self, key: str, problem: str) -> None:
+        super().__init__(f"{key}: {problem}")
+        self.key, self.problem = key, problem
 
 
 def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = False) -> Reference:
     """Plan the reference of a path for a vehicle (default: the shipped IAU AGV).
 
     The path's limits are resolved against the vehicle (see :func:`~agvctl.planning.spec.resolve_limits`;
-    ``force`` turns a physically impossible limit from an error into a warning).
+    ``force`` turns a physically impossible limit from an error into a warning). A failure to plan raises a
+    one-line :class:`ConfigError` naming the file and the segment or waypoint.
     """
     vehicle = vehicle if vehicle is not None else load_vehicle()
     limits = resolve_limits(spec, vehicle, force=force)
-    return plan_segments(
-        spec.segments,
-        limits=limits,
-        separation_m=vehicle.wheels.separation_m,
-        sample_period_s=vehicle.control.sample_period_s,
-        start_pose=Pose.from_start(spec.start),
-        name=spec.name,
-    )
+    common = {"limits": limits, "separation_m": vehicle.wheels.separation_m,
+              "sample_period_s": vehicle.control.sample_period_s, "name": spec.name}
+    try:
+        if spec.waypoints:
+            return plan_waypoints(spec.waypoints, source=spec.source, **common)  # type: ignore[arg-type]
+        return plan_segments(spec.segments, start_pose=Pose.from_start(spec.start), join=spec.join,
+                             **common)  # type: ignore[arg-type]
+    except _Failure as exc:
+        raise ConfigError(spec.source, exc.key, exc.problem) from None
 
 
 def plan_file(path: str | Path, vehicle: VehicleParams | None = None, *, force: bool = False) -> Reference:
     """:func:`~agvctl.planning.spec.load_path` then :func:`plan`."""
     return plan(load_path(path), vehicle, force=force)
+
+
+def _groups(segments: Sequence[Segment], join: Join) -> list[tuple[str, int, list[_Part]]]:
+    """Consecutive segments driven without stopping: ``(kind, direction, parts)``."""
+    groups: list[tuple[str, int, list[_Part]]] = []
+    for i, seg in enumerate(segments):
+        kind, distance, curvature, direction = segment_kinematics(seg)
+        part = (i, distance, curvature, seg.speed_m_s)
+        if groups:
+            g_kind, g_dir, parts = groups[-1]
+            last = parts[-1]
+            same = (kind, direction) == (g_kind, g_dir)
+            if kind == "spin" or join == "stop":
+                same = same and (curvature, seg.speed_m_s) == (last[2], last[3])
+            if same:
+                parts.append(part)
+                continue
+        groups.append((kind, direction, [part]))
+    return groups
 
 
 def plan_segments(
@@ -61,68 +106,188 @@ def plan_segments(
     sample_period_s: float,
     start_pose: Pose | None = None,
     name: str = "path",
+    join: Join = "smooth",
 ) -> Reference:
     """Plan segments with explicit limits and geometry (no vehicle file): the core of :func:`plan`.
 
-    ``start_pose`` defaults to the origin, heading along x.
+    ``start_pose`` defaults to the origin, heading along x. Raises a one-line :class:`PlanningError`
+    naming the segment (``segments[i]: …``) if a motion cannot be planned.
     """
     if not segments:
         raise ValueError("plan_segments: at least one segment is required")
     half_b = 0.5 * separation_m
-    start_pose = start_pose if start_pose is not None else Pose(0.0, 0.0, 0.0)
+    pose = start_pose if start_pose is not None else Pose(0.0, 0.0, 0.0)
     solver = _Solver()
-
-    # group consecutive segments that can be driven without stopping
-    runs: list[tuple[str, float, int, float | None, float, list[int]]] = []
-    for i, seg in enumerate(segments):
-        kind, distance, curvature, direction = segment_kinematics(seg)
-        cap = seg.speed_m_s
-        if runs:
-            r_kind, r_curv, r_dir, r_cap, r_dist, r_idx = runs[-1]
-            if (kind, curvature, direction, cap) == (r_kind, r_curv, r_dir, r_cap):
-                runs[-1] = (r_kind, r_curv, r_dir, r_cap, r_dist + distance, [*r_idx, i])
-                continue
-        runs.append((kind, curvature, direction, cap, distance, [i]))
-
     motions: list[Motion] = []
-    t, pose = 0.0, start_pose
-    for kind, curvature, direction, cap, distance, indices in runs:
-        if kind == "path":
-            factor = 1.0 + abs(curvature) * half_b
-            v_max = limits.wheel_speed_m_s / factor
-            if cap is not None:
-                v_max = min(v_max, cap)  # the cap is on the path speed U
-            end = advance(pose, displacement_m=direction * distance, curvature_1_m=curvature)
-        else:
-            factor = half_b
-            v_max = (limits.wheel_speed_m_s if cap is None else min(cap, limits.wheel_speed_m_s)) / factor
-            end = Pose(pose.x_m, pose.y_m, pose.theta_rad + direction * distance)
-        profile = rest_to_rest(
-            distance,
-            max_velocity=v_max,
-            max_acceleration=limits.wheel_accel_m_s2 / factor,
-            max_jerk=limits.wheel_jerk_m_s3 / factor,
-            solver=solver,
-        )
-        motions.append(Motion(
-            kind="path" if kind == "path" else "spin",
-            segment_indices=tuple(indices),
-            t_start_s=t,
-            start_pose=pose,
-            end_pose=end,
-            curvature_1_m=curvature,
-            direction=direction,
-            wheel_factor=factor,
-            profile=profile,
-        ))
-        t += profile.duration_s
-        pose = end
-    return Reference(
-        name=name,
-        motions=motions,
-        limits=limits,
-        separation_m=separation_m,
-        sample_period_s=sample_period_s,
-        start_pose=start_pose,
-        segment_count=len(segments),
-    )
+    t, deviation = 0.0, 0.0
+    for kind, direction, parts in _groups(segments, join):
+        try:
+            if kind == "spin":
+                new = [_spin(parts, direction, pose, t, limits, half_b, solver)]
+            else:
+                new, dev = _paths(parts, direction, pose, t, limits, half_b, solver)
+                deviation = max(deviation, dev)
+        except _Failure:
+            raise
+        except (PlanningError, ValueError, ArithmeticError) as exc:
+            raise _Failure(f"segments[{parts[0][0]}]", f"cannot be planned: {exc}") from None
+        motions += new
+        t, pose = new[-1].t_end_s, new[-1].end_pose
+    return Reference(name=name, motions=motions, limits=limits, separation_m=separation_m,
+                     sample_period_s=sample_period_s, start_pose=motions[0].start_pose,
+                     segment_count=len(segments), geometry_deviation_m=deviation)
+
+
+def _starts(lengths: Sequence[float]) -> tuple[float, ...]:
+    return tuple(float(x) for x in np.concatenate(([0.0], np.cumsum(lengths)[:-1])))
+
+
+def _spin(parts: list[_Part], direction: int, pose: Pose, t: float, limits: WheelLimits, half_b: float,
+          solver: _Solver) -> Motion:
+    distance = sum(p[1] for p in parts)
+    cap = parts[0][3]
+    v = limits.wheel_speed_m_s if cap is None else min(cap, limits.wheel_speed_m_s)
+    profile = rest_to_rest(distance, max_velocity=v / half_b, max_acceleration=limits.wheel_accel_m_s2 / half_b,
+                           max_jerk=limits.wheel_jerk_m_s3 / half_b, solver=solver)
+    end = Pose(pose.x_m, pose.y_m, pose.theta_rad + direction * distance)
+    return Motion(kind="spin", segment_indices=tuple(p[0] for p in parts), t_start_s=t, start_pose=pose,
+                  end_pose=end, direction=direction, profiles=(profile,), section_starts=(0.0,),
+                  segment_starts=_starts([p[1] for p in parts]))
+
+
+def _worth_driving(w: JoinWindow, speed: float, cap: float | None, kappa_max: float, limits: WheelLimits,
+                   half_b: float) -> bool:
+    """Whether crossing a window at its speed limit is quicker than driving the corner with a stop instead:
+    the window's length at ``speed`` plus what braking to rest and starting again add (speed/a + a/j with the
+    wheel limits divided by F = 1 + |κ| b/2 of the sharper neighbour)."""
+    lim = section_limits(w.length_m, w.bounds, cap, limits, half_b)
+    f = 1.0 + kappa_max * half_b
+    a, j = limits.wheel_accel_m_s2 / f, limits.wheel_jerk_m_s3 / f
+    return w.length_m / lim.speed_m_s <= w.length_m / speed + speed / a + a / j
+
+
+def _windows(parts: list[_Part], limits: WheelLimits, half_b: float) -> list[JoinWindow | None | bool]:
+    """The smooth join after each part: ``None`` where the curvature does not change (and after the last),
+    ``False`` where the segments are too short for a join worth driving (the reference stops there)."""
+    joins = [parts[k][2] != parts[k + 1][2] for k in range(len(parts) - 1)] + [False]
+    out: list[JoinWindow | None | bool] = []
+    for k, has in enumerate(joins):
+        if not has:
+            out.append(None)
+            continue
+        a, b = parts[k], parts[k + 1]
+        jump = abs(b[2] - a[2])
+        # a segment with joins at both ends shares its length between them in proportion to their jumps
+        room_a = a[1] * (jump / (jump + abs(a[2] - parts[k - 1][2])) if k > 0 and joins[k - 1] else 1.0)
+        room_b = b[1] * (jump / (jump + abs(parts[k + 2][2] - b[2])) if joins[k + 1] else 1.0)
+        speeds = [limits.wheel_speed_m_s / (1.0 + abs(p[2]) * half_b) for p in (a, b)]
+        caps = [p[3] for p in (a, b) if p[3] is not None]
+        cap = min(caps) if caps else None
+        speed = min(speeds + caps)
+        try:
+            w = design_join(a[2], b[2], speed_m_s=speed, cap_m_s=cap, limits=limits, half_b_m=half_b,
+                            max_length_m=2.0 * min(room_a, room_b))
+        except ValueError:
+            out.append(False)
+            continue
+        kappa_max = max(abs(a[2]), abs(b[2]))
+        out.append(w if _worth_driving(w, speed, cap, kappa_max, limits, half_b) else False)
+    return out
+
+
+def _paths(parts: list[_Part], direction: int, pose: Pose, t: float, limits: WheelLimits, half_b: float,
+           solver: _Solver) -> tuple[list[Motion], float]:
+    """The motions of a run of lines and arcs: one, or several where a join is not worth driving."""
+    windows = _windows(parts, limits, half_b)
+    if False in windows:
+        k = windows.index(False) + 1
+        first, dev_a = _paths(parts[:k], direction, pose, t, limits, half_b, solver)
+        rest, dev_b = _paths(parts[k:], direction, first[-1].end_pose, first[-1].t_end_s, limits, half_b, solver)
+        return first + rest, max(dev_a, dev_b)
+    return _path(parts, [w if isinstance(w, JoinWindow) else None for w in windows], direction, pose, t,
+                 limits, half_b, solver)
+
+
+def _path(parts: list[_Part], windows: list[JoinWindow | None], direction: int, pose: Pose, t: float,
+          limits: WheelLimits, half_b: float, solver: _Solver) -> tuple[list[Motion], float]:
+    lengths: list[float] = []
+    coeffs: list[list[float]] = []
+    sections: list[tuple[float, tuple[float, float, float], float | None, int]] = []
+    cut_left = 0.0
+    for k, (index, distance, curvature, cap) in enumerate(parts):
+        w = windows[k]
+        cut_right = 0.5 * w.length_m if w is not None else 0.0
+        straight = distance - cut_left - cut_right
+        if straight > 1e-12 * distance:
+            lengths.append(straight)
+            coeffs.append([curvature])
+            last = sections[-1] if sections else None
+            if last is not None and last[1] == (abs(curvature), 0.0, 0.0) and last[2] == cap:
+                sections[-1] = (last[0] + straight, last[1], cap, last[3])
+            else:
+                sections.append((straight, (abs(curvature), 0.0, 0.0), cap, index))
+        if w is not None:
+            lengths.append(w.length_m)
+            coeffs.append(list(w.coeffs))
+            caps = [c for c in (cap, parts[k + 1][3]) if c is not None]
+            sections.append((w.length_m, w.bounds, min(caps) if caps else None, parts[k + 1][0]))
+        cut_left = cut_right
+    curve = Curve(pose, lengths, _pad(coeffs), direction=direction)
+    limits_s = [section_limits(d, b, c, limits, half_b) for d, b, c, _ in sections]
+    motion = _motion(curve, limits_s, [s[3] for s in sections], "segments", solver, t,
+                     tuple(p[0] for p in parts), _starts([p[1] for p in parts]))
+    deviation = max((w.deviation_m for w in windows if w is not None), default=0.0)
+    return [motion], deviation
+
+
+def _pad(rows: list[list[float]]) -> np.ndarray:
+    width = max(len(r) for r in rows)
+    return np.array([r + [0.0] * (width - len(r)) for r in rows])
+
+
+def _motion(curve: Curve, sections: list[SectionLimits], owners: list[int], key: str, solver: _Solver,
+            t: float, segment_indices: tuple[int, ...], segment_starts: tuple[float, ...]) -> Motion:
+    """Plan the speed along ``curve`` and wrap it as a path motion; a failure names the owner's key."""
+    try:
+        profiles, _ = plan_speed(sections, solver=solver)
+    except PlanningError as exc:
+        k = exc.args[1] if len(exc.args) > 1 else 0
+        raise _Failure(f"{key}[{owners[k]}]", f"cannot be planned: {exc.args[0]}") from None
+    start = curve.evaluate([0.0])
+    pose = Pose(float(start.x_m[0]), float(start.y_m[0]), float(start.theta_rad[0]))
+    return Motion(kind="path", segment_indices=segment_indices, t_start_s=t, start_pose=pose,
+                  end_pose=curve.end_pose(), direction=curve.direction, profiles=tuple(profiles),
+                  section_starts=_starts([s.length_m for s in sections]), segment_starts=segment_starts,
+                  curve=curve)
+
+
+def plan_waypoints(
+    waypoints: Sequence[Waypoint],
+    *,
+    limits: WheelLimits,
+    separation_m: float,
+    sample_period_s: float,
+    name: str = "path",
+    source: str = "<path>",
+) -> Reference:
+    """Plan a path through waypoints with explicit limits (no vehicle file): one motion, its speed planned on
+    sections of :data:`WAYPOINT_SECTION_PIECES` curve pieces. Bad waypoints raise a one-line
+    :class:`ConfigError` naming ``source``; a failure to plan a :class:`PlanningError` naming the waypoint."""
+    curve, s_i, deviation = waypoint_curve(waypoints, source=source)
+    half_b = 0.5 * separation_m
+    bounds = curve.piece_bounds()
+    n = len(curve.lengths_m)
+    sections, owners = [], []
+    for lo in range(0, n, WAYPOINT_SECTION_PIECES):
+        hi = min(n, lo + WAYPOINT_SECTION_PIECES)
+        length = float(np.sum(curve.lengths_m[lo:hi]))
+        sections.append(section_limits(length, tuple(np.max(bounds[lo:hi], axis=0)), None, limits, half_b))
+        owners.append(int(np.searchsorted(s_i, curve.s0_m[lo], side="right")) - 1)
+    try:
+        motion = _motion(curve, sections, owners, "waypoints", _Solver(), 0.0,
+                         tuple(range(len(s_i) - 1)), tuple(float(s) for s in s_i[:-1]))
+    except (ValueError, ArithmeticError) as exc:
+        raise _Failure("waypoints", f"cannot be planned: {exc}") from None
+    return Reference(name=name, motions=[motion], limits=limits, separation_m=separation_m,
+                     sample_period_s=sample_period_s, start_pose=motion.start_pose,
+                     segment_count=len(s_i) - 1, geometry_deviation_m=deviation)

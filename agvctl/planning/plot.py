@@ -1,4 +1,5 @@
-"""A picture of a reference: the path, and the wheel speeds and accelerations against their limits.
+"""A picture of a reference: the path, its curvature against arc length, and the wheel speeds and
+accelerations against their limits.
 
 matplotlib is imported only when a plot is drawn (Agg backend, no pyplot global state).
 """
@@ -18,14 +19,14 @@ __all__ = ["plot_reference", "render_reference_png", "save_reference_plot"]
 
 
 def plot_reference(ref: Reference, *, dense_period_s: float = 0.005) -> Any:
-    """A matplotlib ``Figure`` with three panels: path (x, y), wheel speeds, wheel accelerations."""
+    """A matplotlib ``Figure`` with four panels: path (x, y), curvature κ(s), wheel speeds, wheel accelerations."""
     from matplotlib.figure import Figure
 
     n = max(2, int(np.ceil(ref.duration_s / dense_period_s)) + 1)
     s = ref.sample(np.linspace(0.0, ref.duration_s, n))
     lim = ref.limits
-    fig = Figure(figsize=(6.4, 8.0), layout="constrained")
-    ax_path, ax_v, ax_a = fig.subplots(3, 1, height_ratios=[1.4, 1.0, 1.0])
+    fig = Figure(figsize=(6.4, 10.0), layout="constrained")
+    ax_path, ax_k, ax_v, ax_a = fig.subplots(4, 1, height_ratios=[1.4, 0.8, 1.0, 1.0])
 
     ax_path.plot(s.x_m, s.y_m, color="C0", lw=1.5)
     ax_path.plot(s.x_m[0], s.y_m[0], "o", color="C2", label="start")
@@ -39,6 +40,14 @@ def plot_reference(ref: Reference, *, dense_period_s: float = 0.005) -> Any:
     ax_path.set_title(f"{ref.name}: {ref.path_length_m:.2f} m in {ref.duration_s:.2f} s")
     ax_path.legend(loc="best", fontsize="small")
     ax_path.grid(True, alpha=0.3)
+
+    moving = np.concatenate(([True], np.diff(s.path_length_m) > 0))  # a spin adds no arc length
+    ax_k.plot(s.path_length_m[moving], s.curvature_1_m[moving], color="C0", lw=1.5)
+    ax_k.set_xlabel("arc length s [m]")
+    ax_k.set_ylabel("curvature κ [1/m]")
+    ax_k.set_title(f"largest deviation from the requested path {ref.geometry_deviation_m * 1e3:.1f} mm",
+                   fontsize="small")
+    ax_k.grid(True, alpha=0.3)
 
     for ax, left, right, limit, label in (
         (ax_v, s.wheel_speed_left_m_s, s.wheel_speed_right_m_s, lim.wheel_speed_m_s, "wheel speed [m/s]"),

@@ -1,12 +1,14 @@
 """Time-optimal, jerk-limited rest-to-rest profiles of one coordinate, computed by Ruckig.
 
-A :class:`JerkProfile` is the coordinate q(t) from q = 0 at rest to q = distance at rest, as seven phases of
-constant jerk (some of zero duration). Ruckig's intermediate waypoints are never used (in the free edition
+A :class:`JerkProfile` is the coordinate q(t) from q = 0 to q = distance, at zero acceleration and given
+speeds at both ends (at rest for :func:`rest_to_rest`), as seven phases of constant jerk (some of zero
+duration). Ruckig's intermediate waypoints are never used (in the free edition
 they are computed by a network service): each profile is one local ``calculate`` call.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,7 +16,7 @@ import ruckig
 
 from agvctl.errors import PlanningError
 
-__all__ = ["JerkProfile", "rest_to_rest"]
+__all__ = ["JerkProfile", "between", "rest_to_rest"]
 
 LIMIT_MARGIN = 1e-9
 """Relative margin kept below each limit, so rounding never lifts a wheel above its limit."""
@@ -55,6 +57,17 @@ class JerkProfile:
         j_peak = float(np.max(np.where(tau > 0, np.abs(j), 0.0)))
         return v_peak, a_peak, j_peak
 
+    def min_velocity(self) -> float:
+        """The lowest q̇ over the profile (at a phase end, or where q̈ = 0 inside a phase)."""
+        lowest = math.inf
+        for tau, j, v0, a0 in zip(self.phase_durations_s.tolist(), self.jerk.tolist(), self.v0.tolist(),
+                                  self.a0.tolist(), strict=True):  # seven phases: plain floats are faster
+            lowest = min(lowest, v0, v0 + a0 * tau + 0.5 * j * tau * tau)
+            t_star = -a0 / j if j != 0 else -1.0
+            if 0 < t_star < tau:
+                lowest = min(lowest, v0 + a0 * t_star + 0.5 * j * t_star * t_star)
+        return lowest
+
 
 class _Solver:
     """One reusable 1-DOF Ruckig instance (construction costs more than a calculation)."""
@@ -83,24 +96,52 @@ def rest_to_rest(
     ``solver`` lets a caller planning many profiles reuse one Ruckig instance. Raises :class:`PlanningError`
     if Ruckig cannot find a profile (non-finite or non-positive input).
     """
+    return between(distance, start_velocity=0.0, end_velocity=0.0, max_velocity=max_velocity,
+                   max_acceleration=max_acceleration, max_jerk=max_jerk, solver=solver)
+
+
+def between(
+    distance: float,
+    *,
+    start_velocity: float,
+    end_velocity: float,
+    max_velocity: float,
+    max_acceleration: float,
+    max_jerk: float,
+    solver: _Solver | None = None,
+) -> JerkProfile:
+    """The time-optimal profile from (0, ``start_velocity``, 0) to (``distance``, ``end_velocity``, 0).
+
+    Both speeds must be in [0, max_velocity); the profile never moves backwards. Raises
+    :class:`PlanningError` if Ruckig cannot find a profile within the limits.
+    """
     for name, value in (("distance", distance), ("max_velocity", max_velocity),
                         ("max_acceleration", max_acceleration), ("max_jerk", max_jerk)):
         if not (np.isfinite(value) and value > 0):
-            raise PlanningError(f"rest_to_rest: {name} must be finite and > 0 (got {value})")
-    s = solver if solver is not None else _Solver()
+            raise PlanningError(f"{name} must be finite and > 0 (got {value:g})")
     keep = 1.0 - LIMIT_MARGIN
+    for name, value in (("start_velocity", start_velocity), ("end_velocity", end_velocity)):
+        if not (np.isfinite(value) and 0.0 <= value <= max_velocity * keep):
+            raise PlanningError(f"{name} must be in [0, {max_velocity:g}] (got {value:g})")
+    s = solver if solver is not None else _Solver()
     s.inp.target_position = [distance]
+    s.inp.current_velocity = [start_velocity]
+    s.inp.target_velocity = [end_velocity]
     s.inp.max_velocity = [max_velocity * keep]
     s.inp.max_acceleration = [max_acceleration * keep]
     s.inp.max_jerk = [max_jerk * keep]
-    result = s.otg.calculate(s.inp, s.traj)
+    try:
+        result = s.otg.calculate(s.inp, s.traj)
+    except (ruckig.RuckigError, RuntimeError) as exc:  # its input check: a multi-line message, keep one line
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise PlanningError(f"Ruckig refused the profile over {distance:g} ({first})") from None
     if result not in (ruckig.Result.Working, ruckig.Result.Finished):
         raise PlanningError(f"Ruckig could not plan {distance:g} within the limits ({result})")
     prof = s.traj.profiles[0][0]
-    if prof.brake.duration > 0:  # impossible from rest within the limits; guard against a silent change
-        raise PlanningError("Ruckig returned a braking pre-trajectory for a rest-to-rest motion")
+    if prof.brake.duration > 0:  # impossible from within the limits; guard against a silent change
+        raise PlanningError("Ruckig returned a braking pre-trajectory")
     n = len(prof.t)
-    return JerkProfile(
+    out = JerkProfile(
         distance=distance,
         duration_s=float(s.traj.duration),
         phase_durations_s=np.array(prof.t, dtype=float),
@@ -112,3 +153,6 @@ def rest_to_rest(
         max_acceleration=max_acceleration,
         max_jerk=max_jerk,
     )
+    if out.min_velocity() < -1e-9 * max_velocity:
+        raise PlanningError(f"Ruckig's profile over {distance:g} would move backwards")
+    return out

@@ -1,15 +1,16 @@
 """The planned reference: a time-parameterised pose and wheel motion, evaluable at any time.
 
-A :class:`Reference` is a chain of :class:`Motion` s, each a rest-to-rest
-:class:`~agvctl.planning.profile.JerkProfile` of one coordinate q along one constant-curvature primitive (a
-line or an arc: q is the distance travelled; a spin in place: q is the heading change). Every signal is linear
-in q's derivatives with constants per motion:
+A :class:`Reference` is a chain of :class:`Motion` s, each driven without stopping: a *path* motion follows a
+:class:`~agvctl.planning.curve.Curve` (lines, arcs, smooth joins, waypoint splines), its coordinate q the
+distance travelled; a *spin* turns in place, q the heading change. Each motion's q(t) is a chain of
+jerk-limited :class:`~agvctl.planning.profile.JerkProfile` s, one per section (see
+:mod:`agvctl.planning.speed`). With direction d = ±1 and the curve's κ(q):
 
-    U = λ q̇,  ω = η q̇,  v_l = U − ω b/2,  v_r = U + ω b/2
-    (the report's eqs 39-43: U = (v_r + v_l)/2, ω = (v_r − v_l)/b)
+    path:  U = d q̇,  ω = κ q̇,  ω̇ = κ q̈ + κ' q̇²,  ω̈ = κ q⃛ + 3 κ' q̇ q̈ + κ'' q̇³
+    spin:  U = 0,    ω = d q̇
+    v_l = U − ω b/2,  v_r = U + ω b/2   (the report's eqs 39-43: U = (v_r + v_l)/2, ω = (v_r − v_l)/b)
 
-with λ = ±1, η = ±κ for a line or arc, and λ = 0, η = ±1 for a spin; the pose follows from the exact chord of
-a circular arc. Evaluation is vectorised: :meth:`Reference.sample` takes an array of times.
+Evaluation is vectorised: :meth:`Reference.sample` takes an array of times.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agvctl.planning.curve import Curve
 from agvctl.planning.geometry import Pose
 from agvctl.planning.profile import JerkProfile
 from agvctl.planning.spec import WheelLimits
@@ -40,12 +42,12 @@ CSV_COLUMNS = (
 
 @dataclass(frozen=True, eq=False)
 class Motion:
-    """One rest-to-rest piece of a reference: a run of segments driven without stopping.
+    """One piece of a reference driven without stopping, from rest to rest.
 
-    ``kind`` is ``"path"`` (a line or an arc; q in m) or ``"spin"`` (a turn in place; q in rad).
-    ``curvature_1_m`` is κ of a path (0 for a line, + = left); ``direction`` is ±1 (reverse, clockwise).
-    ``wheel_factor`` is max(|v_l|, |v_r|)/|q̇| = |λ| + |η| b/2: the coordinate's limits are the wheel limits
-    divided by it.
+    ``kind`` is ``"path"`` (q in m along ``curve``) or ``"spin"`` (a turn in place; q in rad, ``curve`` is
+    ``None``); ``direction`` is ±1 (reverse, clockwise). ``profiles`` are q(t) on the sections, which start at
+    q = ``section_starts`` and follow one another in time. ``segment_starts`` is the q at which each of the
+    path file's ``segment_indices`` begins (waypoint intervals for a waypoint path).
     """
 
     kind: Literal["path", "spin"]
@@ -53,28 +55,24 @@ class Motion:
     t_start_s: float
     start_pose: Pose
     end_pose: Pose
-    curvature_1_m: float
     direction: int
-    wheel_factor: float
-    profile: JerkProfile
+    profiles: tuple[JerkProfile, ...]
+    section_starts: tuple[float, ...]
+    segment_starts: tuple[float, ...]
+    curve: Curve | None = None
 
     @property
     def duration_s(self) -> float:
-        return self.profile.duration_s
+        return float(sum(p.duration_s for p in self.profiles))
 
     @property
     def t_end_s(self) -> float:
-        return self.t_start_s + self.profile.duration_s
+        return self.t_start_s + self.duration_s
 
     @property
-    def linear_gain(self) -> float:
-        """λ in U = λ q̇."""
-        return float(self.direction) if self.kind == "path" else 0.0
-
-    @property
-    def angular_gain(self) -> float:
-        """η in ω = η q̇ (1/m for a path, 1 for a spin)."""
-        return self.direction * (self.curvature_1_m if self.kind == "path" else 1.0)
+    def distance(self) -> float:
+        """Total change of q (m for a path, rad for a spin)."""
+        return float(self.section_starts[-1] + self.profiles[-1].distance)
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,7 +81,8 @@ class ReferenceSamples:
 
     ``theta_rad`` is continuous (not wrapped). ``path_length_m`` is the distance travelled by the point of
     rotation since the start (never decreasing; a spin adds nothing). ``segment_index`` is the index of the
-    path file's segment in progress (the last one once the reference has ended).
+    path file's segment in progress (the last one once the reference has ended). ``curvature_1_m`` is κ of
+    the path at the current point (+ = left; 0 during a spin).
     """
 
     t_s: FloatArray
@@ -101,6 +100,7 @@ class ReferenceSamples:
     wheel_jerk_left_m_s3: FloatArray
     wheel_jerk_right_m_s3: FloatArray
     path_length_m: FloatArray
+    curvature_1_m: FloatArray
     motion_index: NDArray[np.int64]
 
     def __len__(self) -> int:
@@ -129,6 +129,7 @@ class Reference:
         sample_period_s: float,
         start_pose: Pose,
         segment_count: int,
+        geometry_deviation_m: float = 0.0,
     ) -> None:
         if not motions:
             raise ValueError("a reference needs at least one motion")
@@ -139,39 +140,28 @@ class Reference:
         self.sample_period_s = float(sample_period_s)
         self.start_pose = start_pose
         self.segment_count = segment_count
+        self.geometry_deviation_m = float(geometry_deviation_m)
+        """Largest distance between the planned path and the one the file asks for (see ``joins``)."""
         self.duration_s = self.motions[-1].t_end_s
-        b2 = 0.5 * self.separation_m
-
-        # per motion
-        self._lin = np.array([m.linear_gain for m in self.motions])
-        self._ang = np.array([m.angular_gain for m in self.motions])
-        self._x0 = np.array([m.start_pose.x_m for m in self.motions])
-        self._y0 = np.array([m.start_pose.y_m for m in self.motions])
-        self._th0 = np.array([m.start_pose.theta_rad for m in self.motions])
-        travelled = [m.profile.distance if m.kind == "path" else 0.0 for m in self.motions]
+        travelled = [m.distance if m.kind == "path" else 0.0 for m in self.motions]
         self._s0 = np.concatenate(([0.0], np.cumsum(travelled)[:-1]))
         self.path_length_m = float(sum(travelled))
-        self._left = self._lin - self._ang * b2
-        self._right = self._lin + self._ang * b2
 
-        # every phase of every motion, then a final hold phase at rest
-        starts, durations, jerk, q0, v0, a0, owner = [], [], [], [], [], [], []
+        # every phase of every section of every motion, then a final hold phase at rest
+        starts, jerk, q0, v0, a0, owner = [], [], [], [], [], []
         for i, m in enumerate(self.motions):
-            p = m.profile
-            starts.append(m.t_start_s + np.concatenate(([0.0], np.cumsum(p.phase_durations_s)[:-1])))
-            durations.append(p.phase_durations_s)
-            jerk.append(p.jerk)
-            q0.append(p.q0)
-            v0.append(p.v0)
-            a0.append(p.a0)
-            owner.append(np.full(len(p.jerk), i))
-        last = self.motions[-1].profile
-        tau = last.phase_durations_s[-1]
-        q_end = last.q0[-1] + last.v0[-1] * tau + 0.5 * last.a0[-1] * tau**2 + last.jerk[-1] * tau**3 / 6.0
+            t = m.t_start_s
+            for offset, p in zip(m.section_starts, m.profiles, strict=True):
+                starts.append(t + np.concatenate(([0.0], np.cumsum(p.phase_durations_s)[:-1])))
+                jerk.append(p.jerk)
+                q0.append(p.q0 + offset)
+                v0.append(p.v0)
+                a0.append(p.a0)
+                owner.append(np.full(len(p.jerk), i))
+                t += p.duration_s
         starts.append(np.array([self.duration_s]))
-        durations.append(np.array([np.inf]))
         jerk.append(np.zeros(1))
-        q0.append(np.array([q_end]))
+        q0.append(np.array([self.motions[-1].distance]))
         v0.append(np.zeros(1))
         a0.append(np.zeros(1))
         owner.append(np.array([len(self.motions) - 1]))
@@ -181,50 +171,69 @@ class Reference:
         self._ph_v0 = np.concatenate(v0)
         self._ph_a0 = np.concatenate(a0)
         self._ph_motion = np.concatenate(owner).astype(np.int64)
-        self._ph_t0[-1] = self.duration_s
 
     # ------------------------------------------------------------------------------------------------------
-    def sample(self, t_s: ArrayLike) -> ReferenceSamples:
-        """The reference at the times ``t_s`` (any shape is flattened to 1-D)."""
+    def _coordinate(self, t_s: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
+                                                   NDArray[np.int64]]:
+        """``(t, q, q̇, q̈, q⃛, motion index)`` at the times (flattened)."""
         t = np.atleast_1d(np.asarray(t_s, dtype=float)).ravel()
         tc = np.clip(t, 0.0, self.duration_s)
-        k = np.searchsorted(self._ph_t0, tc, side="right") - 1
-        k = np.clip(k, 0, len(self._ph_t0) - 1)
+        k = np.clip(np.searchsorted(self._ph_t0, tc, side="right") - 1, 0, len(self._ph_t0) - 1)
         dt = tc - self._ph_t0[k]
         j = np.where(t < 0.0, 0.0, self._ph_j[k])
         a0, v0 = self._ph_a0[k], self._ph_v0[k]
         q = self._ph_q0[k] + dt * (v0 + dt * (0.5 * a0 + dt * j / 6.0))
         qd = v0 + dt * (a0 + 0.5 * dt * j)
         qdd = a0 + dt * j
-        m = self._ph_motion[k]
-        lin, ang, left, right = self._lin[m], self._ang[m], self._left[m], self._right[m]
-        sigma = lin * q
-        half = 0.5 * ang * q
-        chord = sigma * np.sinc(half / np.pi)
-        heading_mid = self._th0[m] + half
+        return t, q, qd, qdd, j, self._ph_motion[k]
+
+    def sample(self, t_s: ArrayLike) -> ReferenceSamples:
+        """The reference at the times ``t_s`` (any shape is flattened to 1-D)."""
+        t, q, qd, qdd, j, m = self._coordinate(t_s)
+        n = len(t)
+        x, y, th, kap = np.empty(n), np.empty(n), np.empty(n), np.zeros(n)
+        u, ud, uj = np.zeros(n), np.zeros(n), np.zeros(n)
+        w, wd, wj = np.empty(n), np.empty(n), np.empty(n)
+        for i in np.unique(m):
+            sel = m == i
+            mo = self.motions[i]
+            d = mo.direction
+            if mo.curve is None:  # spin in place
+                x[sel], y[sel] = mo.start_pose.x_m, mo.start_pose.y_m
+                th[sel] = mo.start_pose.theta_rad + d * q[sel]
+                w[sel], wd[sel], wj[sel] = d * qd[sel], d * qdd[sel], d * j[sel]
+                continue
+            c = mo.curve.evaluate(q[sel])
+            v, acc, jk = qd[sel], qdd[sel], j[sel]
+            x[sel], y[sel], th[sel], kap[sel] = c.x_m, c.y_m, c.theta_rad, c.curvature_1_m
+            u[sel], ud[sel], uj[sel] = d * v, d * acc, d * jk
+            w[sel] = c.curvature_1_m * v
+            wd[sel] = c.curvature_1_m * acc + c.curvature_rate_1_m2 * v**2
+            wj[sel] = (c.curvature_1_m * jk + 3.0 * c.curvature_rate_1_m2 * v * acc
+                       + c.curvature_accel_1_m3 * v**3)
+        h = 0.5 * self.separation_m
+        is_path = np.array([mo.kind == "path" for mo in self.motions])[m]
         return ReferenceSamples(
-            t_s=t,
-            x_m=self._x0[m] + chord * np.cos(heading_mid),
-            y_m=self._y0[m] + chord * np.sin(heading_mid),
-            theta_rad=self._th0[m] + 2.0 * half,
-            speed_m_s=lin * qd,
-            accel_m_s2=lin * qdd,
-            yaw_rate_rad_s=ang * qd,
-            yaw_accel_rad_s2=ang * qdd,
-            wheel_speed_left_m_s=left * qd,
-            wheel_speed_right_m_s=right * qd,
-            wheel_accel_left_m_s2=left * qdd,
-            wheel_accel_right_m_s2=right * qdd,
-            wheel_jerk_left_m_s3=left * j,
-            wheel_jerk_right_m_s3=right * j,
-            path_length_m=self._s0[m] + np.abs(lin) * q,
+            t_s=t, x_m=x, y_m=y, theta_rad=th,
+            speed_m_s=u, accel_m_s2=ud, yaw_rate_rad_s=w, yaw_accel_rad_s2=wd,
+            wheel_speed_left_m_s=u - w * h, wheel_speed_right_m_s=u + w * h,
+            wheel_accel_left_m_s2=ud - wd * h, wheel_accel_right_m_s2=ud + wd * h,
+            wheel_jerk_left_m_s3=uj - wj * h, wheel_jerk_right_m_s3=uj + wj * h,
+            path_length_m=self._s0[m] + np.where(is_path, q, 0.0),
+            curvature_1_m=kap,
             motion_index=m,
         )
 
     def segment_index(self, t_s: ArrayLike) -> NDArray[np.int64]:
-        """Index of the path file's segment in progress at each time (per motion: the first of its run)."""
-        firsts = np.array([m.segment_indices[0] for m in self.motions], dtype=np.int64)
-        return firsts[self.sample(t_s).motion_index]
+        """Index of the path file's segment (or waypoint interval) in progress at each time."""
+        _, q, _, _, _, m = self._coordinate(t_s)
+        out = np.empty(len(q), dtype=np.int64)
+        for i in np.unique(m):
+            sel = m == i
+            mo = self.motions[i]
+            k = np.searchsorted(np.asarray(mo.segment_starts), q[sel] + 1e-12, side="right") - 1
+            out[sel] = np.asarray(mo.segment_indices)[np.clip(k, 0, len(mo.segment_indices) - 1)]
+        return out
 
     @functools.cached_property
     def grid_times_s(self) -> FloatArray:
@@ -243,13 +252,21 @@ class Reference:
         s = self.sample([self.duration_s])
         return Pose(float(s.x_m[0]), float(s.y_m[0]), float(s.theta_rad[0]))
 
-    def peaks(self) -> dict[str, float]:
-        """Exact peaks of |wheel speed|, |wheel accel| and |wheel jerk| (either wheel) over the reference."""
-        v = a = j = 0.0
-        for m in self.motions:
-            pv, pa, pj = m.profile.peaks()
-            v, a, j = max(v, pv * m.wheel_factor), max(a, pa * m.wheel_factor), max(j, pj * m.wheel_factor)
-        return {"peak_wheel_speed_m_s": v, "peak_wheel_accel_m_s2": a, "peak_wheel_jerk_m_s3": j}
+    def peaks(self, dense_period_s: float = 1e-3) -> dict[str, float]:
+        """Peaks of |wheel speed|, |wheel accel| and |wheel jerk| (either wheel) over the reference, sampled
+        every ``dense_period_s`` and at every phase switch (where the accelerations peak)."""
+        t = np.unique(np.concatenate([np.arange(0.0, self.duration_s, dense_period_s), self._ph_t0,
+                                      [self.duration_s]]))
+        s = self.sample(t)
+
+        def peak(left: FloatArray, right: FloatArray) -> float:
+            return float(max(np.max(np.abs(left)), np.max(np.abs(right))))
+
+        return {
+            "peak_wheel_speed_m_s": peak(s.wheel_speed_left_m_s, s.wheel_speed_right_m_s),
+            "peak_wheel_accel_m_s2": peak(s.wheel_accel_left_m_s2, s.wheel_accel_right_m_s2),
+            "peak_wheel_jerk_m_s3": peak(s.wheel_jerk_left_m_s3, s.wheel_jerk_right_m_s3),
+        }
 
     def summary(self) -> dict[str, object]:
         """The ``agvctl plan --json`` object."""
@@ -259,6 +276,7 @@ class Reference:
             "duration_s": self.duration_s,
             "path_length_m": self.path_length_m,
             **self.peaks(),
+            "geometry_deviation_m": self.geometry_deviation_m,
             "final_pose": {"x_m": pose.x_m, "y_m": pose.y_m, "theta_rad": pose.theta_rad},
         }
 

@@ -1,9 +1,10 @@
 """Path files (``trajectories/*.toml``): the schema, strict loading, and the wheel limits they resolve to.
 
-A path file names a start pose, optional per-wheel limits and a list of segments::
+A path file names a start pose, optional per-wheel limits, how segments join, and a list of segments::
 
     name = "square-2m"
     start = { x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }   # optional, default origin
+    join = "smooth"      # optional: "smooth" (drive through curvature changes) or "stop" (stop at each)
     [limits]                                             # per wheel; each optional, defaults from the vehicle
     wheel_speed_m_s = 0.8
     wheel_accel_m_s2 = 0.657
@@ -19,6 +20,17 @@ A path file names a start pose, optional per-wheel limits and a list of segments
     type = "arc"         # radius_m > 0, angle_deg signed (positive = left turn)
     radius_m = 1.0
     angle_deg = 180
+
+or, instead of segments, points to pass through (the heading is optional; the start pose is the first
+waypoint, heading from ``theta_deg`` or chosen for a smooth path)::
+
+    [[waypoints]]
+    x_m = 0.0
+    y_m = 0.0
+    theta_deg = 0.0
+    [[waypoints]]
+    x_m = 2.0
+    y_m = 1.0
 
 Any segment may carry ``speed_m_s``: a cap on the path speed U of a line or an arc, and on the wheel speed
 (ω b/2) of a turn. Every problem raises a one-line :class:`~agvctl.errors.ConfigError` such as
@@ -48,6 +60,7 @@ __all__ = [
     "Segment",
     "StartPose",
     "TurnSegment",
+    "Waypoint",
     "WheelLimits",
     "default_jerk_limit_m_s3",
     "load_path",
@@ -139,6 +152,15 @@ class ArcSegment:
         _nonzero(self.angle_deg, source, prefix, "angle_deg")
 
 
+@dataclass(frozen=True, kw_only=True)
+class Waypoint:
+    """A point the path passes through; ``theta_deg`` (optional) is the heading there."""
+
+    x_m: float = number()
+    y_m: float = number()
+    theta_deg: float | None = number(default=None)
+
+
 Segment = LineSegment | TurnSegment | ArcSegment
 _SEGMENT_CLASSES: dict[str, type[Any]] = {"line": LineSegment, "turn": TurnSegment, "arc": ArcSegment}
 
@@ -164,7 +186,9 @@ class _AnySegment:
 
 @dataclass(frozen=True)
 class _PathFile:
-    segments: tuple[_AnySegment, ...]
+    segments: tuple[_AnySegment, ...] = ()
+    waypoints: tuple[Waypoint, ...] = ()
+    join: Literal["smooth", "stop"] = "smooth"
     name: str | None = None
     start: StartPose = dataclasses.field(default_factory=StartPose)
     limits: PathLimits = dataclasses.field(default_factory=PathLimits)
@@ -172,30 +196,55 @@ class _PathFile:
 
 @dataclass(frozen=True)
 class PathSpec:
-    """A path: its segments, start pose, the limits the file sets, and where it came from (for messages)."""
+    """A path: its segments (or waypoints), start pose, the limits the file sets, how segments join
+    (``"smooth"``: drive through curvature changes; ``"stop"``: stop at each), and where it came from."""
 
-    segments: tuple[Segment, ...]
+    segments: tuple[Segment, ...] = ()
     name: str = "path"
     start: StartPose = dataclasses.field(default_factory=StartPose)
     limits: PathLimits = dataclasses.field(default_factory=PathLimits)
     source: str = "<path>"
+    waypoints: tuple[Waypoint, ...] = ()
+    join: Literal["smooth", "stop"] = "smooth"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "segments", tuple(self.segments))
-        if not self.segments:
+        object.__setattr__(self, "waypoints", tuple(self.waypoints))
+        if self.segments and self.waypoints:
+            raise ConfigError(self.source, "waypoints", "give either [[segments]] or [[waypoints]], not both")
+        if self.waypoints:
+            _check_waypoints(self.waypoints, self.source)
+        elif not self.segments:
             raise ConfigError(self.source, "segments", "at least one segment is required")
+
+
+def _check_waypoints(waypoints: Sequence[Waypoint], source: str) -> None:
+    if len(waypoints) < 2:
+        raise ConfigError(source, "waypoints", f"at least 2 waypoints are required (got {len(waypoints)})")
+    for i in range(1, len(waypoints)):
+        a, b = waypoints[i - 1], waypoints[i]
+        if math.hypot(b.x_m - a.x_m, b.y_m - a.y_m) < 1e-6:
+            raise ConfigError(source, f"waypoints[{i}]",
+                              f"same point as waypoints[{i - 1}] ({b.x_m:g}, {b.y_m:g}); remove one of them")
 
 
 def load_path(path: str | Path) -> PathSpec:
     """Read and check a path file. Raises a one-line :class:`ConfigError` naming the file, segment and key."""
     source = str(path)
     raw = load_toml(path)
-    data = build(_PathFile, {"segments": [], **raw}, source=source)  # unknown keys are reported first
-    if "segments" not in raw:
-        raise ConfigError(source, "segments", "missing key (add at least one [[segments]] table)")
+    data = build(_PathFile, raw, source=source)  # unknown keys are reported first
+    if "segments" not in raw and "waypoints" not in raw:
+        raise ConfigError(source, "segments", "missing key (add [[segments]] or [[waypoints]] tables)")
+    if "waypoints" in raw:
+        if "start" in raw:
+            raise ConfigError(source, "start", "a waypoint path starts at its first waypoint; remove start")
+        if "segments" not in raw:
+            _check_waypoints(data.waypoints, source)
     segments: Sequence[Any] = data.segments
     return PathSpec(
         segments=tuple(segments),
+        waypoints=data.waypoints,
+        join=data.join,
         name=data.name if data.name is not None else Path(path).stem,
         start=data.start,
         limits=data.limits,

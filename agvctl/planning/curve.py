@@ -1,0 +1,176 @@
+"""Plane curves whose curvature is a polynomial in arc length, piece by piece (lines, arcs, smooth joins).
+
+A :class:`Curve` is a chain of pieces; on piece p, at local arc length σ ∈ [0, L_p],
+
+    κ(σ) = Σ_k c_pk σ^k,   θ(σ) = θ_p + ∫₀^σ κ,   (x, y)(σ) = (x_p, y_p) + d ∫₀^σ (cos θ, sin θ)
+
+with d = ±1 the direction of travel (−1: driving in reverse, the heading stays the vehicle's). A line or an arc
+(constant κ) uses the exact chord of a circular arc; any other piece a 24-point Gauss-Legendre rule on [0, σ],
+exact to rounding for the short, gently turning pieces the planner makes (|Δθ| of a few radians at most).
+Each piece's start pose is the previous piece's end, computed with the same rule, so the pose is continuous.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agvctl.planning.geometry import Pose
+
+__all__ = ["Curve", "CurveSamples", "polyval_rows"]
+
+FloatArray = NDArray[np.float64]
+
+DEGREE = 9
+"""Highest power of σ in a piece's curvature (the smooth joins of :mod:`agvctl.planning.joins` need 9)."""
+
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(24)
+_GL_TAU = 0.5 * (_GL_X + 1.0)  # nodes on [0, 1]
+_GL_W = 0.5 * _GL_W
+_BOUND_SAMPLES = 65
+"""Points per piece at which |κ|, |κ'| and |κ''| are sampled for their maxima (a degree ≤ 9 polynomial)."""
+
+
+def polyval_rows(coeffs: FloatArray, x: FloatArray) -> FloatArray:
+    """Σ_k coeffs[..., k] x^k (Horner), with one row of ascending coefficients per element of ``x``.
+
+    ``coeffs`` has shape ``x.shape + (n,)``, or ``(len(x), n)`` broadcast against ``x`` of shape (len, m).
+    """
+    out = np.broadcast_to(coeffs[..., -1], x.shape).copy()
+    for k in range(coeffs.shape[-1] - 2, -1, -1):
+        out = out * x + coeffs[..., k]
+    return out
+
+
+def _derivative(coeffs: FloatArray) -> FloatArray:
+    """Ascending coefficients (rows) of the derivative, same width (last column zero)."""
+    powers = np.arange(1, coeffs.shape[-1])
+    out = np.zeros_like(coeffs)
+    out[..., :-1] = coeffs[..., 1:] * powers
+    return out
+
+
+def _integral(coeffs: FloatArray) -> FloatArray:
+    """Ascending coefficients (rows) of the integral from 0, one column wider."""
+    powers = np.arange(1, coeffs.shape[-1] + 1)
+    out = np.zeros(coeffs.shape[:-1] + (coeffs.shape[-1] + 1,))
+    out[..., 1:] = coeffs / powers
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class CurveSamples:
+    """A curve at an array of arc lengths (SI units): pose, and curvature with its first two derivatives in s."""
+
+    x_m: FloatArray
+    y_m: FloatArray
+    theta_rad: FloatArray
+    curvature_1_m: FloatArray
+    curvature_rate_1_m2: FloatArray
+    curvature_accel_1_m3: FloatArray
+
+
+class Curve:
+    """A chain of polynomial-curvature pieces from ``start`` (see the module docstring). Immutable.
+
+    Parameters
+    ----------
+    start : Pose
+        Pose at arc length 0.
+    lengths_m : sequence of float
+        Length of each piece (m, > 0).
+    curvature_coeffs : array (pieces, ≤ DEGREE + 1)
+        Ascending coefficients of κ(σ) on each piece (1/m, 1/m², …).
+    direction : int
+        +1 forwards, −1 in reverse.
+    """
+
+    def __init__(self, start: Pose, lengths_m: Sequence[float] | FloatArray, curvature_coeffs: ArrayLike,
+                 *, direction: int = 1) -> None:
+        lengths = np.asarray(lengths_m, dtype=float)
+        coeffs = np.atleast_2d(np.asarray(curvature_coeffs, dtype=float))
+        if len(lengths) == 0 or len(lengths) != len(coeffs) or not np.all(lengths > 0):
+            raise ValueError("Curve: one positive length per row of coefficients is required")
+        if coeffs.shape[1] > DEGREE + 1:
+            raise ValueError(f"Curve: curvature polynomials of degree at most {DEGREE}")
+        used = np.flatnonzero(np.any(coeffs != 0, axis=0))
+        c = coeffs[:, : (used[-1] + 1 if used.size else 1)].copy()  # Horner only over the powers in use
+        self.direction = int(direction)
+        self.lengths_m = lengths
+        self.s0_m = np.concatenate(([0.0], np.cumsum(lengths)[:-1]))
+        self.length_m = float(np.sum(lengths))
+        self._k = c
+        self._dk = _derivative(c)
+        self._ddk = _derivative(self._dk)
+        self._d3k = _derivative(self._ddk)
+        self._d4k = _derivative(self._d3k)
+        self._th = _integral(c)
+        self._const = np.all(c[:, 1:] == 0, axis=1)
+        # each piece starts where the previous one ends: its displacement, turned by its start heading
+        dx, dy, dth = self._local(np.arange(len(lengths)), lengths, np.zeros(len(lengths)))
+        self._th0 = start.theta_rad + np.concatenate(([0.0], np.cumsum(dth)[:-1]))
+        cos0, sin0 = np.cos(self._th0), np.sin(self._th0)
+        self._x0 = start.x_m + np.concatenate(([0.0], np.cumsum(cos0 * dx - sin0 * dy)[:-1]))
+        self._y0 = start.y_m + np.concatenate(([0.0], np.cumsum(sin0 * dx + cos0 * dy)[:-1]))
+
+    def _local(self, piece: NDArray[np.int64], sigma: FloatArray, theta0: FloatArray
+               ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Displacement (dx, dy) and heading change from a piece's start, in the frame turned by ``theta0``."""
+        k0 = self._k[piece, 0]
+        dth = polyval_rows(self._th[piece], sigma)
+        half = 0.5 * k0 * sigma
+        chord = self.direction * sigma * np.sinc(half / np.pi)
+        dx, dy = chord * np.cos(theta0 + half), chord * np.sin(theta0 + half)
+        var = ~self._const[piece]
+        if np.any(var):
+            nodes = sigma[var, None] * _GL_TAU[None, :]
+            th = theta0[var, None] + polyval_rows(self._th[piece[var]][:, None, :], nodes)
+            scale = self.direction * sigma[var]
+            dx[var] = scale * np.einsum("ij,j->i", np.cos(th), _GL_W)
+            dy[var] = scale * np.einsum("ij,j->i", np.sin(th), _GL_W)
+        return dx, dy, dth
+
+    def piece_at(self, s_m: FloatArray) -> NDArray[np.int64]:
+        """Index of the piece containing each arc length (clamped to the curve)."""
+        return np.clip(np.searchsorted(self.s0_m, s_m, side="right") - 1, 0, len(self.lengths_m) - 1)
+
+    def evaluate(self, s_m: ArrayLike) -> CurveSamples:
+        """The curve at arc lengths ``s_m`` (clamped to [0, length_m])."""
+        s = np.clip(np.atleast_1d(np.asarray(s_m, dtype=float)).ravel(), 0.0, self.length_m)
+        p = self.piece_at(s)
+        sigma = np.minimum(s - self.s0_m[p], self.lengths_m[p])
+        th0 = self._th0[p]
+        dx, dy, dth = self._local(p, sigma, th0)
+        return CurveSamples(
+            x_m=self._x0[p] + dx,
+            y_m=self._y0[p] + dy,
+            theta_rad=th0 + dth,
+            curvature_1_m=polyval_rows(self._k[p], sigma),
+            curvature_rate_1_m2=polyval_rows(self._dk[p], sigma),
+            curvature_accel_1_m3=polyval_rows(self._ddk[p], sigma),
+        )
+
+    def end_pose(self) -> Pose:
+        """The pose at the end of the curve."""
+        e = self.evaluate([self.length_m])
+        return Pose(float(e.x_m[0]), float(e.y_m[0]), float(e.theta_rad[0]))
+
+    def piece_bounds(self) -> FloatArray:
+        """(pieces, 3): upper bounds of |κ|, |dκ/ds| and |d²κ/ds²| on each piece.
+
+        Each is the largest of 65 samples plus δ²/8 times the largest sample of its second derivative (δ the
+        spacing): between two samples a smooth f exceeds the larger by at most δ²/8 · max |f''|.
+        """
+        u = np.linspace(0.0, 1.0, _BOUND_SAMPLES)
+        sigma = self.lengths_m[:, None] * u[None, :]
+        slack = (self.lengths_m / (_BOUND_SAMPLES - 1)) ** 2 / 8.0
+
+        def peak(c: FloatArray) -> FloatArray:
+            out: FloatArray = np.max(np.abs(polyval_rows(c[:, None, :], sigma)), axis=1)
+            return out
+
+        pairs = ((self._k, self._ddk), (self._dk, self._d3k), (self._ddk, self._d4k))
+        return np.column_stack([peak(f) + slack * peak(f2) for f, f2 in pairs])

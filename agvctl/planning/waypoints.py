@@ -1,0 +1,133 @@
+"""Waypoint paths: a curvature-smooth curve through every waypoint, with the headings given or chosen.
+
+The curve is a quintic spline r(u) = (x(u), y(u)) in the chord-length parameter u (u_i = the polyline's length
+up to waypoint i, so |r'| ≈ 1), with simple knots at the waypoints and mid-way between them: r is four
+times continuously differentiable, so κ and dκ/ds are continuous and d²κ/ds² bounded, which keeps the wheel
+jerk bounded at speed (see :mod:`agvctl.planning.joins` for why a clothoid spline does not). Among such
+splines through the waypoints (and with r'(u_i) = (cos θ_i, sin θ_i) where ``theta_deg`` is given) it is the
+one with the least ∫ |r'''|² du (plus 10⁻³ ∫ |r''|² du, which makes two waypoints a straight line): the
+quintic, minimum-jerk-in-u choice of WPILib's splines, with the free headings chosen by the same criterion.
+
+For the planner the spline is turned into a :class:`~agvctl.planning.curve.Curve`: κ(s) as a cubic Hermite
+interpolant in arc length of the spline's κ and dκ/ds at 16 nodes per waypoint interval. The curve starts at
+the first waypoint and passes the others within a few micrometres (reported as ``geometry_deviation_m``).
+A spline whose speed |r'| drops below :data:`CUSP_SPEED` (it nearly stops and turns back: a cusp, which a
+forward-driving vehicle cannot follow) is refused with a one-line :class:`~agvctl.errors.ConfigError`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.interpolate import BSpline
+
+from agvctl.errors import ConfigError
+from agvctl.planning.curve import Curve
+from agvctl.planning.geometry import Pose
+from agvctl.planning.spec import Waypoint
+
+__all__ = ["CUSP_SPEED", "waypoint_curve"]
+
+FloatArray = NDArray[np.float64]
+
+CUSP_SPEED = 0.2
+"""Least |dr/du| allowed along the spline (1 = moving at the polyline's pace): below it the path folds back."""
+
+_K = 5
+_SPANS = 2  # knot spans per waypoint interval
+_NODES = 8  # Hermite pieces per knot span
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
+
+
+def _basis(t: FloatArray, u: FloatArray, nu: int) -> FloatArray:
+    """Values (nu = 0) or derivatives of every B-spline basis function at u: shape (len(u), n)."""
+    n = len(t) - _K - 1
+    spline = BSpline(t, np.eye(n), _K, extrapolate=False)
+    out = spline(u) if nu == 0 else spline.derivative(nu)(u)
+    values: FloatArray = np.nan_to_num(np.asarray(out, dtype=float))
+    return values
+
+
+def _gram(t: FloatArray, nu: int) -> FloatArray:
+    """∫ B^(nu)ᵀ B^(nu) du over the knot spans (Gauss-Legendre, exact for these degrees)."""
+    edges = np.unique(t)
+    a, b = edges[:-1, None], edges[1:, None]
+    u = (0.5 * (b - a) * (_GL_X + 1.0) + a).ravel()
+    w = (0.5 * (b - a) * _GL_W).ravel()
+    d = _basis(t, u, nu)
+    gram: FloatArray = np.einsum("ki,kj->ij", d * w[:, None], d)  # einsum: no BLAS threads, small product
+    return gram
+
+
+def _fit(points: FloatArray, headings: Sequence[float | None]) -> tuple[BSpline, FloatArray]:
+    """The spline through ``points`` (see the module docstring) and the waypoints' parameters u_i."""
+    u_i = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))))
+    steps = np.linspace(0.0, 1.0, _SPANS + 1)[1:-1]
+    interior = np.concatenate([u_i[1:-1], (u_i[:-1, None] + np.diff(u_i)[:, None] * steps).ravel()])
+    t = np.concatenate([[0.0] * (_K + 1), np.sort(interior), [u_i[-1]] * (_K + 1)])
+    mean_step = u_i[-1] / (len(u_i) - 1)
+    energy = _gram(t, 3) + 1e-3 / mean_step**2 * _gram(t, 2)
+    rows = [_basis(t, u_i, 0)]
+    rhs = [points]
+    given = [i for i, h in enumerate(headings) if h is not None]
+    if given:
+        rows.append(_basis(t, u_i[given], 1))
+        rhs.append(np.array([[math.cos(headings[i] or 0.0), math.sin(headings[i] or 0.0)] for i in given]))
+    a, b = np.vstack(rows), np.vstack(rhs)
+    n, m = energy.shape[0], a.shape[0]
+    kkt = np.block([[energy, a.T], [a, np.zeros((m, m))]])
+    sol = np.linalg.solve(kkt, np.vstack([np.zeros((n, 2)), b]))
+    return BSpline(t, sol[:n], _K), u_i
+
+
+def _cusp_check(spline: BSpline, u_i: FloatArray, waypoints: Sequence[Waypoint], source: str) -> None:
+    u = np.linspace(0.0, u_i[-1], 64 * len(u_i))
+    speed = np.hypot(*spline.derivative(1)(u).T)
+    worst = int(np.argmin(speed))
+    if speed[worst] >= CUSP_SPEED:
+        return
+    i = int(np.argmin(np.abs(u_i - u[worst])))
+    near = [j for j in (i, i - 1, i + 1) if 0 <= j < len(waypoints) and waypoints[j].theta_deg is not None]
+    key = f"waypoints[{near[0]}].theta_deg" if near else f"waypoints[{i}]"
+    raise ConfigError(source, key, "the path through here would fold back on itself (a cusp, which cannot be "
+                      "driven forwards); change the heading or add a waypoint")
+
+
+def waypoint_curve(waypoints: Sequence[Waypoint], *, source: str = "<path>") -> tuple[Curve, FloatArray, float]:
+    """``(curve, s_i, deviation_m)``: the path through the waypoints, the arc length at each waypoint, and
+    the largest distance from a waypoint to the curve at its arc length."""
+    points = np.array([[w.x_m, w.y_m] for w in waypoints], dtype=float)
+    headings = [None if w.theta_deg is None else math.radians(w.theta_deg) for w in waypoints]
+    spline, u_i = _fit(points, headings)
+    _cusp_check(spline, u_i, waypoints, source)
+    d1, d2, d3 = (spline.derivative(k) for k in (1, 2, 3))
+    edges = np.unique(spline.t)
+    nodes = np.concatenate([np.linspace(a, b, _NODES + 1)[:-1] for a, b in zip(edges[:-1], edges[1:], strict=True)]
+                           + [edges[-1:]])
+    r1, r2, r3 = d1(nodes), d2(nodes), d3(nodes)
+    speed = np.hypot(r1[:, 0], r1[:, 1])
+    cross12 = r1[:, 0] * r2[:, 1] - r1[:, 1] * r2[:, 0]
+    cross13 = r1[:, 0] * r3[:, 1] - r1[:, 1] * r3[:, 0]
+    kappa = cross12 / speed**3
+    dkappa_du = cross13 / speed**3 - 3.0 * cross12 * np.sum(r1 * r2, axis=1) / speed**5
+    slope = dkappa_du / speed  # dκ/ds
+    a, b = nodes[:-1, None], nodes[1:, None]
+    uq = 0.5 * (b - a) * (_GL_X + 1.0) + a
+    ds = np.hypot(*np.moveaxis(d1(uq.ravel()).reshape(*uq.shape, 2), -1, 0)) @ _GL_W * 0.5 * (b - a).ravel()
+    dk = np.diff(kappa)
+    coeffs = np.column_stack([
+        kappa[:-1],
+        slope[:-1],
+        (3.0 * dk / ds - 2.0 * slope[:-1] - slope[1:]) / ds,
+        (slope[:-1] + slope[1:] - 2.0 * dk / ds) / ds**2,
+    ])
+    start = Pose(float(points[0, 0]), float(points[0, 1]), math.atan2(r1[0, 1], r1[0, 0]))
+    curve = Curve(start, ds, coeffs)
+    s_nodes = np.concatenate(([0.0], np.cumsum(ds)))
+    s_i = np.interp(u_i, nodes, s_nodes)
+    at = curve.evaluate(s_i)
+    deviation = float(np.max(np.hypot(at.x_m - points[:, 0], at.y_m - points[:, 1])))
+    return curve, s_i, deviation
