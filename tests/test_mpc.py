@@ -186,5 +186,5 @@ def test_config_from_controller_table() -> None:
         from_table({"horizon": 0})
     with pytest.raises(ConfigError, match=r"controller.prediction_model: must be one of"):
         from_table({"prediction_model": "dynamic"})
-    with pytest.raises(ConfigError, match=r"^exp.toml: controller.pose: must be one of 'mpc', 'nmpc', 'ramsete', 'ltv_lqr', 'none'"):
+    with pytest.raises(ConfigError, match=r"^exp.toml: controller.pose: must be one of 'mpc', 'nmpc', 'ramsete'"):
         from_table({"pose": "lqr"})
