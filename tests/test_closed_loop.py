@@ -27,6 +27,7 @@ def with_controller(exp: Experiment, **changes) -> Experiment:
     return dataclasses.replace(exp, spec=dataclasses.replace(exp.spec, controller=controller))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", SHIPPED, ids=[p.stem for p in SHIPPED])
 def test_every_shipped_experiment_runs_and_passes_its_limits(path):
     prepared = load_experiment(path)
@@ -46,6 +47,7 @@ def test_every_shipped_experiment_runs_and_passes_its_limits(path):
     assert summary["passed"], [r["message"] for r in summary["limits"] if not r["passed"]]
 
 
+@pytest.mark.slow
 def test_figure8_acceptance_figures():
     # nominal plant, 0.5 m/s: RMS <= 1 cm, max <= 3 cm (issue acceptance); far better in fact
     _, _, m = run_file("figure8.toml")
