@@ -18,16 +18,23 @@ coordinate is about twice as fast to compute and keeps the path exactly on its g
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
+from typing import NoReturn
 
+from agvctl.errors import ConfigError, PlanningError
 from agvctl.params import VehicleParams, load_vehicle
 from agvctl.planning.geometry import Pose, advance, segment_kinematics
 from agvctl.planning.profile import _Solver, rest_to_rest
 from agvctl.planning.reference import Motion, Reference
-from agvctl.planning.spec import PathSpec, Segment, WheelLimits, load_path, resolve_limits
+from agvctl.planning.spec import LineSegment, PathSpec, Segment, WheelLimits, load_path, resolve_limits
 
-__all__ = ["plan", "plan_file", "plan_segments"]
+__all__ = ["MAX_DURATION_S", "plan", "plan_file", "plan_segments"]
+
+MAX_DURATION_S = 24 * 3600.0
+"""The longest reference planned (one day): a longer one is a typing error, not a drive, and its samples would
+not fit in memory."""
 
 
 def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = False) -> Reference:
@@ -45,6 +52,7 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
         sample_period_s=vehicle.control.sample_period_s,
         start_pose=Pose.from_start(spec.start),
         name=spec.name,
+        source=spec.source,
     )
 
 
@@ -61,10 +69,13 @@ def plan_segments(
     sample_period_s: float,
     start_pose: Pose | None = None,
     name: str = "path",
+    source: str = "<segments>",
 ) -> Reference:
     """Plan segments with explicit limits and geometry (no vehicle file): the core of :func:`plan`.
 
-    ``start_pose`` defaults to the origin, heading along x.
+    ``start_pose`` defaults to the origin, heading along x. A segment that cannot be planned (a reference
+    longer than :data:`MAX_DURATION_S`, or a geometry the solver cannot resolve numerically) raises a one-line
+    :class:`ConfigError` naming ``source`` and the segment's key.
     """
     if not segments:
         raise ValueError("plan_segments: at least one segment is required")
@@ -92,18 +103,28 @@ def plan_segments(
             v_max = limits.wheel_speed_m_s / factor
             if cap is not None:
                 v_max = min(v_max, cap)  # the cap is on the path speed U
-            end = advance(pose, displacement_m=direction * distance, curvature_1_m=curvature)
         else:
             factor = half_b
             v_max = (limits.wheel_speed_m_s if cap is None else min(cap, limits.wheel_speed_m_s)) / factor
-            end = Pose(pose.x_m, pose.y_m, pose.theta_rad + direction * distance)
-        profile = rest_to_rest(
-            distance,
-            max_velocity=v_max,
-            max_acceleration=limits.wheel_accel_m_s2 / factor,
-            max_jerk=limits.wheel_jerk_m_s3 / factor,
-            solver=solver,
-        )
+        where = _motion_key(segments, indices)
+        if not distance <= v_max * (MAX_DURATION_S - t):  # at least distance / v_max: too long for the solver too
+            _too_long(f"at least {t + distance / v_max if v_max > 0 else math.inf:.4g}", source, where)
+        try:
+            if kind == "path":
+                end = advance(pose, displacement_m=direction * distance, curvature_1_m=curvature)
+            else:
+                end = Pose(pose.x_m, pose.y_m, pose.theta_rad + direction * distance)
+            profile = rest_to_rest(
+                distance,
+                max_velocity=v_max,
+                max_acceleration=limits.wheel_accel_m_s2 / factor,
+                max_jerk=limits.wheel_jerk_m_s3 / factor,
+                solver=solver,
+            )
+        except (PlanningError, ArithmeticError, ValueError) as exc:  # numerically out of reach
+            raise ConfigError(source, where, f"cannot be planned within the wheel limits: {exc}") from None
+        if not t + profile.duration_s <= MAX_DURATION_S:
+            _too_long(f"{t + profile.duration_s:.4g}", source, where)
         motions.append(Motion(
             kind="path" if kind == "path" else "spin",
             segment_indices=tuple(indices),
@@ -126,3 +147,15 @@ def plan_segments(
         start_pose=start_pose,
         segment_count=len(segments),
     )
+
+
+def _motion_key(segments: Sequence[Segment], indices: list[int]) -> str:
+    """The key an error about one motion names: ``segments[3].length_m``, or ``segments[3-5].angle_deg`` for
+    segments driven as one motion."""
+    first, last = indices[0], indices[-1]
+    field = "length_m" if isinstance(segments[first], LineSegment) else "angle_deg"
+    return f"segments[{first}].{field}" if first == last else f"segments[{first}-{last}].{field}"
+
+
+def _too_long(duration: str, source: str, where: str) -> NoReturn:
+    raise ConfigError(source, where, f"the reference would last {duration} s, above the maximum {MAX_DURATION_S:g} s")

@@ -93,7 +93,10 @@ def rest_to_rest(
     s.inp.max_velocity = [max_velocity * keep]
     s.inp.max_acceleration = [max_acceleration * keep]
     s.inp.max_jerk = [max_jerk * keep]
-    result = s.otg.calculate(s.inp, s.traj)
+    try:
+        result = s.otg.calculate(s.inp, s.traj)
+    except ruckig.RuckigError:  # raised (with a multi-line dump) for inputs it cannot handle numerically
+        raise PlanningError(f"Ruckig could not plan {distance:g} within the limits (numerical failure)") from None
     if result not in (ruckig.Result.Working, ruckig.Result.Finished):
         raise PlanningError(f"Ruckig could not plan {distance:g} within the limits ({result})")
     prof = s.traj.profiles[0][0]

@@ -152,7 +152,7 @@ class _AnySegment:
         if "type" not in data:
             raise ConfigError(source, f"{prefix}.type", f"missing key (one of {', '.join(SEGMENT_TYPES)})")
         kind = data["type"]
-        if kind not in _SEGMENT_CLASSES:
+        if not isinstance(kind, str) or kind not in _SEGMENT_CLASSES:
             hint = did_you_mean(str(kind), SEGMENT_TYPES, []) if isinstance(kind, str) else ""
             expected = ", ".join(SEGMENT_TYPES)
             problem = f"unknown segment type {kind!r} (expected one of {expected})"
