@@ -12,6 +12,7 @@ Units are SI throughout and are part of every key's name.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
