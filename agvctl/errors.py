@@ -8,7 +8,12 @@ from __future__ import annotations
 
 
 class AgvctlError(Exception):
-    """Base class of every agvctl error."""
+    """Base class of every agvctl error. Its message is one line: line breaks and other control characters in
+    it (say from a key or a file name) are shown escaped, as ``\\n``."""
+
+    def __str__(self) -> str:
+        text = super().__str__()
+        return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
 
 
 class ConfigError(AgvctlError, ValueError):

@@ -76,6 +76,8 @@ def identify_mass(
     """
     d = vehicle.frame.wheel_axis_to_castor_m
     total, h = center_of_mass_from_scales(mass_left_kg, mass_right_kg, mass_castor_kg, d)  # eq 63
+    if not math.isfinite(total * total):
+        raise ValueError(f"the scale readings are too large to add up (total {total:g} kg)")
     sigma = scale_stderr_kg
     se_m = math.sqrt(3.0) * sigma
     se_h = d / total**2 * math.sqrt((total - mass_castor_kg) ** 2 + 2.0 * mass_castor_kg**2) * sigma

@@ -2,7 +2,8 @@
 
 Each subcommand lives in its own module with ``register(subparsers)`` adding its parser and setting
 ``func=run``, where ``run(args) -> int`` calls the public API and prints. Exit codes: 0 success, 1 a failed
-check, 2 bad input (one line on stderr naming the file and key; no traceback).
+check, 2 bad input or any other :class:`~agvctl.errors.AgvctlError` (one line on stderr naming the file and
+key; no traceback).
 """
 
 from __future__ import annotations
@@ -19,11 +20,11 @@ from agvctl.errors import AgvctlError, ConfigError
 
 __all__ = ["add_vehicle_options", "main"]
 
-EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+EXIT_OK, EXIT_BAD_INPUT = 0, 2
 
 
-class _UsageError(Exception):
-    pass
+class _UsageError(AgvctlError):
+    """A command line argparse rejects (shown on one line, like every AgvctlError)."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -48,7 +49,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI with ``argv`` (default ``sys.argv[1:]``) and return the exit code."""
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # --help and --version print, then exit 0
+            return exc.code if isinstance(exc.code, int) else EXIT_OK
         if not getattr(args, "func", None):
             parser.print_help()
             return EXIT_BAD_INPUT
@@ -56,12 +60,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except _UsageError as exc:
         print(f"{exc} (see --help)", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except ConfigError as exc:
+    except AgvctlError as exc:  # a ConfigError, or input the library could not use (e.g. a PlanningError)
         print(f"agvctl: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except AgvctlError as exc:
-        print(f"agvctl: {exc}", file=sys.stderr)
-        return EXIT_FAILED
     except KeyboardInterrupt:
         print("agvctl: interrupted", file=sys.stderr)
         return 130
@@ -69,3 +70,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         # nothing more can be written: point stdout at /dev/null so the interpreter's final flush does not fail
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except OSError as exc:  # a file named on the command line that cannot be read or written
+        error = ConfigError(str(exc.filename) if exc.filename else "output", "", exc.strerror or str(exc))
+        print(f"agvctl: {error}", file=sys.stderr)
+        return EXIT_BAD_INPUT

@@ -9,6 +9,7 @@ from typing import Any
 
 from agvctl.checks.summary import run_summary
 from agvctl.cli.progress import ProgressBar
+from agvctl.errors import ConfigError
 from agvctl.reports import write_run_outputs
 from agvctl.sim.experiment import load_experiment, run_experiment
 
@@ -52,17 +53,30 @@ def format_summary(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def check_out_dir(out_dir: Path) -> None:
+    """Refuse, before anything runs, an output directory that cannot be made: a file at or above it."""
+    for path in (out_dir, *out_dir.parents):
+        if path.exists():
+            if not path.is_dir():
+                raise ConfigError("--out", "", f"{path} exists and is not a directory")
+            return
+
+
 def run(args: argparse.Namespace) -> int:
     experiment = load_experiment(args.experiment)
     name = experiment.spec.name
     out_dir = Path(args.out) if args.out else Path("out") / name
+    check_out_dir(out_dir)
     bar = ProgressBar(f"{name}:")
     try:
         result = run_experiment(experiment, progress=bar)
     finally:
         bar.close()
     summary = run_summary(experiment, result)
-    written = write_run_outputs(experiment, result, summary, out_dir, plots=not args.no_plot)
+    try:
+        written = write_run_outputs(experiment, result, summary, out_dir, plots=not args.no_plot)
+    except OSError as exc:
+        raise ConfigError(str(exc.filename or out_dir), "", f"cannot write: {exc.strerror or exc}") from None
     if args.json:
         print(json.dumps(summary, indent=2))
     else:

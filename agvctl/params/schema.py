@@ -12,6 +12,7 @@ Units are SI throughout and are part of every key's name.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -253,6 +254,12 @@ class VehicleParams:
                     f"motor torque at the current limit ({stall:g} N m, {side}) does not exceed the stiction "
                     f"({m.stiction_n_m:g} N m): the vehicle cannot move",
                 )
+        try:
+            derived = derive(self).as_dict()
+        except ArithmeticError:  # e.g. a square that overflows
+            derived = {}
+        if not derived or not all(math.isfinite(v) for v in derived.values()):
+            raise ConfigError(source, prefix, "the derived constants overflow: a value is far out of range")
 
     @property
     def derived(self) -> DerivedConstants:

@@ -35,7 +35,11 @@ from agvctl.planning.spec import PathSpec, Segment, Waypoint, WheelLimits, load_
 from agvctl.planning.speed import SectionLimits, plan_speed, section_limits
 from agvctl.planning.waypoints import waypoint_curve
 
-__all__ = ["plan", "plan_file", "plan_segments", "plan_waypoints"]
+__all__ = ["MAX_DURATION_S", "plan", "plan_file", "plan_segments", "plan_waypoints"]
+
+MAX_DURATION_S = 24 * 3600.0
+"""The longest reference planned (one day): a longer one is a typing error, not a drive, and its samples would
+not fit in memory."""
 
 Join = Literal["smooth", "stop"]
 _Part = tuple[int, float, float, float | None]  # segment index, distance, curvature, speed cap
@@ -67,11 +71,19 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
               "sample_period_s": vehicle.control.sample_period_s, "name": spec.name}
     try:
         if spec.waypoints:
-            return plan_waypoints(spec.waypoints, source=spec.source, **common)  # type: ignore[arg-type]
-        return plan_segments(spec.segments, start_pose=Pose.from_start(spec.start), join=spec.join,
-                             **common)  # type: ignore[arg-type]
+            reference = plan_waypoints(spec.waypoints, source=spec.source, **common)  # type: ignore[arg-type]
+        else:
+            reference = plan_segments(spec.segments, start_pose=Pose.from_start(spec.start), join=spec.join,
+                                      **common)  # type: ignore[arg-type]
     except _Failure as exc:
         raise ConfigError(spec.source, exc.key, exc.problem) from None
+    if not reference.duration_s <= MAX_DURATION_S:
+        key = "waypoints" if spec.waypoints else "segments"
+        raise ConfigError(
+            spec.source, key, f"the reference would last {reference.duration_s:.4g} s, above the maximum "
+            f"{MAX_DURATION_S:g} s"
+        )
+    return reference
 
 
 def plan_file(path: str | Path, vehicle: VehicleParams | None = None, *, force: bool = False) -> Reference:

@@ -17,7 +17,7 @@ A path file names a start pose, optional per-wheel limits, how segments join, an
     type = "turn"        # spin in place, angle_deg (positive = counter-clockwise)
     angle_deg = 90
     [[segments]]
-    type = "arc"         # radius_m > 0, angle_deg signed (positive = left turn)
+    type = "arc"         # radius_m >= 0.001 (1 mm), angle_deg signed (positive = left turn)
     radius_m = 1.0
     angle_deg = 180
 
@@ -34,7 +34,7 @@ waypoint, heading from ``theta_deg`` or chosen for a smooth path)::
 
 Any segment may carry ``speed_m_s``: a cap on the path speed U of a line or an arc, and on the wheel speed
 (ω b/2) of a turn. Every problem raises a one-line :class:`~agvctl.errors.ConfigError` such as
-``trajectories/x.toml: segments[2].radius_m: must be > 0 (got 0)``.
+``trajectories/x.toml: segments[2].radius_m: must be >= 0.001 (got 0)``.
 """
 
 from __future__ import annotations
@@ -141,9 +141,9 @@ class TurnSegment:
 
 @dataclass(frozen=True, kw_only=True)
 class ArcSegment:
-    """A circular arc of ``radius_m`` > 0 through ``angle_deg`` (positive = left turn), driven forwards."""
+    """A circular arc of ``radius_m`` ≥ 1 mm through ``angle_deg`` (positive = left turn), driven forwards."""
 
-    radius_m: float = number(gt=0)
+    radius_m: float = number(ge=1e-3, doc="at least 1 mm: a smaller radius is a turn in place (type = \"turn\")")
     angle_deg: float = number()
     speed_m_s: float | None = number(gt=0, default=None)
     type: Literal["arc"] = "arc"
@@ -174,7 +174,7 @@ class _AnySegment:
         if "type" not in data:
             raise ConfigError(source, f"{prefix}.type", f"missing key (one of {', '.join(SEGMENT_TYPES)})")
         kind = data["type"]
-        if kind not in _SEGMENT_CLASSES:
+        if not isinstance(kind, str) or kind not in _SEGMENT_CLASSES:
             hint = did_you_mean(str(kind), SEGMENT_TYPES, []) if isinstance(kind, str) else ""
             expected = ", ".join(SEGMENT_TYPES)
             problem = f"unknown segment type {kind!r} (expected one of {expected})"

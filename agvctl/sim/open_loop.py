@@ -19,6 +19,7 @@ from agvctl.actuator import Actuator
 from agvctl.config import read_text
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
+from agvctl.planning.planner import MAX_DURATION_S
 from agvctl.plant.full import STATE_NAMES, PlantOptions, parameter_vector
 from agvctl.sim.integrator import compiled_plant, sample_splits
 from agvctl.sim.log import PLANT_LOG_COLUMNS, SimLog
@@ -42,6 +43,8 @@ def sample_count(duration_s: float, sample_period_s: float) -> int:
     """Number of whole samples in ``duration_s`` (rounded to the nearest sample)."""
     if not (np.isfinite(duration_s) and duration_s > 0):
         raise ConfigError("--duration", "", f"must be a positive number of seconds (got {duration_s})")
+    if duration_s > MAX_DURATION_S:
+        raise ConfigError("--duration", "", f"must be at most {MAX_DURATION_S:g} s (got {duration_s:g})")
     return max(1, int(round(duration_s / sample_period_s)))
 
 
