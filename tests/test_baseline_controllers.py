@@ -22,7 +22,9 @@ from agvctl.sim.path_metrics import path_errors
 def _reference(vehicle: VehicleParams, segment: LineSegment | ArcSegment) -> Reference:
     limits = WheelLimits(wheel_speed_m_s=0.6, wheel_accel_m_s2=0.4, wheel_jerk_m_s3=2.0)
     return plan_segments(
-        [segment], limits=limits, separation_m=vehicle.wheels.separation_m,
+        [segment],
+        limits=limits,
+        separation_m=vehicle.wheels.separation_m,
         sample_period_s=vehicle.control.sample_period_s,
     )
 

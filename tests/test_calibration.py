@@ -84,8 +84,9 @@ def test_mass_standard_error_matches_the_scatter(vehicle: VehicleParams) -> None
 # friction
 
 
-def test_friction_noise_off_within_2_percent(vehicle: VehicleParams, friction_truth: VehicleParams,
-                                             clean_log: FrictionLog) -> None:
+def test_friction_noise_off_within_2_percent(
+    vehicle: VehicleParams, friction_truth: VehicleParams, clean_log: FrictionLog
+) -> None:
     fit = fit_friction(clean_log, vehicle, truth=friction_truth)
     for side in ("left", "right"):
         true_motor = friction_truth.motor.side(side)
@@ -108,8 +109,9 @@ def test_friction_noise_on_within_3_sigma(vehicle: VehicleParams, friction_truth
             assert abs(e.estimate - e.truth) <= 3 * e.stderr, (side, e)
 
 
-def test_report_eq67_as_printed_biases_coulomb_friction(vehicle: VehicleParams, friction_truth: VehicleParams,
-                                                        clean_log: FrictionLog) -> None:
+def test_report_eq67_as_printed_biases_coulomb_friction(
+    vehicle: VehicleParams, friction_truth: VehicleParams, clean_log: FrictionLog
+) -> None:
     """Two windows of the simulated experiment into eqs 66-67: the ERRATA's sign recovers τ_c, the printed
     one adds 2 f_m ω₂ (0.054 N m here, 90 %)."""
     fit = fit_friction(clean_log, vehicle)
@@ -140,8 +142,9 @@ def test_two_speed_formula_on_the_exact_steady_state(vehicle: VehicleParams) -> 
     )
 
 
-def test_apply_friction_writes_per_side_values(vehicle: VehicleParams, friction_truth: VehicleParams,
-                                               clean_log: FrictionLog) -> None:
+def test_apply_friction_writes_per_side_values(
+    vehicle: VehicleParams, friction_truth: VehicleParams, clean_log: FrictionLog
+) -> None:
     identified, notes = apply_friction(vehicle, fit_friction(clean_log, vehicle))
     # the right side's truth has τ_s = τ_c; an estimate a hair below τ_c is written as τ_c (a file needs τ_s ≥ τ_c)
     assert all("stiction estimate" in n for n in notes)
@@ -210,8 +213,10 @@ def test_umbmark_with_noise_reports_honest_errors(vehicle: VehicleParams) -> Non
 
 def test_cli_mass(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     out = tmp_path / "v.toml"
-    assert main(["identify", "mass", "--left", "35.7", "--right", "35.7", "--castor", "20.4", "--json",
-                 "--out", str(out)]) == 0
+    assert (
+        main(["identify", "mass", "--left", "35.7", "--right", "35.7", "--castor", "20.4", "--json", "--out", str(out)])
+        == 0
+    )
     data = json.loads(capsys.readouterr().out)
     assert set(data) == {"mass_kg", "com_behind_axle_m", "inertia_kg_m2"}
     assert data["com_behind_axle_m"]["estimate"] == pytest.approx(20.4 / 91.8 * 0.5)
@@ -222,8 +227,19 @@ def test_cli_mass(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
 
 def test_cli_friction_simulate_json_and_out(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     out, log = tmp_path / "v.toml", tmp_path / "log.csv"
-    argv = ["identify", "friction", "--simulate", "--speeds", "60,120,180", "--json", "--out", str(out),
-            "--save-log", str(log), *[a for s in TRUTH_SETS for a in ("--set", s)]]
+    argv = [
+        "identify",
+        "friction",
+        "--simulate",
+        "--speeds",
+        "60,120,180",
+        "--json",
+        "--out",
+        str(out),
+        "--save-log",
+        str(log),
+        *[a for s in TRUTH_SETS for a in ("--set", s)],
+    ]
     assert main(argv) == 0
     data = json.loads(capsys.readouterr().out)
     assert set(data) == {"left", "right"}
@@ -241,7 +257,8 @@ def test_cli_friction_simulate_json_and_out(capsys: pytest.CaptureFixture[str], 
     again = json.loads(capsys.readouterr().out)
     assert set(again["left"]["coulomb_friction_n_m"]) == {"estimate", "stderr"}
     assert again["left"]["coulomb_friction_n_m"]["estimate"] == pytest.approx(
-        data["left"]["coulomb_friction_n_m"]["estimate"], rel=1e-6)
+        data["left"]["coulomb_friction_n_m"]["estimate"], rel=1e-6
+    )
 
 
 def test_cli_friction_table(capsys: pytest.CaptureFixture[str]) -> None:
@@ -250,8 +267,9 @@ def test_cli_friction_table(capsys: pytest.CaptureFixture[str]) -> None:
     assert "before" in text and "truth" in text and "demonstration" in text
 
 
-def _write_log(path: Path, log: FrictionLog, rows: slice | None = None, drop: str | None = None,
-               nan_row: int | None = None) -> None:
+def _write_log(
+    path: Path, log: FrictionLog, rows: slice | None = None, drop: str | None = None, nan_row: int | None = None
+) -> None:
     log.write_csv(path)
     lines = path.read_text().splitlines()
     header, body = lines[0], lines[1:]
@@ -288,8 +306,9 @@ def _one_speed_log(clean_log: FrictionLog) -> FrictionLog:
         ("no_ramp", "no ramp breaks the wheel away"),
     ],
 )
-def test_cli_bad_friction_logs(case: str, message: str, clean_log: FrictionLog, tmp_path: Path,
-                               capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_bad_friction_logs(
+    case: str, message: str, clean_log: FrictionLog, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     path, out = tmp_path / "bad.csv", tmp_path / "v.toml"
     if case == "missing":
         _write_log(path, clean_log, drop="omega_motor_right_rad_s")
@@ -325,12 +344,17 @@ def test_cli_umbmark_log(tmp_path: Path, capsys: pytest.CaptureFixture[str], veh
     log.write_text("\n".join(rows) + "\n")
     assert main(["identify", "umbmark", "--log", str(log), "--json", "--out", str(out)]) == 0
     data = json.loads(capsys.readouterr().out)
-    assert set(data) == {"error_before_m", "error_after_m", "wheel_radius_ratio", "separation_m",
-                         "radius_left_m", "radius_right_m"}
+    assert set(data) == {
+        "error_before_m",
+        "error_after_m",
+        "wheel_radius_ratio",
+        "separation_m",
+        "radius_left_m",
+        "radius_right_m",
+    }
     assert data["error_after_m"] is None
     assert data["error_before_m"] == pytest.approx(max(np.hypot(*errors[0]), np.hypot(*errors[1])), abs=0.005)
-    assert data["separation_m"]["estimate"] == pytest.approx(0.54 * 0.5 * math.pi / (0.5 * math.pi - 0.01),
-                                                             rel=1e-3)
+    assert data["separation_m"]["estimate"] == pytest.approx(0.54 * 0.5 * math.pi / (0.5 * math.pi - 0.01), rel=1e-3)
     assert data["wheel_radius_ratio"]["stderr"] > 0
     v = load_vehicle(out)
     assert v.wheels.radius_right_m > v.wheels.radius_left_m  # β > 0: the legs curve left, the right wheel is larger

@@ -52,8 +52,14 @@ EXPERIMENTS = sorted((ROOT / "experiments").glob("*.toml")) + [ROOT / "experimen
 VEHICLE_FILE = default_vehicle_path()
 GAINS_DOC = {"pi": {"kp_v_s_rad": 0.02, "ki_v_rad": 0.3, "dt_s": 0.04, "coulomb_feedforward": False}}
 FRICTION_COLUMNS = (
-    "t_s", "phase", "setpoint_omega_motor_left_rad_s", "setpoint_omega_motor_right_rad_s", "omega_motor_left_rad_s",
-    "omega_motor_right_rad_s", "da_voltage_left_v", "da_voltage_right_v",
+    "t_s",
+    "phase",
+    "setpoint_omega_motor_left_rad_s",
+    "setpoint_omega_motor_right_rad_s",
+    "omega_motor_left_rad_s",
+    "omega_motor_right_rad_s",
+    "da_voltage_left_v",
+    "da_voltage_right_v",
 )
 UMBMARK_COLUMNS = ("direction", "x_m", "y_m", "est_x_m", "est_y_m")
 WORK = Path(tempfile.mkdtemp(prefix="agvctl-loaders-"))
@@ -86,8 +92,27 @@ KNOWN_KEYS = _known_keys()
 # Values and documents
 
 NASTY_NUMBERS = [
-    0, -1, 1, 2, 0.0, -0.0, 0.5, -0.5, 1e-300, 5e-324, -1e-9, 1e6, 1e12, -1e12, 1e308, -1e308, 2**63 - 1, -(2**63),
-    math.nan, math.inf, -math.inf,
+    0,
+    -1,
+    1,
+    2,
+    0.0,
+    -0.0,
+    0.5,
+    -0.5,
+    1e-300,
+    5e-324,
+    -1e-9,
+    1e6,
+    1e12,
+    -1e12,
+    1e308,
+    -1e308,
+    2**63 - 1,
+    -(2**63),
+    math.nan,
+    math.inf,
+    -math.inf,
 ]
 numbers = st.sampled_from(NASTY_NUMBERS) | st.floats() | st.integers(-(2**63), 2**63 - 1)
 words = st.sampled_from(["", " ", "line", "turn", "arc", "mpc", "nmpc", "none", "default", "nan", "cw", "x\ny"])
@@ -204,8 +229,9 @@ def _leaf_keys(node: dict[str, Any], prefix: str = "") -> list[str]:
 
 VEHICLE_KEYS = _leaf_keys(VEHICLE_DOC) + ["motor.left.gear_ratio", "motor.right.stiction_n_m", "motor", "wheels"]
 override_values = numbers.map(lambda v: toml_value(v)) | st.text(max_size=8) | values.map(toml_value)
-overrides = st.tuples(st.sampled_from(VEHICLE_KEYS) | st.text(max_size=8), st.sampled_from(["=", "", " = "]),
-                      override_values).map("".join)
+overrides = st.tuples(
+    st.sampled_from(VEHICLE_KEYS) | st.text(max_size=8), st.sampled_from(["=", "", " = "]), override_values
+).map("".join)
 
 
 @LOADERS
@@ -278,8 +304,10 @@ cells = st.sampled_from(CELLS) | st.floats(-1e3, 1e3).map(repr)
 
 
 @LOADERS
-@given(text=csv_text(("t_s", "da_left_v", "da_right_v"), cells) | st.text(max_size=40),
-       duration_s=st.sampled_from([0.04, 0.5, 2.0, 0.0, -1.0, math.nan, math.inf]))
+@given(
+    text=csv_text(("t_s", "da_left_v", "da_right_v"), cells) | st.text(max_size=40),
+    duration_s=st.sampled_from([0.04, 0.5, 2.0, 0.0, -1.0, math.nan, math.inf]),
+)
 def test_input_profile(text: str, duration_s: float) -> None:
     path = write("profile.csv", text)
     assert_clean(lambda: load_input_profile(path, 0.04, duration_s), str(path), "--duration")
@@ -338,13 +366,15 @@ flag_values = numbers.map(str) | words | st.text(max_size=6)
 
 def out_target(d: Path) -> st.SearchStrategy[tuple[str, Path | None]]:
     """An output argument: a fresh file (must not appear on exit 2), an existing file or directory, a deep path."""
-    return st.sampled_from([
-        (str(d / "out.file"), d / "out.file"),
-        (str(d / "new" / "deeper" / "out.file"), d / "new"),
-        (str(EXISTING_FILE), None),
-        (str(WORK), None),
-        ("", None),
-    ])
+    return st.sampled_from(
+        [
+            (str(d / "out.file"), d / "out.file"),
+            (str(d / "new" / "deeper" / "out.file"), d / "new"),
+            (str(EXISTING_FILE), None),
+            (str(WORK), None),
+            ("", None),
+        ]
+    )
 
 
 @st.composite
@@ -403,16 +433,22 @@ def tune_argv(data: st.DataObject, d: Path) -> tuple[list[str], list[Path]]:
     """Margins and bandwidths; ``--plot`` names a file, so that a valid design is refused before it runs (a
     design takes a second; tests/test_tune.py runs valid ones)."""
     argv = ["tune", *data.draw(vehicle_args(d))]
-    for flag in data.draw(st.lists(st.sampled_from(["--phase-margin", "--gain-margin", "--bandwidth"]), max_size=3,
-                                   unique=True)):
+    for flag in data.draw(
+        st.lists(st.sampled_from(["--phase-margin", "--gain-margin", "--bandwidth"]), max_size=3, unique=True)
+    ):
         argv += [flag, data.draw(flag_values)]
     return [*argv, "--out", str(d / "gains.toml"), "--plot", str(EXISTING_FILE)], [d / "gains.toml"]
 
 
 def mass_argv(data: st.DataObject, d: Path) -> tuple[list[str], list[Path]]:
     argv = ["identify", "mass", *data.draw(vehicle_args(d))]
-    for flag in data.draw(st.lists(st.sampled_from(["--left", "--right", "--castor", "--scale-stderr-kg", "--noise",
-                                                     "--seed"]), max_size=6, unique=True)):
+    for flag in data.draw(
+        st.lists(
+            st.sampled_from(["--left", "--right", "--castor", "--scale-stderr-kg", "--noise", "--seed"]),
+            max_size=6,
+            unique=True,
+        )
+    ):
         argv += [flag, data.draw(flag_values)]
     argv += data.draw(st.lists(st.sampled_from(["--simulate", "--json"]), max_size=2, unique=True))
     target, fresh = data.draw(out_target(d))
@@ -466,14 +502,45 @@ def test_help_and_version() -> None:
 # Cases the properties found (st.data() tests take no @example): each must end in exit 2 and one line.
 REGRESSIONS = {
     "issue 9: a path segment of 1e12 m": ["plan", "{d}/p.toml", "--out", "{d}/ref.csv"],
-    "issue 9: run --out naming an existing file": ["run", str(ROOT / "experiments" / "line.toml"), "--out",
-                                                   str(EXISTING_FILE), "--no-plot"],
-    "scale readings whose sum overflows": ["identify", "mass", "--left", "1e308", "--right", "1e308", "--castor",
-                                           "1e308", "--out", "{d}/v.toml"],
-    "a duration too long to allocate": ["simulate", "--duration", "1e12", "--da-left", "1", "--da-right", "1",
-                                        "--out", "{d}/log.csv"],
-    "a duration that overflows the sample count": ["simulate", "--duration", "1e308", "--da-left", "1",
-                                                   "--da-right", "1"],
+    "issue 9: run --out naming an existing file": [
+        "run",
+        str(ROOT / "experiments" / "line.toml"),
+        "--out",
+        str(EXISTING_FILE),
+        "--no-plot",
+    ],
+    "scale readings whose sum overflows": [
+        "identify",
+        "mass",
+        "--left",
+        "1e308",
+        "--right",
+        "1e308",
+        "--castor",
+        "1e308",
+        "--out",
+        "{d}/v.toml",
+    ],
+    "a duration too long to allocate": [
+        "simulate",
+        "--duration",
+        "1e12",
+        "--da-left",
+        "1",
+        "--da-right",
+        "1",
+        "--out",
+        "{d}/log.csv",
+    ],
+    "a duration that overflows the sample count": [
+        "simulate",
+        "--duration",
+        "1e308",
+        "--da-left",
+        "1",
+        "--da-right",
+        "1",
+    ],
 }
 
 

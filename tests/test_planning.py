@@ -260,9 +260,7 @@ def test_join_stop_merges_equal_curvatures_and_stops_at_curvature_jumps():
     smooth = plan_segments(segs, limits=LIMITS, separation_m=B, sample_period_s=0.04)
     assert [m.segment_indices for m in smooth.motions] == [(0, 1, 2, 3, 4), (5,)]
     # the merged line is one rest-to-rest motion over 2 m
-    assert ref.motions[0].duration_s == pytest.approx(
-        closed_form_rest_to_rest(2.0, 0.8, 0.657, 3.0), rel=1e-6
-    )
+    assert ref.motions[0].duration_s == pytest.approx(closed_form_rest_to_rest(2.0, 0.8, 0.657, 3.0), rel=1e-6)
 
 
 def test_segment_speed_cap_is_the_path_speed():

@@ -21,11 +21,7 @@ def _run(targets):
 
 
 @settings(max_examples=40, derandomize=True, deadline=None)
-@given(
-    st.lists(
-        st.tuples(st.floats(-1.5, 1.5), st.floats(-6.0, 6.0), st.integers(1, 40)), min_size=1, max_size=12
-    )
-)
+@given(st.lists(st.tuples(st.floats(-1.5, 1.5), st.floats(-6.0, 6.0), st.integers(1, 40)), min_size=1, max_size=12))
 def test_streamed_targets_respect_the_wheel_limits(schedule):
     targets = [(u, w) for u, w, n in schedule for _ in range(n)]
     out = _run(targets)
@@ -46,9 +42,7 @@ def test_streamed_targets_respect_the_wheel_limits(schedule):
 
 def test_reaches_the_target_in_the_shortest_time():
     out = _run([(0.5, 0.0)] * 100)
-    assert out[-1].speed_m_s == pytest.approx(0.5, abs=1e-9) and out[-1].yaw_rate_rad_s == pytest.approx(
-        0, abs=1e-12
-    )
+    assert out[-1].speed_m_s == pytest.approx(0.5, abs=1e-9) and out[-1].yaw_rate_rad_s == pytest.approx(0, abs=1e-12)
     # 0 → 0.5 m/s with a = 0.657, j = 3: 0.5 ≥ a²/j so t = v/a + a/j = 0.980 s
     t_reach = next(c.t_s for c in out if abs(c.speed_m_s - 0.5) < 1e-9)
     assert t_reach == pytest.approx(0.5 / 0.657 + 0.657 / 3.0, abs=TS)
@@ -87,10 +81,7 @@ def test_for_vehicle_defaults(vehicle):
     cmd = VelocityCommandPlanner.for_vehicle(vehicle)
     assert cmd.limits.wheel_speed_m_s == vehicle.derived.max_speed_m_s
     assert cmd.limits.wheel_accel_m_s2 == vehicle.derived.accel_limit_m_s2
-    assert (
-        cmd.sample_period_s == vehicle.control.sample_period_s
-        and cmd.separation_m == vehicle.wheels.separation_m
-    )
+    assert cmd.sample_period_s == vehicle.control.sample_period_s and cmd.separation_m == vehicle.wheels.separation_m
 
 
 def test_streaming_a_smooth_path_follows_it_within_the_limits(vehicle):

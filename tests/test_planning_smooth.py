@@ -80,8 +80,12 @@ def _assert_curvature_continuous(ref, jump_1_m):
 def _stops_expected(path: Path) -> int:
     """Stops between start and end a path file asks for: at each reversal and each turn in place."""
     segs = load_toml(path).get("segments", [])
-    kinds = [("turn", math.copysign(1, s["angle_deg"])) if s["type"] == "turn"
-             else ("path", math.copysign(1, s.get("length_m", 1.0))) for s in segs]
+    kinds = [
+        ("turn", math.copysign(1, s["angle_deg"]))
+        if s["type"] == "turn"
+        else ("path", math.copysign(1, s.get("length_m", 1.0)))
+        for s in segs
+    ]
     return sum(1 for a, b in zip(kinds, kinds[1:], strict=False) if a != b)
 
 
@@ -143,8 +147,11 @@ def _geometric_end(segments):
 
 _segment = st.one_of(
     st.builds(lambda x: LineSegment(length_m=x), st.sampled_from([0.3, 0.8, 1.5, -0.6])),
-    st.builds(lambda r, a: ArcSegment(radius_m=r, angle_deg=a), st.sampled_from([0.5, 1.0, 2.0]),
-              st.sampled_from([-120.0, -45.0, 30.0, 90.0, 200.0])),
+    st.builds(
+        lambda r, a: ArcSegment(radius_m=r, angle_deg=a),
+        st.sampled_from([0.5, 1.0, 2.0]),
+        st.sampled_from([-120.0, -45.0, 30.0, 90.0, 200.0]),
+    ),
     st.builds(lambda a: TurnSegment(angle_deg=a), st.sampled_from([-90.0, 45.0])),
 )
 _limits = st.builds(WheelLimits, st.floats(0.3, 0.93), st.floats(0.2, 0.65), st.floats(1.0, 8.0))

@@ -16,16 +16,20 @@ from agvctl.errors import ConfigError
 from agvctl.fileio import write_text
 from agvctl.params import VehicleParams, load_vehicle
 
-__all__ = ["add_common_options", "check_noise", "command_line", "format_estimate", "table", "vehicles",
-           "write_vehicle"]
+__all__ = ["add_common_options", "check_noise", "command_line", "format_estimate", "table", "vehicles", "write_vehicle"]
 
 
 def add_common_options(p: argparse.ArgumentParser, simulate_help: str) -> None:
     """``--vehicle``/``--set``, ``--simulate``, ``--noise``, ``--seed``, ``--out`` and ``--json``."""
     add_vehicle_options(p)
     p.add_argument("--simulate", action="store_true", help=simulate_help + "; --set changes the truth only")
-    p.add_argument("--noise", type=float, default=0.0, metavar="SCALE",
-                   help="--simulate: measurement noise, 0 = none, 1 = realistic (default 0)")
+    p.add_argument(
+        "--noise",
+        type=float,
+        default=0.0,
+        metavar="SCALE",
+        help="--simulate: measurement noise, 0 = none, 1 = realistic (default 0)",
+    )
     p.add_argument("--seed", type=int, default=None, metavar="N", help="--simulate: random seed for the noise")
     p.add_argument("--out", metavar="VEHICLE.toml", help="write the vehicle with the identified values")
     p.add_argument("--json", action="store_true", help="print the result as JSON")

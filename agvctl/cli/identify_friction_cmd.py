@@ -58,8 +58,12 @@ def register(isub: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     f.add_argument("--log", metavar="LOG.csv", help="fit a measured log (columns above)")
-    f.add_argument("--speeds", metavar="W1,W2,...", default=None,
-                   help="--simulate: motor speeds the PI loops hold, rad/s (default 50,100,150,200; both directions)")
+    f.add_argument(
+        "--speeds",
+        metavar="W1,W2,...",
+        default=None,
+        help="--simulate: motor speeds the PI loops hold, rad/s (default 50,100,150,200; both directions)",
+    )
     f.add_argument("--save-log", metavar="PATH", help="--simulate: also write the simulated log as CSV")
     add_common_options(f, "run the experiment on the simulator (PI holding N speeds, then the ramps) and fit it")
     f.set_defaults(func=run)
@@ -83,20 +87,25 @@ def run(args: argparse.Namespace) -> int:
         log = simulate_friction_experiment(truth, believed, experiment, noise_scale=args.noise, seed=args.seed)
         if args.save_log:
             log.write_csv(args.save_log)
-        how = [f"friction: simulated experiment, speeds {list(experiment.motor_speeds_rad_s)} rad/s both directions, "
-               f"speed noise {args.noise:g} x {SPEED_NOISE_RAD_S:g} rad/s (seed {args.seed})"]
+        how = [
+            f"friction: simulated experiment, speeds {list(experiment.motor_speeds_rad_s)} rad/s both directions, "
+            f"speed noise {args.noise:g} x {SPEED_NOISE_RAD_S:g} rad/s (seed {args.seed})"
+        ]
     else:
         log = read_friction_log(args.log)
         how = [f"friction: fitted to the log {args.log}"]
     fit = fit_friction(log, believed, truth=truth)
     identified, notes = apply_friction(believed, fit)
-    how += [f"  {command_line()}",
-            "  least squares k_pow k_t u/R - k_e k_t w/R = f_m w + tau_c sign(w) (eqs 66-69, corrected); "
-            "tau_s = k_pow k_t u/R at break-away (eq 65, corrected)"]
+    how += [
+        f"  {command_line()}",
+        "  least squares k_pow k_t u/R - k_e k_t w/R = f_m w + tau_c sign(w) (eqs 66-69, corrected); "
+        "tau_s = k_pow k_t u/R at break-away (eq 65, corrected)",
+    ]
     for name in SIDES:
         s = fit.side(name)
-        f_m, tau_c, tau_s = (format_estimate(e).strip() for e in
-                             (s.viscous_friction_n_m_s_rad, s.coulomb_friction_n_m, s.stiction_n_m))
+        f_m, tau_c, tau_s = (
+            format_estimate(e).strip() for e in (s.viscous_friction_n_m_s_rad, s.coulomb_friction_n_m, s.stiction_n_m)
+        )
         how.append(f"  {name}: f_m {f_m}, tau_c {tau_c}, tau_s {tau_s}")
     how += [f"  note: {n}" for n in (*fit.notes, *notes)]
     if args.out:
@@ -106,15 +115,22 @@ def run(args: argparse.Namespace) -> int:
         return 0
     lines = []
     if args.simulate and truth is not None:
-        lines.append("simulated truth: " + (" ".join(args.overrides) if args.overrides else
-                                            " ".join(DEMO_FRICTION_TRUTH) + "  (demonstration; --set to change)"))
+        lines.append(
+            "simulated truth: "
+            + (
+                " ".join(args.overrides)
+                if args.overrides
+                else " ".join(DEMO_FRICTION_TRUTH) + "  (demonstration; --set to change)"
+            )
+        )
     for name in SIDES:
         s = fit.side(name)
         before = believed.motor.side(name)
         lines.append(f"{name}: {len(s.windows)} constant-speed windows, {len(s.breakaway_da_voltages_v)} ramps")
-        lines += table([
-            (label, getattr(before, key), getattr(s, key), getattr(s, key).truth) for key, label in _FRICTION_KEYS
-        ], args.simulate)
+        lines += table(
+            [(label, getattr(before, key), getattr(s, key), getattr(s, key).truth) for key, label in _FRICTION_KEYS],
+            args.simulate,
+        )
     lines += [f"note: {n}" for n in (*fit.notes, *notes)]
     if args.save_log:
         lines.append(f"wrote {args.save_log}")

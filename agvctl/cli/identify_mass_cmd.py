@@ -16,14 +16,22 @@ __all__ = ["register", "run"]
 
 def register(isub: Any) -> None:
     """Add ``mass`` to the ``identify`` subparsers."""
-    m = isub.add_parser("mass", help="total mass and centre of mass from three scale readings (eq 63), I (eq 64)",
-                        description="M and h from the scale readings under the left, right and castor wheels "
-                        "(eq 63); I about the point of rotation from the frame and battery dimensions (eq 64).")
+    m = isub.add_parser(
+        "mass",
+        help="total mass and centre of mass from three scale readings (eq 63), I (eq 64)",
+        description="M and h from the scale readings under the left, right and castor wheels "
+        "(eq 63); I about the point of rotation from the frame and battery dimensions (eq 64).",
+    )
     m.add_argument("--left", type=float, metavar="KG", help="scale reading under the left wheel")
     m.add_argument("--right", type=float, metavar="KG", help="scale reading under the right wheel")
     m.add_argument("--castor", type=float, metavar="KG", help="scale reading under the castor")
-    m.add_argument("--scale-stderr-kg", type=float, default=None, metavar="KG",
-                   help=f"one reading's standard error (default: 0, or {SCALE_NOISE_KG:g} x --noise with --simulate)")
+    m.add_argument(
+        "--scale-stderr-kg",
+        type=float,
+        default=None,
+        metavar="KG",
+        help=f"one reading's standard error (default: 0, or {SCALE_NOISE_KG:g} x --noise with --simulate)",
+    )
     add_common_options(m, "simulate the readings from the vehicle's M and h (with --set: the truth's)")
     m.set_defaults(func=run)
 
@@ -39,8 +47,12 @@ def run(args: argparse.Namespace) -> int:
     else:
         missing = [n for n in ("left", "right", "castor") if getattr(args, n) is None]
         if missing:
-            raise ConfigError("identify mass", "", "give --left, --right and --castor (kg), or --simulate; "
-                              f"missing {', '.join('--' + n for n in missing)}")
+            raise ConfigError(
+                "identify mass",
+                "",
+                "give --left, --right and --castor (kg), or --simulate; "
+                f"missing {', '.join('--' + n for n in missing)}",
+            )
         readings = (args.left, args.right, args.castor)
         sigma = args.scale_stderr_kg or 0.0
         how = [f"mass: scale readings left {args.left:g} kg, right {args.right:g} kg, castor {args.castor:g} kg"]
@@ -56,13 +68,24 @@ def run(args: argparse.Namespace) -> int:
         return 0
     lines = [f"scale readings (kg): left {readings[0]:.4g}, right {readings[1]:.4g}, castor {readings[2]:.4g}"]
     b = believed.body
-    lines += table([
-        ("M, total mass (kg)", b.mass_kg, fit.mass_kg, fit.mass_kg.truth),
-        ("h, centre of mass behind the axle (m, eq 63)", b.com_behind_axle_m, fit.com_behind_axle_m,
-         fit.com_behind_axle_m.truth),
-        ("I, about the point of rotation (kg m², eq 64)", believed.derived.inertia_rotation_point_kg_m2,
-         fit.inertia_kg_m2, fit.inertia_kg_m2.truth),
-    ], args.simulate)
+    lines += table(
+        [
+            ("M, total mass (kg)", b.mass_kg, fit.mass_kg, fit.mass_kg.truth),
+            (
+                "h, centre of mass behind the axle (m, eq 63)",
+                b.com_behind_axle_m,
+                fit.com_behind_axle_m,
+                fit.com_behind_axle_m.truth,
+            ),
+            (
+                "I, about the point of rotation (kg m², eq 64)",
+                believed.derived.inertia_rotation_point_kg_m2,
+                fit.inertia_kg_m2,
+                fit.inertia_kg_m2.truth,
+            ),
+        ],
+        args.simulate,
+    )
     if args.out:
         lines.append(f"wrote {args.out}")
     print("\n".join(lines))

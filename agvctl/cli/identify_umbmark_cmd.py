@@ -40,8 +40,12 @@ def register(isub: Any) -> None:
     u.add_argument("--log", metavar="RUNS.csv", help="measured end positions (columns above)")
     u.add_argument("--side-m", type=float, default=4.0, metavar="L", help="side of the square (default 4 m)")
     u.add_argument("--runs", type=int, default=5, metavar="N", help="--simulate: runs per direction (default 5)")
-    u.add_argument("--method", choices=("exact", "first_order"), default="exact",
-                   help="exact: refine B&F's first-order alpha, beta on the exact error model (default)")
+    u.add_argument(
+        "--method",
+        choices=("exact", "first_order"),
+        default="exact",
+        help="exact: refine B&F's first-order alpha, beta on the exact error model (default)",
+    )
     add_common_options(u, "drive the squares on the simulator, correct, and drive them again")
     u.set_defaults(func=run)
 
@@ -64,61 +68,88 @@ def run(args: argparse.Namespace) -> int:
     error_after: float | None
     if args.simulate:
         assert truth is not None
-        result = simulate_umbmark(truth, believed, UmbmarkConfig(side_length_m=args.side_m,
-                                                                 runs_per_direction=args.runs),
-                                  noise_scale=args.noise, seed=args.seed, method=args.method)
+        result = simulate_umbmark(
+            truth,
+            believed,
+            UmbmarkConfig(side_length_m=args.side_m, runs_per_direction=args.runs),
+            noise_scale=args.noise,
+            seed=args.seed,
+            method=args.method,
+        )
         corr, corrected, error_after = result.correction, result.corrected_vehicle, result.error_after_m
-        how = [f"UMBmark: simulated, {args.runs} runs per direction of a {args.side_m:g} m square, end-position "
-               f"noise {args.noise:g} x {POSITION_NOISE_M * 1000:g} mm (seed {args.seed})"]
+        how = [
+            f"UMBmark: simulated, {args.runs} runs per direction of a {args.side_m:g} m square, end-position "
+            f"noise {args.noise:g} x {POSITION_NOISE_M * 1000:g} mm (seed {args.seed})"
+        ]
         notes = list(result.notes)
     else:
         cw, ccw = read_umbmark_log(args.log)
         corr = umbmark_correction(cw, ccw, side_length_m=args.side_m, vehicle=believed, method=args.method)
         corrected, error_after = corr.apply(believed), None
-        how = [f"UMBmark: measured end positions {args.log}, {len(cw)} cw and {len(ccw)} ccw runs of a "
-               f"{args.side_m:g} m square"]
+        how = [
+            f"UMBmark: measured end positions {args.log}, {len(cw)} cw and {len(ccw)} ccw runs of a "
+            f"{args.side_m:g} m square"
+        ]
         notes = []
     how += [
         f"  {command_line()}",
         f"  alpha = {corr.alpha_rad.estimate:.6g} rad, beta = {corr.beta_rad.estimate:.6g} rad ({args.method}); "
         f"E_d = {corr.diameter_ratio_correction:.8g}; b = 90/(90 - alpha) b_nominal",
-        f"  E_max,syst before: {corr.error_m:.4g} m" + (f", after: {error_after:.4g} m" if error_after is not None
-                                                         else ""),
+        f"  E_max,syst before: {corr.error_m:.4g} m"
+        + (f", after: {error_after:.4g} m" if error_after is not None else ""),
     ]
     if args.out:
         write_vehicle(args.out, corrected, how)
     if args.json:
-        print(json.dumps({
-            "error_before_m": corr.error_m,
-            "error_after_m": error_after,
-            "wheel_radius_ratio": corr.wheel_radius_ratio.as_dict(),
-            "separation_m": corr.separation_m.as_dict(),
-            "radius_left_m": corr.radius_left_m.as_dict(),
-            "radius_right_m": corr.radius_right_m.as_dict(),
-        }, indent=2))
+        print(
+            json.dumps(
+                {
+                    "error_before_m": corr.error_m,
+                    "error_after_m": error_after,
+                    "wheel_radius_ratio": corr.wheel_radius_ratio.as_dict(),
+                    "separation_m": corr.separation_m.as_dict(),
+                    "radius_left_m": corr.radius_left_m.as_dict(),
+                    "radius_right_m": corr.radius_right_m.as_dict(),
+                },
+                indent=2,
+            )
+        )
         return 0
     lines = []
     if args.simulate:
-        lines.append("simulated truth: " + (" ".join(args.overrides) if args.overrides else
-                                            " ".join(demo) + "  (demonstration; --set to change)"))
+        lines.append(
+            "simulated truth: "
+            + (" ".join(args.overrides) if args.overrides else " ".join(demo) + "  (demonstration; --set to change)")
+        )
     w = believed.wheels
-    lines.append(f"centroids (m): cw ({corr.centroid_cw_m[0]:+.4f}, {corr.centroid_cw_m[1]:+.4f}), "
-                 f"ccw ({corr.centroid_ccw_m[0]:+.4f}, {corr.centroid_ccw_m[1]:+.4f}); "
-                 f"alpha {math.degrees(corr.alpha_rad.estimate):.4f}°, "
-                 f"beta {math.degrees(corr.beta_rad.estimate):.4f}°")
-    lines += table([
-        ("radius_left_m", w.radius_left_m, corr.radius_left_m, corr.radius_left_m.truth),
-        ("radius_right_m", w.radius_right_m, corr.radius_right_m, corr.radius_right_m.truth),
-        ("wheel radius ratio r_r/r_l", w.radius_right_m / w.radius_left_m, corr.wheel_radius_ratio,
-         corr.wheel_radius_ratio.truth),
-        ("separation_m", w.separation_m, corr.separation_m, corr.separation_m.truth),
-    ], args.simulate)
+    lines.append(
+        f"centroids (m): cw ({corr.centroid_cw_m[0]:+.4f}, {corr.centroid_cw_m[1]:+.4f}), "
+        f"ccw ({corr.centroid_ccw_m[0]:+.4f}, {corr.centroid_ccw_m[1]:+.4f}); "
+        f"alpha {math.degrees(corr.alpha_rad.estimate):.4f}°, "
+        f"beta {math.degrees(corr.beta_rad.estimate):.4f}°"
+    )
+    lines += table(
+        [
+            ("radius_left_m", w.radius_left_m, corr.radius_left_m, corr.radius_left_m.truth),
+            ("radius_right_m", w.radius_right_m, corr.radius_right_m, corr.radius_right_m.truth),
+            (
+                "wheel radius ratio r_r/r_l",
+                w.radius_right_m / w.radius_left_m,
+                corr.wheel_radius_ratio,
+                corr.wheel_radius_ratio.truth,
+            ),
+            ("separation_m", w.separation_m, corr.separation_m, corr.separation_m.truth),
+        ],
+        args.simulate,
+    )
     after = f"{error_after:.4g} m" if error_after is not None else "(drive the squares again to measure)"
     ratio = f"  ({corr.error_m / error_after:.0f}x smaller)" if error_after else ""
     lines.append(f"  E_max,syst: before {corr.error_m:.4g} m, after {after}{ratio}")
     if args.simulate:
-        lines.append("  (truth of the wheel base: b r̄_believed/r̄_true, the value the odometry needs; the mean "
-                     "radius is not observable by UMBmark and is kept)")
+        lines.append(
+            "  (truth of the wheel base: b r̄_believed/r̄_true, the value the odometry needs; the mean "
+            "radius is not observable by UMBmark and is kept)"
+        )
     lines += [f"note: {n}" for n in notes]
     if args.out:
         lines.append(f"wrote {args.out}")

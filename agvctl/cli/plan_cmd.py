@@ -17,41 +17,55 @@ from agvctl.planning import CSV_COLUMNS, PhysicalLimitWarning, Reference, load_p
 
 def register(sub: Any) -> None:
     p = sub.add_parser(
-        "plan", help="plan a reference from a path file (trajectories/*.toml)",
+        "plan",
+        help="plan a reference from a path file (trajectories/*.toml)",
         description="Plan a time-optimal, jerk-limited reference from a path file ([[segments]] or "
-                    "[[waypoints]]), within the wheel limits. The reference drives through curvature changes "
-                    "on smooth joins and stops only at reversals, turns in place and the end "
-                    '(join = "stop" in the file: wherever the curvature or the direction of travel changes).',
+        "[[waypoints]]), within the wheel limits. The reference drives through curvature changes "
+        "on smooth joins and stops only at reversals, turns in place and the end "
+        '(join = "stop" in the file: wherever the curvature or the direction of travel changes).',
     )
     p.add_argument("file", metavar="FILE", help="path file (TOML), e.g. trajectories/square.toml")
     add_vehicle_options(p)
-    p.add_argument("--json", action="store_true",
-                   help='print {"name", "duration_s", "path_length_m", "peak_wheel_speed_m_s", '
-                        '"peak_wheel_accel_m_s2", "peak_wheel_jerk_m_s3", "geometry_deviation_m", "final_pose"}')
-    p.add_argument("--out", metavar="REF.csv", default=None,
-                   help=f"write the reference on the control grid as CSV ({', '.join(CSV_COLUMNS)})")
-    p.add_argument("--plot", metavar="REF.png", default=None,
-                   help="draw the path, its curvature against arc length, and the wheel speeds and "
-                        "accelerations against their limits")
-    p.add_argument("--force", action="store_true",
-                   help="accept limits above what the vehicle can physically do (with a warning)")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help='print {"name", "duration_s", "path_length_m", "peak_wheel_speed_m_s", '
+        '"peak_wheel_accel_m_s2", "peak_wheel_jerk_m_s3", "geometry_deviation_m", "final_pose"}',
+    )
+    p.add_argument(
+        "--out",
+        metavar="REF.csv",
+        default=None,
+        help=f"write the reference on the control grid as CSV ({', '.join(CSV_COLUMNS)})",
+    )
+    p.add_argument(
+        "--plot",
+        metavar="REF.png",
+        default=None,
+        help="draw the path, its curvature against arc length, and the wheel speeds and "
+        "accelerations against their limits",
+    )
+    p.add_argument(
+        "--force", action="store_true", help="accept limits above what the vehicle can physically do (with a warning)"
+    )
     p.set_defaults(func=run)
 
 
 def format_summary(summary: dict[str, Any]) -> str:
     """The human-readable form of :meth:`Reference.summary`."""
     pose = summary["final_pose"]
-    return "\n".join([
-        f"path: {summary['name']}",
-        f"  duration              {summary['duration_s']:10.3f} s",
-        f"  path length           {summary['path_length_m']:10.3f} m",
-        f"  peak wheel speed      {summary['peak_wheel_speed_m_s']:10.4f} m/s",
-        f"  peak wheel accel      {summary['peak_wheel_accel_m_s2']:10.4f} m/s²",
-        f"  peak wheel jerk       {summary['peak_wheel_jerk_m_s3']:10.4f} m/s³",
-        f"  path deviation        {summary['geometry_deviation_m'] * 1e3:10.2f} mm (largest, from the file's path)",
-        f"  final pose            x {pose['x_m']:.4f} m, y {pose['y_m']:.4f} m, "
-        f"θ {pose['theta_rad']:.4f} rad",
-    ])
+    return "\n".join(
+        [
+            f"path: {summary['name']}",
+            f"  duration              {summary['duration_s']:10.3f} s",
+            f"  path length           {summary['path_length_m']:10.3f} m",
+            f"  peak wheel speed      {summary['peak_wheel_speed_m_s']:10.4f} m/s",
+            f"  peak wheel accel      {summary['peak_wheel_accel_m_s2']:10.4f} m/s²",
+            f"  peak wheel jerk       {summary['peak_wheel_jerk_m_s3']:10.4f} m/s³",
+            f"  path deviation        {summary['geometry_deviation_m'] * 1e3:10.2f} mm (largest, from the file's path)",
+            f"  final pose            x {pose['x_m']:.4f} m, y {pose['y_m']:.4f} m, θ {pose['theta_rad']:.4f} rad",
+        ]
+    )
 
 
 def _write(kind: str, path: str, write: Any) -> None:

@@ -63,8 +63,11 @@ class LtvLqrConfig:
 def unicycle_error_model(speed_m_s: float, sample_period_s: float) -> tuple[FloatArray, FloatArray]:
     """(A_d, B_d): the zero-order-hold discretisation over ``sample_period_s`` of the robot-frame error
     dynamics linearised at reference speed ``speed_m_s`` (|v| raised to the 10⁻⁴ m/s floor)."""
-    v = speed_m_s if abs(speed_m_s) >= MIN_LINEARISATION_SPEED_M_S else math.copysign(MIN_LINEARISATION_SPEED_M_S,
-                                                                                       speed_m_s)
+    v = (
+        speed_m_s
+        if abs(speed_m_s) >= MIN_LINEARISATION_SPEED_M_S
+        else math.copysign(MIN_LINEARISATION_SPEED_M_S, speed_m_s)
+    )
     m = np.zeros((5, 5))
     m[1, 2] = v  # A
     m[0, 3] = m[2, 4] = 1.0  # B

@@ -272,10 +272,13 @@ def _spec_excess(
     for plant in plants:
         gains = _pi_for_crossover(plant, chain, crossover_rad_s, pm_design_deg, dt_s)
         if gains is not None:
-            m = [loop_margins(*loop_polynomials(gains, p, chain), dt_s, grid_points=_SEARCH_GRID_POINTS)
-                 for p in plants]
-            best = max(best, min(min(x.gain_margin_db - spec.gain_margin_db,
-                                     x.phase_margin_deg - spec.phase_margin_deg) for x in m))
+            m = [
+                loop_margins(*loop_polynomials(gains, p, chain), dt_s, grid_points=_SEARCH_GRID_POINTS) for p in plants
+            ]
+            best = max(
+                best,
+                min(min(x.gain_margin_db - spec.gain_margin_db, x.phase_margin_deg - spec.phase_margin_deg) for x in m),
+            )
     return best
 
 

@@ -108,8 +108,17 @@ class UnicycleTracker:
             row = self._grid[-1]
             return row
         g = self._reference.sample(np.array([t_s]))
-        return np.array([g.x_m[0], g.y_m[0], g.theta_rad[0], g.speed_m_s[0], g.yaw_rate_rad_s[0],
-                         g.wheel_speed_left_m_s[0], g.wheel_speed_right_m_s[0]])
+        return np.array(
+            [
+                g.x_m[0],
+                g.y_m[0],
+                g.theta_rad[0],
+                g.speed_m_s[0],
+                g.yaw_rate_rad_s[0],
+                g.wheel_speed_left_m_s[0],
+                g.wheel_speed_right_m_s[0],
+            ]
+        )
 
     def _law(self, error: tuple[float, float, float], speed_m_s: float, yaw_rate_rad_s: float) -> tuple[float, float]:
         """(v in m/s, ω in rad/s) from the robot-frame error (e_x, e_y, e_θ) and the reference's v_d, ω_d."""

@@ -88,8 +88,9 @@ class Curve:
         +1 forwards, −1 in reverse.
     """
 
-    def __init__(self, start: Pose, lengths_m: Sequence[float] | FloatArray, curvature_coeffs: ArrayLike,
-                 *, direction: int = 1) -> None:
+    def __init__(
+        self, start: Pose, lengths_m: Sequence[float] | FloatArray, curvature_coeffs: ArrayLike, *, direction: int = 1
+    ) -> None:
         lengths = np.asarray(lengths_m, dtype=float)
         coeffs = np.atleast_2d(np.asarray(curvature_coeffs, dtype=float))
         if len(lengths) == 0 or len(lengths) != len(coeffs) or not np.all(lengths > 0):
@@ -116,8 +117,9 @@ class Curve:
         self._x0 = start.x_m + np.concatenate(([0.0], np.cumsum(cos0 * dx - sin0 * dy)[:-1]))
         self._y0 = start.y_m + np.concatenate(([0.0], np.cumsum(sin0 * dx + cos0 * dy)[:-1]))
 
-    def _local(self, piece: NDArray[np.int64], sigma: FloatArray, theta0: FloatArray
-               ) -> tuple[FloatArray, FloatArray, FloatArray]:
+    def _local(
+        self, piece: NDArray[np.int64], sigma: FloatArray, theta0: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Displacement (dx, dy) and heading change from a piece's start, in the frame turned by ``theta0``."""
         k0 = self._k[piece, 0]
         dth = polyval_rows(self._th[piece], sigma)

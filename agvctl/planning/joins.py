@@ -61,8 +61,10 @@ _MODE_TOTAL = np.array([P.polyval(1.0, P.polyint(m)) for m in _MODE_COEFFS])
 
 def _target(k1: float, k2: float) -> complex:
     """End point of the requested window (half at L κ₁, half at L κ₂, unit length, from heading 0)."""
+
     def chord(k: float, th0: float) -> complex:
         return complex(0.5 * np.sinc(0.25 * k / np.pi) * np.exp(1j * (th0 + 0.25 * k)))
+
     return chord(k1, 0.0) + chord(k2, 0.5 * k1)
 
 
@@ -116,8 +118,16 @@ class JoinWindow:
         self.deviation_m = float(np.max(np.hypot(a.x_m - b.x_m, a.y_m - b.y_m)))
 
 
-def design_join(k1: float, k2: float, *, speed_m_s: float, cap_m_s: float | None, limits: WheelLimits,
-                half_b_m: float, max_length_m: float) -> JoinWindow:
+def design_join(
+    k1: float,
+    k2: float,
+    *,
+    speed_m_s: float,
+    cap_m_s: float | None,
+    limits: WheelLimits,
+    half_b_m: float,
+    max_length_m: float,
+) -> JoinWindow:
     """The shortest window (≤ ``max_length_m``) through which a wheel-limited speed of ``speed_m_s`` can be
     kept; the longest that converges if none allows it (the speed planner then slows down there)."""
     best: JoinWindow | None = None

@@ -72,10 +72,10 @@ class VelocityCommandPlanner:
         """A planner for ``vehicle``: its separation and sample period; limits default to the vehicle's
         (no-load top speed, a_lim of eq 5, :func:`~agvctl.planning.spec.default_jerk_limit_m_s3`)."""
         if limits is None:
-            limits = WheelLimits(vehicle.derived.max_speed_m_s, vehicle.derived.accel_limit_m_s2,
-                                 default_jerk_limit_m_s3(vehicle))
-        return cls(limits, separation_m=vehicle.wheels.separation_m,
-                   sample_period_s=vehicle.control.sample_period_s)
+            limits = WheelLimits(
+                vehicle.derived.max_speed_m_s, vehicle.derived.accel_limit_m_s2, default_jerk_limit_m_s3(vehicle)
+            )
+        return cls(limits, separation_m=vehicle.wheels.separation_m, sample_period_s=vehicle.control.sample_period_s)
 
     def reset(
         self,

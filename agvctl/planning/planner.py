@@ -67,21 +67,25 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
     """
     vehicle = vehicle if vehicle is not None else load_vehicle()
     limits = resolve_limits(spec, vehicle, force=force)
-    common = {"limits": limits, "separation_m": vehicle.wheels.separation_m,
-              "sample_period_s": vehicle.control.sample_period_s, "name": spec.name}
+    common = {
+        "limits": limits,
+        "separation_m": vehicle.wheels.separation_m,
+        "sample_period_s": vehicle.control.sample_period_s,
+        "name": spec.name,
+    }
     try:
         if spec.waypoints:
             reference = plan_waypoints(spec.waypoints, source=spec.source, **common)  # type: ignore[arg-type]
         else:
-            reference = plan_segments(spec.segments, start_pose=Pose.from_start(spec.start), join=spec.join,
-                                      **common)  # type: ignore[arg-type]
+            reference = plan_segments(spec.segments, start_pose=Pose.from_start(spec.start), join=spec.join, **common)  # type: ignore[arg-type]
     except _Failure as exc:
         raise ConfigError(spec.source, exc.key, exc.problem) from None
     if not reference.duration_s <= MAX_DURATION_S:
         key = "waypoints" if spec.waypoints else "segments"
         raise ConfigError(
-            spec.source, key, f"the reference would last {reference.duration_s:.4g} s, above the maximum "
-            f"{MAX_DURATION_S:g} s"
+            spec.source,
+            key,
+            f"the reference would last {reference.duration_s:.4g} s, above the maximum {MAX_DURATION_S:g} s",
         )
     return reference
 
@@ -145,30 +149,52 @@ def plan_segments(
             raise _Failure(f"segments[{parts[0][0]}]", f"cannot be planned: {exc}") from None
         motions += new
         t, pose = new[-1].t_end_s, new[-1].end_pose
-    return Reference(name=name, motions=motions, limits=limits, separation_m=separation_m,
-                     sample_period_s=sample_period_s, start_pose=motions[0].start_pose,
-                     segment_count=len(segments), geometry_deviation_m=deviation)
+    return Reference(
+        name=name,
+        motions=motions,
+        limits=limits,
+        separation_m=separation_m,
+        sample_period_s=sample_period_s,
+        start_pose=motions[0].start_pose,
+        segment_count=len(segments),
+        geometry_deviation_m=deviation,
+    )
 
 
 def _starts(lengths: Sequence[float]) -> tuple[float, ...]:
     return tuple(float(x) for x in np.concatenate(([0.0], np.cumsum(lengths)[:-1])))
 
 
-def _spin(parts: list[_Part], direction: int, pose: Pose, t: float, limits: WheelLimits, half_b: float,
-          solver: _Solver) -> Motion:
+def _spin(
+    parts: list[_Part], direction: int, pose: Pose, t: float, limits: WheelLimits, half_b: float, solver: _Solver
+) -> Motion:
     distance = sum(p[1] for p in parts)
     cap = parts[0][3]
     v = limits.wheel_speed_m_s if cap is None else min(cap, limits.wheel_speed_m_s)
-    profile = rest_to_rest(distance, max_velocity=v / half_b, max_acceleration=limits.wheel_accel_m_s2 / half_b,
-                           max_jerk=limits.wheel_jerk_m_s3 / half_b, solver=solver)
+    profile = rest_to_rest(
+        distance,
+        max_velocity=v / half_b,
+        max_acceleration=limits.wheel_accel_m_s2 / half_b,
+        max_jerk=limits.wheel_jerk_m_s3 / half_b,
+        solver=solver,
+    )
     end = Pose(pose.x_m, pose.y_m, pose.theta_rad + direction * distance)
-    return Motion(kind="spin", segment_indices=tuple(p[0] for p in parts), t_start_s=t, start_pose=pose,
-                  end_pose=end, direction=direction, profiles=(profile,), section_starts=(0.0,),
-                  segment_starts=_starts([p[1] for p in parts]))
+    return Motion(
+        kind="spin",
+        segment_indices=tuple(p[0] for p in parts),
+        t_start_s=t,
+        start_pose=pose,
+        end_pose=end,
+        direction=direction,
+        profiles=(profile,),
+        section_starts=(0.0,),
+        segment_starts=_starts([p[1] for p in parts]),
+    )
 
 
-def _worth_driving(w: JoinWindow, speed: float, cap: float | None, kappa_max: float, limits: WheelLimits,
-                   half_b: float) -> bool:
+def _worth_driving(
+    w: JoinWindow, speed: float, cap: float | None, kappa_max: float, limits: WheelLimits, half_b: float
+) -> bool:
     """Whether crossing a window at its speed limit is quicker than driving the corner with a stop instead:
     the window's length at ``speed`` plus what braking to rest and starting again add (speed/a + a/j with the
     wheel limits divided by F = 1 + |κ| b/2 of the sharper neighbour)."""
@@ -197,8 +223,15 @@ def _windows(parts: list[_Part], limits: WheelLimits, half_b: float) -> list[Joi
         cap = min(caps) if caps else None
         speed = min(speeds + caps)
         try:
-            w = design_join(a[2], b[2], speed_m_s=speed, cap_m_s=cap, limits=limits, half_b_m=half_b,
-                            max_length_m=2.0 * min(room_a, room_b))
+            w = design_join(
+                a[2],
+                b[2],
+                speed_m_s=speed,
+                cap_m_s=cap,
+                limits=limits,
+                half_b_m=half_b,
+                max_length_m=2.0 * min(room_a, room_b),
+            )
         except ValueError:
             out.append(False)
             continue
@@ -207,8 +240,9 @@ def _windows(parts: list[_Part], limits: WheelLimits, half_b: float) -> list[Joi
     return out
 
 
-def _paths(parts: list[_Part], direction: int, pose: Pose, t: float, limits: WheelLimits, half_b: float,
-           solver: _Solver) -> tuple[list[Motion], float]:
+def _paths(
+    parts: list[_Part], direction: int, pose: Pose, t: float, limits: WheelLimits, half_b: float, solver: _Solver
+) -> tuple[list[Motion], float]:
     """The motions of a run of lines and arcs: one, or several where a join is not worth driving."""
     windows = _windows(parts, limits, half_b)
     if False in windows:
@@ -216,12 +250,21 @@ def _paths(parts: list[_Part], direction: int, pose: Pose, t: float, limits: Whe
         first, dev_a = _paths(parts[:k], direction, pose, t, limits, half_b, solver)
         rest, dev_b = _paths(parts[k:], direction, first[-1].end_pose, first[-1].t_end_s, limits, half_b, solver)
         return first + rest, max(dev_a, dev_b)
-    return _path(parts, [w if isinstance(w, JoinWindow) else None for w in windows], direction, pose, t,
-                 limits, half_b, solver)
+    return _path(
+        parts, [w if isinstance(w, JoinWindow) else None for w in windows], direction, pose, t, limits, half_b, solver
+    )
 
 
-def _path(parts: list[_Part], windows: list[JoinWindow | None], direction: int, pose: Pose, t: float,
-          limits: WheelLimits, half_b: float, solver: _Solver) -> tuple[list[Motion], float]:
+def _path(
+    parts: list[_Part],
+    windows: list[JoinWindow | None],
+    direction: int,
+    pose: Pose,
+    t: float,
+    limits: WheelLimits,
+    half_b: float,
+    solver: _Solver,
+) -> tuple[list[Motion], float]:
     lengths: list[float] = []
     coeffs: list[list[float]] = []
     sections: list[tuple[float, tuple[float, float, float], float | None, int]] = []
@@ -246,8 +289,16 @@ def _path(parts: list[_Part], windows: list[JoinWindow | None], direction: int, 
         cut_left = cut_right
     curve = Curve(pose, lengths, _pad(coeffs), direction=direction)
     limits_s = [section_limits(d, b, c, limits, half_b) for d, b, c, _ in sections]
-    motion = _motion(curve, limits_s, [s[3] for s in sections], "segments", solver, t,
-                     tuple(p[0] for p in parts), _starts([p[1] for p in parts]))
+    motion = _motion(
+        curve,
+        limits_s,
+        [s[3] for s in sections],
+        "segments",
+        solver,
+        t,
+        tuple(p[0] for p in parts),
+        _starts([p[1] for p in parts]),
+    )
     deviation = max((w.deviation_m for w in windows if w is not None), default=0.0)
     return [motion], deviation
 
@@ -257,8 +308,16 @@ def _pad(rows: list[list[float]]) -> np.ndarray:
     return np.array([r + [0.0] * (width - len(r)) for r in rows])
 
 
-def _motion(curve: Curve, sections: list[SectionLimits], owners: list[int], key: str, solver: _Solver,
-            t: float, segment_indices: tuple[int, ...], segment_starts: tuple[float, ...]) -> Motion:
+def _motion(
+    curve: Curve,
+    sections: list[SectionLimits],
+    owners: list[int],
+    key: str,
+    solver: _Solver,
+    t: float,
+    segment_indices: tuple[int, ...],
+    segment_starts: tuple[float, ...],
+) -> Motion:
     """Plan the speed along ``curve`` and wrap it as a path motion; a failure names the owner's key."""
     try:
         profiles, _ = plan_speed(sections, solver=solver)
@@ -267,10 +326,18 @@ def _motion(curve: Curve, sections: list[SectionLimits], owners: list[int], key:
         raise _Failure(f"{key}[{owners[k]}]", f"cannot be planned: {exc.args[0]}") from None
     start = curve.evaluate([0.0])
     pose = Pose(float(start.x_m[0]), float(start.y_m[0]), float(start.theta_rad[0]))
-    return Motion(kind="path", segment_indices=segment_indices, t_start_s=t, start_pose=pose,
-                  end_pose=curve.end_pose(), direction=curve.direction, profiles=tuple(profiles),
-                  section_starts=_starts([s.length_m for s in sections]), segment_starts=segment_starts,
-                  curve=curve)
+    return Motion(
+        kind="path",
+        segment_indices=segment_indices,
+        t_start_s=t,
+        start_pose=pose,
+        end_pose=curve.end_pose(),
+        direction=curve.direction,
+        profiles=tuple(profiles),
+        section_starts=_starts([s.length_m for s in sections]),
+        segment_starts=segment_starts,
+        curve=curve,
+    )
 
 
 def plan_waypoints(
@@ -296,10 +363,25 @@ def plan_waypoints(
         sections.append(section_limits(length, tuple(np.max(bounds[lo:hi], axis=0)), None, limits, half_b))
         owners.append(int(np.searchsorted(s_i, curve.s0_m[lo], side="right")) - 1)
     try:
-        motion = _motion(curve, sections, owners, "waypoints", _Solver(), 0.0,
-                         tuple(range(len(s_i) - 1)), tuple(float(s) for s in s_i[:-1]))
+        motion = _motion(
+            curve,
+            sections,
+            owners,
+            "waypoints",
+            _Solver(),
+            0.0,
+            tuple(range(len(s_i) - 1)),
+            tuple(float(s) for s in s_i[:-1]),
+        )
     except (ValueError, ArithmeticError) as exc:
         raise _Failure("waypoints", f"cannot be planned: {exc}") from None
-    return Reference(name=name, motions=[motion], limits=limits, separation_m=separation_m,
-                     sample_period_s=sample_period_s, start_pose=motion.start_pose,
-                     segment_count=len(s_i) - 1, geometry_deviation_m=deviation)
+    return Reference(
+        name=name,
+        motions=[motion],
+        limits=limits,
+        separation_m=separation_m,
+        sample_period_s=sample_period_s,
+        start_pose=motion.start_pose,
+        segment_count=len(s_i) - 1,
+        geometry_deviation_m=deviation,
+    )

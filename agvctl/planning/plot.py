@@ -45,8 +45,9 @@ def plot_reference(ref: Reference, *, dense_period_s: float = 0.005) -> Any:
     ax_k.plot(s.path_length_m[moving], s.curvature_1_m[moving], color="C0", lw=1.5)
     ax_k.set_xlabel("arc length s [m]")
     ax_k.set_ylabel("curvature κ [1/m]")
-    ax_k.set_title(f"largest deviation from the requested path {ref.geometry_deviation_m * 1e3:.1f} mm",
-                   fontsize="small")
+    ax_k.set_title(
+        f"largest deviation from the requested path {ref.geometry_deviation_m * 1e3:.1f} mm", fontsize="small"
+    )
     ax_k.grid(True, alpha=0.3)
 
     for ax, left, right, limit, label in (

@@ -60,8 +60,9 @@ class JerkProfile:
     def min_velocity(self) -> float:
         """The lowest q̇ over the profile (at a phase end, or where q̈ = 0 inside a phase)."""
         lowest = math.inf
-        for tau, j, v0, a0 in zip(self.phase_durations_s.tolist(), self.jerk.tolist(), self.v0.tolist(),
-                                  self.a0.tolist(), strict=True):  # seven phases: plain floats are faster
+        for tau, j, v0, a0 in zip(
+            self.phase_durations_s.tolist(), self.jerk.tolist(), self.v0.tolist(), self.a0.tolist(), strict=True
+        ):  # seven phases: plain floats are faster
             lowest = min(lowest, v0, v0 + a0 * tau + 0.5 * j * tau * tau)
             t_star = -a0 / j if j != 0 else -1.0
             if 0 < t_star < tau:
@@ -96,8 +97,15 @@ def rest_to_rest(
     ``solver`` lets a caller planning many profiles reuse one Ruckig instance. Raises :class:`PlanningError`
     if Ruckig cannot find a profile (non-finite or non-positive input).
     """
-    return between(distance, start_velocity=0.0, end_velocity=0.0, max_velocity=max_velocity,
-                   max_acceleration=max_acceleration, max_jerk=max_jerk, solver=solver)
+    return between(
+        distance,
+        start_velocity=0.0,
+        end_velocity=0.0,
+        max_velocity=max_velocity,
+        max_acceleration=max_acceleration,
+        max_jerk=max_jerk,
+        solver=solver,
+    )
 
 
 def between(
@@ -115,8 +123,12 @@ def between(
     Both speeds must be in [0, max_velocity); the profile never moves backwards. Raises
     :class:`PlanningError` if Ruckig cannot find a profile within the limits.
     """
-    for name, value in (("distance", distance), ("max_velocity", max_velocity),
-                        ("max_acceleration", max_acceleration), ("max_jerk", max_jerk)):
+    for name, value in (
+        ("distance", distance),
+        ("max_velocity", max_velocity),
+        ("max_acceleration", max_acceleration),
+        ("max_jerk", max_jerk),
+    ):
         if not (np.isfinite(value) and value > 0):
             raise PlanningError(f"{name} must be finite and > 0 (got {value:g})")
     keep = 1.0 - LIMIT_MARGIN

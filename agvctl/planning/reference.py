@@ -34,8 +34,16 @@ __all__ = ["CSV_COLUMNS", "Motion", "Reference", "ReferenceSamples"]
 FloatArray = NDArray[np.float64]
 
 CSV_COLUMNS = (
-    "t_s", "x_m", "y_m", "theta_rad", "speed_m_s", "yaw_rate_rad_s",
-    "wheel_speed_left_m_s", "wheel_speed_right_m_s", "wheel_accel_left_m_s2", "wheel_accel_right_m_s2",
+    "t_s",
+    "x_m",
+    "y_m",
+    "theta_rad",
+    "speed_m_s",
+    "yaw_rate_rad_s",
+    "wheel_speed_left_m_s",
+    "wheel_speed_right_m_s",
+    "wheel_accel_left_m_s2",
+    "wheel_accel_right_m_s2",
 )
 """The columns of ``agvctl plan --out``, in order."""
 
@@ -173,8 +181,9 @@ class Reference:
         self._ph_motion = np.concatenate(owner).astype(np.int64)
 
     # ------------------------------------------------------------------------------------------------------
-    def _coordinate(self, t_s: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
-                                                   NDArray[np.int64]]:
+    def _coordinate(
+        self, t_s: ArrayLike
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.int64]]:
         """``(t, q, q̇, q̈, q⃛, motion index)`` at the times (flattened)."""
         t = np.atleast_1d(np.asarray(t_s, dtype=float)).ravel()
         tc = np.clip(t, 0.0, self.duration_s)
@@ -209,16 +218,24 @@ class Reference:
             u[sel], ud[sel], uj[sel] = d * v, d * acc, d * jk
             w[sel] = c.curvature_1_m * v
             wd[sel] = c.curvature_1_m * acc + c.curvature_rate_1_m2 * v**2
-            wj[sel] = (c.curvature_1_m * jk + 3.0 * c.curvature_rate_1_m2 * v * acc
-                       + c.curvature_accel_1_m3 * v**3)
+            wj[sel] = c.curvature_1_m * jk + 3.0 * c.curvature_rate_1_m2 * v * acc + c.curvature_accel_1_m3 * v**3
         h = 0.5 * self.separation_m
         is_path = np.array([mo.kind == "path" for mo in self.motions])[m]
         return ReferenceSamples(
-            t_s=t, x_m=x, y_m=y, theta_rad=th,
-            speed_m_s=u, accel_m_s2=ud, yaw_rate_rad_s=w, yaw_accel_rad_s2=wd,
-            wheel_speed_left_m_s=u - w * h, wheel_speed_right_m_s=u + w * h,
-            wheel_accel_left_m_s2=ud - wd * h, wheel_accel_right_m_s2=ud + wd * h,
-            wheel_jerk_left_m_s3=uj - wj * h, wheel_jerk_right_m_s3=uj + wj * h,
+            t_s=t,
+            x_m=x,
+            y_m=y,
+            theta_rad=th,
+            speed_m_s=u,
+            accel_m_s2=ud,
+            yaw_rate_rad_s=w,
+            yaw_accel_rad_s2=wd,
+            wheel_speed_left_m_s=u - w * h,
+            wheel_speed_right_m_s=u + w * h,
+            wheel_accel_left_m_s2=ud - wd * h,
+            wheel_accel_right_m_s2=ud + wd * h,
+            wheel_jerk_left_m_s3=uj - wj * h,
+            wheel_jerk_right_m_s3=uj + wj * h,
             path_length_m=self._s0[m] + np.where(is_path, q, 0.0),
             curvature_1_m=kap,
             motion_index=m,
@@ -255,8 +272,7 @@ class Reference:
     def peaks(self, dense_period_s: float = 1e-3) -> dict[str, float]:
         """Peaks of |wheel speed|, |wheel accel| and |wheel jerk| (either wheel) over the reference, sampled
         every ``dense_period_s`` and at every phase switch (where the accelerations peak)."""
-        t = np.unique(np.concatenate([np.arange(0.0, self.duration_s, dense_period_s), self._ph_t0,
-                                      [self.duration_s]]))
+        t = np.unique(np.concatenate([np.arange(0.0, self.duration_s, dense_period_s), self._ph_t0, [self.duration_s]]))
         s = self.sample(t)
 
         def peak(left: FloatArray, right: FloatArray) -> float:
@@ -281,5 +297,7 @@ class Reference:
         }
 
     def __repr__(self) -> str:
-        return (f"Reference(name={self.name!r}, duration_s={self.duration_s:.3f}, "
-                f"path_length_m={self.path_length_m:.3f}, motions={len(self.motions)})")
+        return (
+            f"Reference(name={self.name!r}, duration_s={self.duration_s:.3f}, "
+            f"path_length_m={self.path_length_m:.3f}, motions={len(self.motions)})"
+        )

@@ -143,7 +143,7 @@ class TurnSegment:
 class ArcSegment:
     """A circular arc of ``radius_m`` ≥ 1 mm through ``angle_deg`` (positive = left turn), driven forwards."""
 
-    radius_m: float = number(ge=1e-3, doc="at least 1 mm: a smaller radius is a turn in place (type = \"turn\")")
+    radius_m: float = number(ge=1e-3, doc='at least 1 mm: a smaller radius is a turn in place (type = "turn")')
     angle_deg: float = number()
     speed_m_s: float | None = number(gt=0, default=None)
     type: Literal["arc"] = "arc"
@@ -224,8 +224,11 @@ def _check_waypoints(waypoints: Sequence[Waypoint], source: str) -> None:
     for i in range(1, len(waypoints)):
         a, b = waypoints[i - 1], waypoints[i]
         if math.hypot(b.x_m - a.x_m, b.y_m - a.y_m) < 1e-6:
-            raise ConfigError(source, f"waypoints[{i}]",
-                              f"same point as waypoints[{i - 1}] ({b.x_m:g}, {b.y_m:g}); remove one of them")
+            raise ConfigError(
+                source,
+                f"waypoints[{i}]",
+                f"same point as waypoints[{i - 1}] ({b.x_m:g}, {b.y_m:g}); remove one of them",
+            )
 
 
 def load_path(path: str | Path) -> PathSpec:

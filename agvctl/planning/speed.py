@@ -50,8 +50,9 @@ class SectionLimits:
     jerk_m_s3: float
 
 
-def section_limits(length_m: float, bounds: Sequence[float], cap_m_s: float | None, limits: WheelLimits,
-                   half_b_m: float) -> SectionLimits:
+def section_limits(
+    length_m: float, bounds: Sequence[float], cap_m_s: float | None, limits: WheelLimits, half_b_m: float
+) -> SectionLimits:
     """The limits of s on a section with curvature bounds ``(k₀, k₁, k₂)`` (see the module docstring)."""
     k0, k1, k2 = bounds
     f, c1, c2 = 1.0 + k0 * half_b_m, k1 * half_b_m, k2 * half_b_m
@@ -89,8 +90,9 @@ def _reach(u: float, d: float, a: float, j: float, v_max: float) -> float:
     return float(brentq(lambda w: _distance_to_change(u, w, a, j) - d, u, v_max, xtol=1e-13))
 
 
-def plan_speed(sections: Sequence[SectionLimits], *, solver: _Solver | None = None
-               ) -> tuple[list[JerkProfile], list[float]]:
+def plan_speed(
+    sections: Sequence[SectionLimits], *, solver: _Solver | None = None
+) -> tuple[list[JerkProfile], list[float]]:
     """Profiles of s on each section, at rest at both ends of the chain, and the junction speeds.
 
     Raises :class:`PlanningError` (with the section's index in ``args[1]``) if a profile cannot be planned.
@@ -109,9 +111,17 @@ def plan_speed(sections: Sequence[SectionLimits], *, solver: _Solver | None = No
     profiles = []
     for k, s in enumerate(sections):
         try:
-            profiles.append(between(s.length_m, start_velocity=w[k], end_velocity=w[k + 1],
-                                    max_velocity=s.speed_m_s, max_acceleration=s.accel_m_s2,
-                                    max_jerk=s.jerk_m_s3, solver=solver))
+            profiles.append(
+                between(
+                    s.length_m,
+                    start_velocity=w[k],
+                    end_velocity=w[k + 1],
+                    max_velocity=s.speed_m_s,
+                    max_acceleration=s.accel_m_s2,
+                    max_jerk=s.jerk_m_s3,
+                    solver=solver,
+                )
+            )
         except PlanningError as exc:
             raise PlanningError(str(exc), k) from None
     return profiles, w

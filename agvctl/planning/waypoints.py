@@ -92,8 +92,12 @@ def _cusp_check(spline: BSpline, u_i: FloatArray, waypoints: Sequence[Waypoint],
     i = int(np.argmin(np.abs(u_i - u[worst])))
     near = [j for j in (i, i - 1, i + 1) if 0 <= j < len(waypoints) and waypoints[j].theta_deg is not None]
     key = f"waypoints[{near[0]}].theta_deg" if near else f"waypoints[{i}]"
-    raise ConfigError(source, key, "the path through here would fold back on itself (a cusp, which cannot be "
-                      "driven forwards); change the heading or add a waypoint")
+    raise ConfigError(
+        source,
+        key,
+        "the path through here would fold back on itself (a cusp, which cannot be "
+        "driven forwards); change the heading or add a waypoint",
+    )
 
 
 def waypoint_curve(waypoints: Sequence[Waypoint], *, source: str = "<path>") -> tuple[Curve, FloatArray, float]:
@@ -105,8 +109,9 @@ def waypoint_curve(waypoints: Sequence[Waypoint], *, source: str = "<path>") -> 
     _cusp_check(spline, u_i, waypoints, source)
     d1, d2, d3 = (spline.derivative(k) for k in (1, 2, 3))
     edges = np.unique(spline.t)
-    nodes = np.concatenate([np.linspace(a, b, _NODES + 1)[:-1] for a, b in zip(edges[:-1], edges[1:], strict=True)]
-                           + [edges[-1:]])
+    nodes = np.concatenate(
+        [np.linspace(a, b, _NODES + 1)[:-1] for a, b in zip(edges[:-1], edges[1:], strict=True)] + [edges[-1:]]
+    )
     r1, r2, r3 = d1(nodes), d2(nodes), d3(nodes)
     speed = np.hypot(r1[:, 0], r1[:, 1])
     cross12 = r1[:, 0] * r2[:, 1] - r1[:, 1] * r2[:, 0]
@@ -118,12 +123,14 @@ def waypoint_curve(waypoints: Sequence[Waypoint], *, source: str = "<path>") -> 
     uq = 0.5 * (b - a) * (_GL_X + 1.0) + a
     ds = np.hypot(*np.moveaxis(d1(uq.ravel()).reshape(*uq.shape, 2), -1, 0)) @ _GL_W * 0.5 * (b - a).ravel()
     dk = np.diff(kappa)
-    coeffs = np.column_stack([
-        kappa[:-1],
-        slope[:-1],
-        (3.0 * dk / ds - 2.0 * slope[:-1] - slope[1:]) / ds,
-        (slope[:-1] + slope[1:] - 2.0 * dk / ds) / ds**2,
-    ])
+    coeffs = np.column_stack(
+        [
+            kappa[:-1],
+            slope[:-1],
+            (3.0 * dk / ds - 2.0 * slope[:-1] - slope[1:]) / ds,
+            (slope[:-1] + slope[1:] - 2.0 * dk / ds) / ds**2,
+        ]
+    )
     start = Pose(float(points[0, 0]), float(points[0, 1]), math.atan2(r1[0, 1], r1[0, 0]))
     curve = Curve(start, ds, coeffs)
     s_nodes = np.concatenate(([0.0], np.cumsum(ds)))

@@ -81,8 +81,10 @@ def run(path: Path, which: str) -> dict[str, float]:
     log = result.log
     pe = path_errors(log["t_s"], log["x_m"], log["y_m"], log["theta_rad"], experiment.reference)
     end = experiment.reference.final_pose
-    finite = all(bool(np.all(np.isfinite(log[c]))) for c in ("x_m", "y_m", "setpoint_wheel_speed_left_m_s",
-                                                             "setpoint_wheel_speed_right_m_s"))
+    finite = all(
+        bool(np.all(np.isfinite(log[c])))
+        for c in ("x_m", "y_m", "setpoint_wheel_speed_left_m_s", "setpoint_wheel_speed_right_m_s")
+    )
     return {
         "rms_mm": m["tracking_error_rms_m"] * 1e3,
         "max_mm": m["tracking_error_max_m"] * 1e3,
@@ -107,8 +109,16 @@ def main() -> int:
         nominal = load_vehicle().wheels.radius_right_m
         (where / "issue10_untuned.toml").write_text(ISSUE10_EXPERIMENT % (nominal * 1.008), encoding="utf-8")
         cases = [SHIPPED / "figure8.toml", SHIPPED / "figure8_offpath.toml", where / "issue10_untuned.toml"]
-        header = ("rms_mm", "max_mm", "final_mm", "xtrack_max_mm", "xtrack_final_mm", "lag_max_mm",
-                  "path_heading_max_deg", "to_end_mm")
+        header = (
+            "rms_mm",
+            "max_mm",
+            "final_mm",
+            "xtrack_max_mm",
+            "xtrack_final_mm",
+            "lag_max_mm",
+            "path_heading_max_deg",
+            "to_end_mm",
+        )
         print(f"{'experiment':22s} {'pose':8s} " + " ".join(f"{h:>20s}" for h in header))
         for case in cases:
             for which in ("mpc", "ramsete", "ltv_lqr"):

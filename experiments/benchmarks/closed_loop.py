@@ -64,15 +64,23 @@ def main() -> int:
 
     wall = statistics.median(walls)
     print(f"closed loop, 60 s simulated (two figure-8 laps at 0.5 m/s, {reference.duration_s:.1f} s, then at rest)")
-    print(f"  OSQP MPC + PI + DA/amplifier + full plant  wall {wall:.3f} s (median of {args.repeat}, "
-          f"min {min(walls):.3f})  = {60.0 / wall:.0f}x real time   (goal <= 2 s, >= 30x)")
-    print(f"  MPC whole step                             median {p50:.3f} ms   p99 {p99:.3f} ms   "
-          f"(goal <= 0.7 / <= 2 ms; median over runs)")
-    print(f"  tracking                                   rms {m0['tracking_error_rms_m'] * 1e3:.2f} mm   "
-          f"max {m0['tracking_error_max_m'] * 1e3:.2f} mm")
+    print(
+        f"  OSQP MPC + PI + DA/amplifier + full plant  wall {wall:.3f} s (median of {args.repeat}, "
+        f"min {min(walls):.3f})  = {60.0 / wall:.0f}x real time   (goal <= 2 s, >= 30x)"
+    )
+    print(
+        f"  MPC whole step                             median {p50:.3f} ms   p99 {p99:.3f} ms   "
+        f"(goal <= 0.7 / <= 2 ms; median over runs)"
+    )
+    print(
+        f"  tracking                                   rms {m0['tracking_error_rms_m'] * 1e3:.2f} mm   "
+        f"max {m0['tracking_error_max_m'] * 1e3:.2f} mm"
+    )
     ff = statistics.median(ff_walls)
-    print(f"  the same loop with feed-forward, no MPC    wall {ff:.3f} s: the MPC costs {wall - ff:.3f} s "
-          f"of the {wall:.3f} s")
+    print(
+        f"  the same loop with feed-forward, no MPC    wall {ff:.3f} s: the MPC costs {wall - ff:.3f} s "
+        f"of the {wall:.3f} s"
+    )
     print(f"  per control step: {wall / 1500 * 1e3:.3f} ms in all, {(wall - ff) / 1500 * 1e3:.3f} ms of it the MPC")
     assert np.isfinite(wall)
     return 0

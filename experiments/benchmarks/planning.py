@@ -42,8 +42,7 @@ def twenty_segments() -> list:
 
 def twenty_waypoints() -> list[Waypoint]:
     """20 waypoints, 1 m apart along x, weaving ±0.5 m; the first heading given, the others chosen."""
-    return [Waypoint(x_m=float(i), y_m=0.5 * math.sin(1.3 * i), theta_deg=0.0 if i == 0 else None)
-            for i in range(20)]
+    return [Waypoint(x_m=float(i), y_m=0.5 * math.sin(1.3 * i), theta_deg=0.0 if i == 0 else None) for i in range(20)]
 
 
 def timings(fn, repeat: int) -> np.ndarray:
@@ -56,8 +55,9 @@ def timings(fn, repeat: int) -> np.ndarray:
 
 
 def report(label: str, ms: np.ndarray) -> None:
-    print(f"  {label:<44} median {np.median(ms):7.3f} ms   min {np.min(ms):7.3f} ms   "
-          f"p99 {np.percentile(ms, 99):7.3f} ms")
+    print(
+        f"  {label:<44} median {np.median(ms):7.3f} ms   min {np.min(ms):7.3f} ms   p99 {np.percentile(ms, 99):7.3f} ms"
+    )
 
 
 def _caps(spec: PathSpec, motion) -> list[tuple[float, float]]:
@@ -105,8 +105,12 @@ def toppra_duration(spec: PathSpec, ref: Reference) -> float:
         cons = [
             constraint.JointVelocityConstraintVarying(vlim),
             constraint.SecondOrderConstraint(
-                inv_dyn, lambda q: np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]),
-                lambda q, a=a: np.full(4, a), dof=1, discretization_scheme=0),
+                inv_dyn,
+                lambda q: np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]),
+                lambda q, a=a: np.full(4, a),
+                dof=1,
+                discretization_scheme=0,
+            ),
         ]
         path = toppra.SplineInterpolator([0.0, length], [[0.0], [length]], bc_type="natural")
         grid = np.linspace(0.0, length, TOPPRA_GRIDPOINTS)
@@ -132,9 +136,11 @@ def finite_difference_peaks(ref: Reference, dt: float = 1e-3) -> tuple[float, fl
 
 
 def shipped(vehicle, with_toppra: bool) -> None:
-    print("shipped paths: smooth joins vs join = \"stop\"; TOPP-RA lower bound; limits by finite differences")
-    print(f"  {'path':<13}{'stop s':>8}{'smooth s':>10}{'saved':>7}{'TOPP-RA s':>11}{'ratio':>7}"
-          f"{'dev mm':>8}{'stops':>6}   v/v_lim  a/a_lim  j/j_lim")
+    print('shipped paths: smooth joins vs join = "stop"; TOPP-RA lower bound; limits by finite differences')
+    print(
+        f"  {'path':<13}{'stop s':>8}{'smooth s':>10}{'saved':>7}{'TOPP-RA s':>11}{'ratio':>7}"
+        f"{'dev mm':>8}{'stops':>6}   v/v_lim  a/a_lim  j/j_lim"
+    )
     for file in sorted(glob.glob(str(ROOT / "trajectories" / "*.toml"))):
         spec = load_path(file)
         ref = plan(spec, vehicle)
@@ -142,10 +148,12 @@ def shipped(vehicle, with_toppra: bool) -> None:
         low = toppra_duration(spec, ref) if with_toppra else math.nan
         v, a, j = finite_difference_peaks(ref)
         lim = ref.limits
-        print(f"  {Path(file).stem:<13}{old.duration_s:8.2f}{ref.duration_s:10.2f}"
-              f"{1 - ref.duration_s / old.duration_s:7.1%}{low:11.2f}{ref.duration_s / low:7.3f}"
-              f"{ref.geometry_deviation_m * 1e3:8.2f}{len(ref.motions) - 1:6d}"
-              f"   {v / lim.wheel_speed_m_s:7.4f}  {a / lim.wheel_accel_m_s2:7.4f}  {j / lim.wheel_jerk_m_s3:7.4f}")
+        print(
+            f"  {Path(file).stem:<13}{old.duration_s:8.2f}{ref.duration_s:10.2f}"
+            f"{1 - ref.duration_s / old.duration_s:7.1%}{low:11.2f}{ref.duration_s / low:7.3f}"
+            f"{ref.geometry_deviation_m * 1e3:8.2f}{len(ref.motions) - 1:6d}"
+            f"   {v / lim.wheel_speed_m_s:7.4f}  {a / lim.wheel_accel_m_s2:7.4f}  {j / lim.wheel_jerk_m_s3:7.4f}"
+        )
 
 
 def main() -> None:
@@ -158,10 +166,13 @@ def main() -> None:
     wp = PathSpec(waypoints=twenty_waypoints(), name="bench-20-waypoints")
     seg = PathSpec(segments=twenty_segments(), name="bench-20-segments")
     ref_wp, ref_seg = plan(wp, vehicle), plan(seg, vehicle)
-    print(f"20-waypoint path: {ref_wp.path_length_m:.2f} m in {ref_wp.duration_s:.2f} s, waypoints passed "
-          f"within {ref_wp.geometry_deviation_m * 1e6:.1f} µm")
-    print(f"20-segment path: {len(ref_seg.motions)} motions, {ref_seg.path_length_m:.2f} m "
-          f"in {ref_seg.duration_s:.2f} s")
+    print(
+        f"20-waypoint path: {ref_wp.path_length_m:.2f} m in {ref_wp.duration_s:.2f} s, waypoints passed "
+        f"within {ref_wp.geometry_deviation_m * 1e6:.1f} µm"
+    )
+    print(
+        f"20-segment path: {len(ref_seg.motions)} motions, {ref_seg.path_length_m:.2f} m in {ref_seg.duration_s:.2f} s"
+    )
     print("planning time:")
     report("plan(): 20 waypoints → Reference (goal ≤ 20 ms)", timings(lambda: plan(wp, vehicle), args.repeat))
     report("plan(): 20 segments → Reference", timings(lambda: plan(seg, vehicle), args.repeat))

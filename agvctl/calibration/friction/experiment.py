@@ -117,8 +117,9 @@ Controller = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 """Measured motor speeds (rad/s) → DA command (V)."""
 
 
-def _sample(bench: _Bench, rows: _Rows, phase: str, setpoint: NDArray[np.float64],
-            controller: Controller) -> NDArray[np.float64]:
+def _sample(
+    bench: _Bench, rows: _Rows, phase: str, setpoint: NDArray[np.float64], controller: Controller
+) -> NDArray[np.float64]:
     """One control sample: measure → controller → actuate → step, recorded as one row; returns the measurement."""
     measured = bench.measure()
     da_v = bench.actuate_and_step(controller(measured))

@@ -139,7 +139,6 @@ def _hold_windows(log: FrictionLog, side: int, settle_s: float, min_window_s: fl
     return ranges
 
 
-
 def _steady_windows(
     log: FrictionLog, side: int, settle_s: float, min_window_s: float, max_speed_deviation: float, notes: list[str]
 ) -> list[tuple[int, int]]:
@@ -151,13 +150,16 @@ def _steady_windows(
     for a, b in _hold_windows(log, side, settle_s, min_window_s):
         sp, mean = float(log.setpoint_rad_s[a, side]), float(np.mean(log.omega_motor_rad_s[a:b, side]))
         if abs(mean - sp) > max_speed_deviation * abs(sp):
-            notes.append(f"{name}: window at {sp:g} rad/s from t = {log.t_s[a]:g} s ignored: the speed averaged "
-                         f"{mean:.4g} rad/s (the loop could not hold it)")
+            notes.append(
+                f"{name}: window at {sp:g} rad/s from t = {log.t_s[a]:g} s ignored: the speed averaged "
+                f"{mean:.4g} rad/s (the loop could not hold it)"
+            )
         else:
             ranges.append((a, b))
     if len(ranges) < 2:
         raise ConfigError(
-            log.source, col,
+            log.source,
+            col,
             f"{len(ranges)} steady constant-speed window{'s' if len(ranges) != 1 else ''} "
             f"(phase = hold, non-zero setpoint, at least {settle_s:g} s settling + {min_window_s:g} s); "
             "need at least 2 at different speeds",
@@ -165,7 +167,8 @@ def _steady_windows(
     mags = np.sort(np.abs([float(np.mean(log.omega_motor_rad_s[a:b, side])) for a, b in ranges]))
     if mags[-1] - mags[0] <= 0.1 * mags[-1]:
         raise ConfigError(
-            log.source, col,
+            log.source,
+            col,
             f"all {len(ranges)} constant-speed windows are at one speed (|ω| ≈ {mags[-1]:.4g} rad/s); "
             "need at least 2 different speeds to separate viscous and Coulomb friction",
         )
@@ -183,15 +186,15 @@ def _viscous_coulomb(
     """
     k_t, k_e, R = motor.torque_constant_n_m_a, motor.voltage_constant_v_s_rad, motor.resistance_ohm
     omegas = np.array([float(np.mean(log.omega_motor_rad_s[a:b, side])) for a, b in ranges])
-    y_series = [k_pow * k_t * log.da_voltage_v[a:b, side] / R - k_e * k_t * log.omega_motor_rad_s[a:b, side] / R
-                for a, b in ranges]
+    y_series = [
+        k_pow * k_t * log.da_voltage_v[a:b, side] / R - k_e * k_t * log.omega_motor_rad_s[a:b, side] / R
+        for a, b in ranges
+    ]
     w_series = [log.omega_motor_rad_s[a:b, side] for a, b in ranges]
     y = np.array([float(np.mean(s)) for s in y_series])
     X = np.column_stack([omegas, np.sign(omegas)])
     theta = np.linalg.lstsq(X, y, rcond=None)[0]
-    var = np.array([
-        _mean_stderr(ys - theta[0] * ws, max_lag) ** 2 for ys, ws in zip(y_series, w_series, strict=True)
-    ])
+    var = np.array([_mean_stderr(ys - theta[0] * ws, max_lag) ** 2 for ys, ws in zip(y_series, w_series, strict=True)])
     var = np.maximum(var, (1e-9 * max(1.0, float(np.max(np.abs(y))))) ** 2)
     W = 1.0 / var
     A = X.T @ (X * W[:, None])
@@ -203,9 +206,12 @@ def _viscous_coulomb(
         cov = cov * max(1.0, chi2)
     windows = tuple(
         HoldWindow(
-            t_start_s=float(log.t_s[a]), t_end_s=float(log.t_s[b - 1]),
-            setpoint_rad_s=float(log.setpoint_rad_s[a, side]), omega_mean_rad_s=float(omegas[i]),
-            da_voltage_mean_v=float(np.mean(log.da_voltage_v[a:b, side])), drive_torque_n_m=float(y[i]),
+            t_start_s=float(log.t_s[a]),
+            t_end_s=float(log.t_s[b - 1]),
+            setpoint_rad_s=float(log.setpoint_rad_s[a, side]),
+            omega_mean_rad_s=float(omegas[i]),
+            da_voltage_mean_v=float(np.mean(log.da_voltage_v[a:b, side])),
+            drive_torque_n_m=float(y[i]),
             drive_torque_stderr_n_m=math.sqrt(float(var[i])),
         )
         for i, (a, b) in enumerate(ranges)
@@ -220,8 +226,7 @@ def _stiction(found: list[Breakaway], torque_per_da_v: float) -> tuple[float, fl
     earlier: so half a resolution step and half the lag bound are taken off. The standard error combines the
     ramps' scatter with the resolution and the lag bound (each uniform).
     """
-    tau_s_all = np.array([(b.u_still_v - 0.5 * b.resolution_v - 0.5 * b.lag_bound_v) * torque_per_da_v
-                          for b in found])
+    tau_s_all = np.array([(b.u_still_v - 0.5 * b.resolution_v - 0.5 * b.lag_bound_v) * torque_per_da_v for b in found])
     spread = [math.hypot(b.resolution_v, b.lag_bound_v) for b in found]
     resolution = float(np.mean(spread)) * torque_per_da_v / math.sqrt(12.0)
     scatter = float(np.std(tau_s_all, ddof=1)) / math.sqrt(len(found)) if len(found) > 1 else 0.0
@@ -273,28 +278,37 @@ def fit_friction(
 
         torque_per_v = k_pow * k_t / R  # eq 65, corrected
         found = breakaways(
-            log, j, threshold_rad_s=breakaway_threshold_rad_s, volts_per_code=vehicle.da.volts_per_code,
-            torque_per_da_v=torque_per_v, damping_n_m_s_rad=k_e * k_t / R + max(f_m, 0.0),
+            log,
+            j,
+            threshold_rad_s=breakaway_threshold_rad_s,
+            volts_per_code=vehicle.da.volts_per_code,
+            torque_per_da_v=torque_per_v,
+            damping_n_m_s_rad=k_e * k_t / R + max(f_m, 0.0),
             inertia_kg_m2=getattr(vehicle.derived, name).inertia_equivalent_kg_m2,
         )
         if not found:
             raise ConfigError(
-                log.source, f"da_voltage_{name}_v",
+                log.source,
+                f"da_voltage_{name}_v",
                 "no ramp breaks the wheel away (phase = ramp: a slow DA ramp from standstill until the measured "
                 f"speed exceeds {breakaway_threshold_rad_s:g} rad/s); the stiction needs one",
             )
         tau_s, tau_s_se = _stiction(found, torque_per_v)
 
         true_motor = truth.motor.side(name) if truth is not None else None
-        sides.append(SideFriction(
-            viscous_friction_n_m_s_rad=Estimate(
-                f_m, float(se[0]), None if true_motor is None else true_motor.viscous_friction_n_m_s_rad),
-            coulomb_friction_n_m=Estimate(
-                tau_c, float(se[1]), None if true_motor is None else true_motor.coulomb_friction_n_m),
-            stiction_n_m=Estimate(tau_s, tau_s_se, None if true_motor is None else true_motor.stiction_n_m),
-            windows=windows,
-            breakaway_da_voltages_v=tuple(b.u_still_v for b in found),
-        ))
+        sides.append(
+            SideFriction(
+                viscous_friction_n_m_s_rad=Estimate(
+                    f_m, float(se[0]), None if true_motor is None else true_motor.viscous_friction_n_m_s_rad
+                ),
+                coulomb_friction_n_m=Estimate(
+                    tau_c, float(se[1]), None if true_motor is None else true_motor.coulomb_friction_n_m
+                ),
+                stiction_n_m=Estimate(tau_s, tau_s_se, None if true_motor is None else true_motor.stiction_n_m),
+                windows=windows,
+                breakaway_da_voltages_v=tuple(b.u_still_v for b in found),
+            )
+        )
     return FrictionFit(left=sides[0], right=sides[1], notes=tuple(notes))
 
 
@@ -318,8 +332,10 @@ def apply_friction(vehicle: VehicleParams, fit: FrictionFit) -> tuple[VehiclePar
             notes.append(f"{name}: Coulomb friction estimate {tau_c:.3g} N m < 0, written as 0")
             tau_c = 0.0
         if tau_s < tau_c:
-            notes.append(f"{name}: stiction estimate {tau_s:.4g} N m below the Coulomb friction {tau_c:.4g} N m, "
-                         "written as equal to it")
+            notes.append(
+                f"{name}: stiction estimate {tau_s:.4g} N m below the Coulomb friction {tau_c:.4g} N m, "
+                "written as equal to it"
+            )
             tau_s = tau_c
         overrides += [
             (f"motor.{name}.viscous_friction_n_m_s_rad", f_m),

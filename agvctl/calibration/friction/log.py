@@ -79,8 +79,9 @@ def read_friction_log(path: str | Path) -> FrictionLog:
     return FrictionLog(
         t_s=values["t_s"],
         phase=tuple(p.lower() for p in text["phase"]),
-        setpoint_rad_s=np.column_stack([values["setpoint_omega_motor_left_rad_s"],
-                                        values["setpoint_omega_motor_right_rad_s"]]),
+        setpoint_rad_s=np.column_stack(
+            [values["setpoint_omega_motor_left_rad_s"], values["setpoint_omega_motor_right_rad_s"]]
+        ),
         omega_motor_rad_s=np.column_stack([values["omega_motor_left_rad_s"], values["omega_motor_right_rad_s"]]),
         da_voltage_v=np.column_stack([values["da_voltage_left_v"], values["da_voltage_right_v"]]),
         source=str(path),

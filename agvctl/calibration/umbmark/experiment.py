@@ -52,7 +52,6 @@ class UmbmarkConfig:
             raise ValueError(f"UmbmarkConfig.settle_s must be >= 0 (got {self.settle_s})")
 
 
-
 def drive_square(
     plant_vehicle: VehicleParams,
     controller_vehicle: VehicleParams,
@@ -141,12 +140,15 @@ def simulate_umbmark(
     n = cfg.runs_per_direction
 
     def runs(believed: VehicleParams) -> dict[str, NDArray[np.float64]]:
-        return {d: _measured_runs(drive_square(plant_vehicle, believed, d, cfg), n, sigma, rng)
-                for d in ("cw", "ccw")}
+        return {d: _measured_runs(drive_square(plant_vehicle, believed, d, cfg), n, sigma, rng) for d in ("cw", "ccw")}
 
     before = runs(controller_vehicle)
     correction = umbmark_correction(
-        before["cw"], before["ccw"], side_length_m=cfg.side_length_m, vehicle=controller_vehicle, method=method,
+        before["cw"],
+        before["ccw"],
+        side_length_m=cfg.side_length_m,
+        vehicle=controller_vehicle,
+        method=method,
         truth=plant_vehicle,
     )
     corrected = correction.apply(controller_vehicle)

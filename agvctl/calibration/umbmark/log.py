@@ -22,7 +22,6 @@ UMBMARK_LOG_COLUMNS: dict[str, str] = {
 """The UMBmark log's columns (CSV with a header row, one row per run); other columns are ignored."""
 
 
-
 def read_umbmark_log(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Read measured UMBmark end positions (CSV, :data:`UMBMARK_LOG_COLUMNS`) and return the return-position
     errors ``(cw, ccw)``, each n × 2 (x, y) in m. Raises :class:`ConfigError` (one line) for a missing column,

@@ -18,7 +18,6 @@ __all__ = ["Method", "UmbmarkCorrection", "e_max_syst", "square_end_errors", "um
 Method = Literal["exact", "first_order"]
 
 
-
 def square_end_errors(alpha_rad: float, beta_rad: float, side_length_m: float) -> NDArray[np.float64]:
     """The exact return-position errors ``[[x_cw, y_cw], [x_ccw, y_ccw]]`` of the UMBmark error model: four
     legs, each an arc of length L turning by β (a chord of 2(L/β) sin(β/2) at heading θ + β/2), and corners
@@ -99,8 +98,15 @@ def _fit_exact(centroids: NDArray[np.float64], side_length_m: float, start: tupl
         return square_end_errors(float(p[0]), float(p[1]), side_length_m).ravel() - target
 
     eps = float(np.finfo(float).eps)
-    fit = least_squares(residuals, np.array(start, dtype=float), jac=lambda p: _jacobian(p, side_length_m),
-                        method="lm", ftol=eps, xtol=eps, gtol=eps)
+    fit = least_squares(
+        residuals,
+        np.array(start, dtype=float),
+        jac=lambda p: _jacobian(p, side_length_m),
+        method="lm",
+        ftol=eps,
+        xtol=eps,
+        gtol=eps,
+    )
     return np.asarray(fit.x, dtype=float)
 
 
@@ -172,12 +178,16 @@ def umbmark_correction(
     cov_p: NDArray[np.float64] = np.asarray(G @ np.diag(var) @ G.T, dtype=float)
     geom = _geometry(float(params[0]), float(params[1]), vehicle, side_length_m)
     h = 1e-8
-    Jg = np.column_stack([
-        (_geometry(float(params[0]) + h * (i == 0), float(params[1]) + h * (i == 1), vehicle, side_length_m)
-         - _geometry(float(params[0]) - h * (i == 0), float(params[1]) - h * (i == 1), vehicle, side_length_m))
-        / (2 * h)
-        for i in range(2)
-    ])
+    Jg = np.column_stack(
+        [
+            (
+                _geometry(float(params[0]) + h * (i == 0), float(params[1]) + h * (i == 1), vehicle, side_length_m)
+                - _geometry(float(params[0]) - h * (i == 0), float(params[1]) - h * (i == 1), vehicle, side_length_m)
+            )
+            / (2 * h)
+            for i in range(2)
+        ]
+    )
     cov_g = Jg @ cov_p @ Jg.T
     se_p = np.sqrt(np.diag(cov_p))
     se_g = np.sqrt(np.diag(cov_g))
