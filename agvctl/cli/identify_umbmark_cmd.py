@@ -15,10 +15,10 @@ from agvctl.calibration import (
     simulate_umbmark,
     umbmark_correction,
 )
-from agvctl.calibration.umbmark import POSITION_NOISE_M
+from agvctl.calibration.umbmark import POSITION_NOISE_M, UmbmarkCorrection
 from agvctl.cli.identify_common import add_common_options, check_noise, command_line, table, vehicles, write_vehicle
 from agvctl.errors import ConfigError
-from agvctl.params import load_vehicle
+from agvctl.params import VehicleParams, load_vehicle
 
 __all__ = ["DEMO_UMBMARK_RATIO", "DEMO_UMBMARK_SEPARATION_FACTOR", "register", "run"]
 
@@ -101,20 +101,32 @@ def run(args: argparse.Namespace) -> int:
     if args.out:
         write_vehicle(args.out, corrected, how)
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "error_before_m": corr.error_m,
-                    "error_after_m": error_after,
-                    "wheel_radius_ratio": corr.wheel_radius_ratio.as_dict(),
-                    "separation_m": corr.separation_m.as_dict(),
-                    "radius_left_m": corr.radius_left_m.as_dict(),
-                    "radius_right_m": corr.radius_right_m.as_dict(),
-                },
-                indent=2,
-            )
-        )
+        print(json.dumps(_json_summary(corr, error_after), indent=2))
         return 0
+    print(_text_summary(args, demo, believed, corr, error_after, notes))
+    return 0
+
+
+def _json_summary(corr: UmbmarkCorrection, error_after: float | None) -> dict[str, object]:
+    return {
+        "error_before_m": corr.error_m,
+        "error_after_m": error_after,
+        "wheel_radius_ratio": corr.wheel_radius_ratio.as_dict(),
+        "separation_m": corr.separation_m.as_dict(),
+        "radius_left_m": corr.radius_left_m.as_dict(),
+        "radius_right_m": corr.radius_right_m.as_dict(),
+    }
+
+
+def _text_summary(
+    args: argparse.Namespace,
+    demo: list[str],
+    believed: VehicleParams,
+    corr: UmbmarkCorrection,
+    error_after: float | None,
+    notes: list[str],
+) -> str:
+    """The human-readable report: centroids, the before/after table and E_max,syst."""
     lines = []
     if args.simulate:
         lines.append(
@@ -153,5 +165,4 @@ def run(args: argparse.Namespace) -> int:
     lines += [f"note: {n}" for n in notes]
     if args.out:
         lines.append(f"wrote {args.out}")
-    print("\n".join(lines))
-    return 0
+    return "\n".join(lines)
