@@ -18,8 +18,7 @@ from agvctl.calibration.friction.log import FrictionLog
 from agvctl.controllers.pi import PIWheelController
 from agvctl.controllers.tuning import design_pi
 from agvctl.params import VehicleParams
-from agvctl.plant.full import AUX_NAMES, STATE_NAMES, parameter_vector
-from agvctl.sim.integrator import compiled_plant, sample_splits
+from agvctl.sim.stepper import PlantStepper
 
 __all__ = ["SPEED_NOISE_RAD_S", "FrictionExperiment", "simulate_friction_experiment"]
 
@@ -68,28 +67,20 @@ class _Bench:
 
     def __init__(self, vehicle: VehicleParams, speed_noise_rad_s: float, rng: np.random.Generator) -> None:
         self.sample_period_s = vehicle.control.sample_period_s
-        self.actuator = Actuator(vehicle)
-        self._plant = compiled_plant()
-        self._splits = sample_splits(vehicle)
-        self._p = parameter_vector(vehicle)
-        self._i_w = AUX_NAMES.index("omega_motor_left_rad_s")
+        self._stepper = PlantStepper(vehicle)
+        self.max_da_voltage_v = Actuator(vehicle).max_da_voltage_v
         self._sigma = speed_noise_rad_s
         self._rng = rng
-        self._x = np.zeros(len(STATE_NAMES))
-        self._u = np.zeros(2)
 
     def measure(self) -> NDArray[np.float64]:
         """The motor speeds (left, right) in rad/s, with the sensor noise."""
-        w = self._plant.aux(self._x, self._u, self._p)[self._i_w : self._i_w + 2]
+        w = self._stepper.measure()
         return np.asarray(w + (self._rng.normal(0.0, self._sigma, 2) if self._sigma > 0 else 0.0), dtype=float)
 
     def actuate_and_step(self, da_command_v: NDArray[np.float64]) -> NDArray[np.float64]:
         """Send ``da_command_v`` through the DA converter and amplifier, hold it over one sample; return the DA
         output voltages (V)."""
-        out = self.actuator.apply(da_command_v)
-        self._u = np.asarray(out.motor_voltage_v, dtype=float)
-        self._x, _aux, _stats = self._plant.step(self._x, self._u, self._p, self.sample_period_s, self._splits)
-        return np.asarray(out.da_voltage_v, dtype=float)
+        return np.asarray(self._stepper.step(da_command_v).da_voltage_v, dtype=float)
 
 
 @dataclass
@@ -181,7 +172,7 @@ def simulate_friction_experiment(
     for _ in range(samples(exp.rest_s)):
         _sample(bench, rows, "idle", zero, open_loop(zero))
 
-    v_max = bench.actuator.max_da_voltage_v
+    v_max = bench.max_da_voltage_v
     for side in range(2):
         for sign in (1.0, -1.0):
             for _ in range(exp.ramp_repeats):
