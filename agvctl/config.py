@@ -14,13 +14,14 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
-import re
 import tomllib
 import types
 import typing
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, Literal, TypeVar, Union, get_args, get_origin, get_type_hints
+
+import tomli_w
 
 from agvctl.errors import ConfigError
 
@@ -309,35 +310,8 @@ def to_dict(obj: Any) -> Any:
 
 
 def dump_toml(data: Mapping[str, Any], header: str = "") -> str:
-    """Write nested plain data as TOML (scalars first, then sub-tables), numbers at full precision."""
-    lines: list[str] = [f"# {line}" if line else "#" for line in header.splitlines()]
-
-    def scalar(v: Any) -> str:
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, float):
-            return repr(v)
-        if isinstance(v, int):
-            return str(v)
-        if isinstance(v, str):
-            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-        if isinstance(v, (list, tuple)):
-            return "[" + ", ".join(scalar(x) for x in v) + "]"
-        raise TypeError(f"cannot write {v!r} to TOML")
-
-    def key(k: str) -> str:
-        return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else scalar(k)  # dotted keys stay one key: quoted
-
-    def table(prefix: str, d: Mapping[str, Any]) -> None:
-        plain = [(k, v) for k, v in d.items() if not isinstance(v, Mapping)]
-        subs = [(k, v) for k, v in d.items() if isinstance(v, Mapping)]
-        if prefix:
-            lines.append("")
-            lines.append(f"[{prefix}]")
-        for k, v in plain:
-            lines.append(f"{key(k)} = {scalar(v)}")
-        for k, v in subs:
-            table(join_key(prefix, key(k)), v)
-
-    table("", data)
-    return "\n".join(lines) + "\n"
+    """Write nested plain data as TOML (tomli-w: numbers at full precision, dotted keys quoted as one key),
+    behind ``header`` as comment lines."""
+    lines = [f"# {line}" if line else "#" for line in header.splitlines()]
+    body = tomli_w.dumps(data)
+    return "\n".join(lines) + ("\n" if lines else "") + body
