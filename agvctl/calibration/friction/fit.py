@@ -13,7 +13,7 @@ from agvctl.calibration.common import Estimate
 from agvctl.calibration.friction.breakaway import Breakaway, breakaways
 from agvctl.calibration.friction.log import SIDES, FrictionLog, Side
 from agvctl.errors import ConfigError
-from agvctl.params import MotorParams, VehicleParams
+from agvctl.params import MotorParams, VehicleParams, motor_damping
 
 __all__ = [
     "FrictionFit",
@@ -283,7 +283,7 @@ def fit_friction(
             threshold_rad_s=breakaway_threshold_rad_s,
             volts_per_code=vehicle.da.volts_per_code,
             torque_per_da_v=torque_per_v,
-            damping_n_m_s_rad=k_e * k_t / R + max(f_m, 0.0),
+            damping_n_m_s_rad=motor_damping(k_e, k_t, R, max(f_m, 0.0)),
             inertia_kg_m2=getattr(vehicle.derived, name).inertia_equivalent_kg_m2,
         )
         if not found:
