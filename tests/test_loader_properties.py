@@ -6,7 +6,8 @@ files mutated key by key. The only accepted outcomes are success, or an :class:`
 message is one line starting with the file (or flag) it names; through :func:`agvctl.cli.main`: exit 0 or 1, or
 exit 2 with one line on stderr and no output file written. Any other exception, or a multi-line message, fails.
 
-Each loader gets :data:`EXAMPLES` examples, drawn deterministically (the ``loaders`` settings profile).
+Each loader gets :data:`EXAMPLES` examples, drawn deterministically (the ``loaders`` settings profile); the
+loaded paths are also planned in :data:`PLANNED_EXAMPLES` examples (planning costs more than loading).
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from agvctl.sim.experiment import load_experiment
 from agvctl.sim.open_loop import load_input_profile
 
 EXAMPLES = 1000
+PLANNED_EXAMPLES = 250
 settings.register_profile(
     "loaders",
     parent=settings.get_profile("agvctl"),
@@ -249,21 +251,44 @@ def test_vehicle_overrides(sets: list[str]) -> None:
 PATH_DOCS = [_read(p) for p in TRAJECTORIES]
 
 
-@LOADERS
-@given(text=documents(PATH_DOCS))
-@example(text=toml_text({"segments": [{"type": "line", "length_m": 1e12}]}))
-@example(text=toml_text({"segments": [{"type": "line", "length_m": 1e8}]}))
-@example(text=toml_text({"segments": [{"type": "turn", "angle_deg": 1e10}]}))
-@example(text=toml_text({"segments": [{"type": "arc", "radius_m": 1e-12, "angle_deg": 90}]}))
-@example(text=toml_text({"segments": [{"type": "arc", "radius_m": 5e-324, "angle_deg": 90}]}))
-@example(text=toml_text({"segments": [{"type": "turn", "angle_deg": 5e-324}]}))
-def test_path_file(text: str) -> None:
+PATH_REGRESSIONS = [
+    {"segments": [{"type": "line", "length_m": 1e12}]},  # issue 9: Ruckig raised inside plan
+    {"segments": [{"type": "line", "length_m": 1e8}]},
+    {"segments": [{"type": "line", "length_m": 1e6}]},  # plannable, but a reference of twelve days
+    {"segments": [{"type": "turn", "angle_deg": 1e10}]},
+    {"segments": [{"type": "arc", "radius_m": 1e-12, "angle_deg": 90}]},
+    {"segments": [{"type": "arc", "radius_m": 5e-324, "angle_deg": 90}]},  # an infinite curvature
+    {"segments": [{"type": "turn", "angle_deg": 5e-324}]},
+    {"segments": [{"type": [], "radius_m": 1.0, "angle_deg": 360}]},  # a type that is not a string
+    {"waypoints": [{"x_m": 1e308, "y_m": 0.0}, {"x_m": 1.5, "y_m": 0.0}, {"x_m": 2.8, "y_m": 0.6}]},  # scipy raised
+]
+
+
+def check_path(text: str, *, planned: bool) -> None:
     path = write("path.toml", text)
     spec = assert_clean(lambda: load_path(path), str(path))
-    if spec is not None:
+    if spec is not None and planned:
         ref = assert_clean(lambda: plan(spec), str(path))  # type: ignore[arg-type]
         if ref is not None:
             ref.summary()  # type: ignore[attr-defined]
+
+
+@LOADERS
+@given(text=documents(PATH_DOCS))
+def test_path_file(text: str) -> None:
+    check_path(text, planned=False)
+
+
+@settings(LOADERS, max_examples=PLANNED_EXAMPLES)
+@given(text=documents(PATH_DOCS))
+def test_path_file_planned(text: str) -> None:
+    """The loaded paths planned as well (fewer examples: planning a shipped path takes 10-90 ms)."""
+    check_path(text, planned=True)
+
+
+@pytest.mark.parametrize("doc", PATH_REGRESSIONS)
+def test_path_regressions(doc: dict[str, Any]) -> None:
+    check_path(toml_text(doc), planned=True)
 
 
 def _experiment_doc(path: Path) -> dict[str, Any]:

@@ -62,8 +62,9 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
     """Plan the reference of a path for a vehicle (default: the shipped IAU AGV).
 
     The path's limits are resolved against the vehicle (see :func:`~agvctl.planning.spec.resolve_limits`;
-    ``force`` turns a physically impossible limit from an error into a warning). A failure to plan raises a
-    one-line :class:`ConfigError` naming the file and the segment or waypoint.
+    ``force`` turns a physically impossible limit from an error into a warning). A failure to plan (numerical
+    ones included) raises a one-line :class:`ConfigError` naming the file and the segment or waypoint, and so
+    does a reference longer than :data:`MAX_DURATION_S`.
     """
     vehicle = vehicle if vehicle is not None else load_vehicle()
     limits = resolve_limits(spec, vehicle, force=force)
@@ -80,6 +81,11 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
             reference = plan_segments(spec.segments, start_pose=Pose.from_start(spec.start), join=spec.join, **common)  # type: ignore[arg-type]
     except _Failure as exc:
         raise ConfigError(spec.source, exc.key, exc.problem) from None
+    except ConfigError:
+        raise
+    except (ValueError, ArithmeticError) as exc:  # a numerical failure no validation foresaw: still one line
+        key = "waypoints" if spec.waypoints else "segments"
+        raise ConfigError(spec.source, key, f"cannot be planned: {exc}") from None
     if not reference.duration_s <= MAX_DURATION_S:
         key = "waypoints" if spec.waypoints else "segments"
         raise ConfigError(

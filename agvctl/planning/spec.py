@@ -72,6 +72,10 @@ SEGMENT_TYPES = ("line", "turn", "arc")
 JERK_RAMP_SAMPLES = 5
 """The default jerk limit lets the acceleration ramp from 0 to a_lim over this many control periods."""
 
+MAX_WAYPOINT_COORDINATE_M = 1e6
+"""The largest |x_m|, |y_m| of a waypoint: a thousand kilometres, beyond a day's drive (the planner's maximum
+reference duration) and within the range where the spline fit stays well conditioned."""
+
 
 class PhysicalLimitWarning(UserWarning):
     """A limit above what the vehicle can physically do was accepted because ``force=True``."""
@@ -156,8 +160,8 @@ class ArcSegment:
 class Waypoint:
     """A point the path passes through; ``theta_deg`` (optional) is the heading there."""
 
-    x_m: float = number()
-    y_m: float = number()
+    x_m: float = number(ge=-MAX_WAYPOINT_COORDINATE_M, le=MAX_WAYPOINT_COORDINATE_M)
+    y_m: float = number(ge=-MAX_WAYPOINT_COORDINATE_M, le=MAX_WAYPOINT_COORDINATE_M)
     theta_deg: float | None = number(default=None)
 
 
