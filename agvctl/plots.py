@@ -32,6 +32,7 @@ __all__ = [
 CLOSED_LOOP_PLOTS = (
     "path.png",
     "tracking_error.png",
+    "path_error.png",
     "wheel_speeds.png",
     "da.png",
     "currents.png",
@@ -93,6 +94,7 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
     for a in (a1, a2):
         a.grid(alpha=0.3)
     finish(fig, "tracking_error.png")
+    finish(_path_error_figure(log), "path_error.png")
 
     fig, axes = _subplots(2, 1, figsize=(8, 5), sharex=True)
     for a, side in zip(axes, ("left", "right"), strict=True):
@@ -154,6 +156,22 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
     ax.legend(loc="best", fontsize=8)
     finish(fig, "solve_time.png")
     return written
+
+
+def _path_error_figure(log: SimLog) -> Any:
+    """Cross-track error and along-track lag against time: off the path versus behind (or ahead of) the clock."""
+    t = log["t_s"]
+    fig, (a1, a2) = _subplots(2, 1, figsize=(8, 5), sharex=True)
+    a1.plot(t, log["cross_track_error_m"] * 100, "C3", label="cross-track (distance to the path)")
+    a1.plot(t, log["position_error_m"] * 100, "0.6", lw=0.8, label="position error (to the reference point)")
+    a1.set(ylabel="error [cm]")
+    a1.legend(loc="best", fontsize=8)
+    a2.plot(t, log["along_track_lag_m"] * 100, "C0")
+    a2.axhline(0.0, color="k", lw=0.6)
+    a2.set(xlabel="t [s]", ylabel="along-track lag [cm]\n(> 0: behind)")
+    for a in (a1, a2):
+        a.grid(alpha=0.3)
+    return fig
 
 
 def save_metric_histograms(report: CheckReport, out_dir: str | Path) -> list[Path]:

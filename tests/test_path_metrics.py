@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from agvctl.checks.summary import run_summary
+from agvctl.cli import main
 from agvctl.planning import ArcSegment, LineSegment, TurnSegment, WheelLimits, plan_segments
 from agvctl.planning.reference import Reference
+from agvctl.sim.experiment import load_experiment, run_experiment
 from agvctl.sim.path_metrics import ReferencePath, path_errors
 
 LIMITS = WheelLimits(wheel_speed_m_s=0.6, wheel_accel_m_s2=0.4, wheel_jerk_m_s3=2.0)
@@ -90,3 +95,70 @@ def test_a_path_at_rest_and_bad_input() -> None:
         path.errors([0.0, 1.0], [0.0], [0.0], [0.0])
     with pytest.raises(ValueError, match="spacing_m"):
         ReferencePath(ref, spacing_m=0.0)
+
+
+# -- wired into the closed loop: log columns, metrics, limits, run's report -------------------------------------
+
+TRAJECTORIES = Path(__file__).resolve().parent.parent / "trajectories"
+
+
+def _offset_line_experiment(tmp_path: Path, limits: str) -> Path:
+    """The 3 m line along +x, the vehicle starting 4 cm to its right, heading along it."""
+    path = tmp_path / "offset_line.toml"
+    path.write_text(
+        f'name = "offset_line"\ntrajectory = "{(TRAJECTORIES / "line.toml").as_posix()}"\nsettle_s = 1.0\n'
+        "[plant]\ninitial_pose = { x_m = 0.0, y_m = -0.04, theta_deg = 0.0 }\n"
+        '[controller]\npose = "ramsete"\n'
+        f"[limits]\n{limits}\n"
+    )
+    return path
+
+
+def test_closed_loop_log_metrics_and_limits_separate_lag_from_error(tmp_path: Path) -> None:
+    exp = load_experiment(
+        _offset_line_experiment(tmp_path, "cross_track_error_max_m = 0.03\nalong_track_lag_max_m = 10.0")
+    )
+    result = run_experiment(exp)
+    log = result.log
+    for name in ("cross_track_error_m", "along_track_lag_m", "path_heading_error_rad"):
+        assert np.all(np.isfinite(log[name])), name
+    # geometry: the line is the x axis from 0 to 3 m, so the distance to it is |y| while 0 <= x <= 3
+    inside = (log["x_m"] >= 0.0) & (log["x_m"] <= 3.0)
+    np.testing.assert_allclose(log["cross_track_error_m"][inside], np.abs(log["y_m"][inside]), atol=1e-9)
+    assert log["cross_track_error_m"][0] == pytest.approx(0.04, abs=1e-9)
+    # the reference point is on the path: no farther from the vehicle than the path's nearest point
+    assert np.all(log["cross_track_error_m"] <= log["position_error_m"] + 1e-9)
+    # along the x axis the lag is the reference's x minus the vehicle's
+    np.testing.assert_allclose(log["along_track_lag_m"][inside], (log["ref_x_m"] - log["x_m"])[inside], atol=1e-9)
+    np.testing.assert_allclose(
+        log["path_heading_error_rad"][inside], np.angle(np.exp(1j * log["theta_rad"][inside])), atol=1e-9
+    )
+    summary = run_summary(exp, result)
+    m = summary["metrics"]
+    assert m["cross_track_error_max_m"] == pytest.approx(np.max(np.abs(log["y_m"][inside])), abs=1e-9)
+    assert m["cross_track_error_rms_m"] <= m["cross_track_error_max_m"]
+    assert m["along_track_lag_max_m"] == pytest.approx(np.max(np.abs(log["along_track_lag_m"])))
+    verdicts = {r["limit"]: r for r in summary["limits"]}
+    assert not verdicts["cross_track_error_max_m"]["passed"]  # 4 cm off at the start, against 3 cm
+    assert verdicts["cross_track_error_max_m"]["first_time_s"] == 0.0
+    assert verdicts["along_track_lag_max_m"]["passed"]
+
+
+def test_run_prints_the_path_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    exp = _offset_line_experiment(tmp_path, "path_heading_error_max_deg = 90.0")
+    assert main(["run", str(exp), "--out", str(tmp_path / "out"), "--no-plot"]) == 0
+    out = capsys.readouterr().out
+    assert "cross-track error" in out and "along-track lag" in out
+    assert "path_heading_error_max_deg:" in out
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    for key in ("cross_track_error_max_m", "cross_track_error_rms_m", "along_track_lag_max_m"):
+        assert summary["metrics"][key] >= 0.0
+    header = (tmp_path / "out" / "log.csv").read_text().splitlines()[0].split(",")
+    assert {"cross_track_error_m", "along_track_lag_m", "path_heading_error_rad"} <= set(header)
+
+
+def test_bad_path_limit_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    exp = _offset_line_experiment(tmp_path, "cross_track_eror_max_m = 0.1")
+    assert main(["run", str(exp), "--no-plot"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "limits.cross_track_eror_max_m" in err and "cross_track_error_max_m" in err

@@ -28,6 +28,11 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
+def _fixed(value: float | None, scale: float) -> str:
+    """``value · scale`` with two decimals; ``n/a`` for a value the summary holds as null (a diverged run)."""
+    return "n/a" if value is None else f"{value * scale:.2f}"
+
+
 def format_summary(summary: dict[str, Any]) -> str:
     """The readable report of ``agvctl run``."""
     m = summary["metrics"]
@@ -35,6 +40,18 @@ def format_summary(summary: dict[str, Any]) -> str:
     lines = [f"experiment: {summary['experiment']}   {'PASSED' if summary['passed'] else 'LIMITS VIOLATED'}"]
     lines.append(f"  tracking error    rms {rms:.2f} mm   max {mx:.2f} mm   final {fin:.2f} mm")
     lines.append(f"  heading error     max {m['heading_error_max_deg']:.2f}°")
+    xr, xt, lag, hd = (
+        _fixed(m[k], scale)
+        for k, scale in (
+            ("cross_track_error_rms_m", 1e3),
+            ("cross_track_error_max_m", 1e3),
+            ("along_track_lag_max_m", 1e3),
+            ("path_heading_error_max_deg", 1.0),
+        )
+    )
+    lines.append(f"  cross-track error rms {xr} mm   max {xt} mm   (off the path)")
+    lines.append(f"  along-track lag   max {lag} mm   (behind or ahead of the clock, along the path)")
+    lines.append(f"  path heading      max {hd}° from the path's at the nearest point")
     t2 = m["time_to_2cm_s"]
     lines.append(f"  within 2 cm       from t = {t2:.2f} s on" if t2 is not None else "  within 2 cm       never")
     acc, cur = m["peak_wheel_accel_m_s2"], m["peak_motor_current_a"]

@@ -82,6 +82,22 @@ LIMITS: dict[str, Limit] = {
         "heading_error_max_deg", "°", lambda log, ts: np.degrees(np.abs(log["heading_error_rad"])), "peak", "positive"
     ),
     "final_position_error_m": Limit("final_position_error_m", " m", _position_error, "final", "positive"),
+    "cross_track_error_max_m": Limit(
+        "cross_track_error_max_m", " m", lambda log, ts: np.asarray(log["cross_track_error_m"]), "peak", "positive"
+    ),
+    "cross_track_error_rms_m": Limit(
+        "cross_track_error_rms_m", " m", lambda log, ts: np.asarray(log["cross_track_error_m"]), "rms", "positive"
+    ),
+    "along_track_lag_max_m": Limit(
+        "along_track_lag_max_m", " m", lambda log, ts: np.abs(log["along_track_lag_m"]), "peak", "positive"
+    ),
+    "path_heading_error_max_deg": Limit(
+        "path_heading_error_max_deg",
+        "°",
+        lambda log, ts: np.degrees(np.abs(log["path_heading_error_rad"])),
+        "peak",
+        "positive",
+    ),
     "solve_time_p99_ms": Limit(
         "solve_time_p99_ms", " ms", lambda log, ts: log["solve_time_s"] * 1e3, "peak", "positive"
     ),

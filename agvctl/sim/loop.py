@@ -32,6 +32,7 @@ from agvctl.planning.reference import Reference, ReferenceSamples
 from agvctl.plant.full import PlantOptions
 from agvctl.sim.estimators import ESTIMATORS, PoseEstimator
 from agvctl.sim.log import PLANT_LOG_COLUMNS, SimLog
+from agvctl.sim.path_metrics import PATH_LOG_COLUMNS, path_error_columns
 from agvctl.sim.stepper import PlantStepper
 
 __all__ = ["CONTROL_LOG_COLUMNS", "ClosedLoopResult", "ComputeDelay", "run_closed_loop"]
@@ -62,7 +63,8 @@ CONTROL_LOG_COLUMNS = (
 )
 """Columns the closed loop adds to :data:`~agvctl.sim.log.PLANT_LOG_COLUMNS`. ``solver_status`` is 0 when the
 pose controller solved, 1 for the shifted previous solution, 2 for the reference feed-forward; ``wheel_speed_*``
-are the true rim speeds ω_mot·r/N of the plant."""
+are the true rim speeds ω_mot·r/N of the plant. :class:`ClosedLoopResult` adds the errors against the path,
+:data:`~agvctl.sim.path_metrics.PATH_LOG_COLUMNS` (cross-track error, along-track lag, path heading error)."""
 
 _PER_SAMPLE = (
     "est_x_m",
@@ -94,6 +96,14 @@ class ClosedLoopResult:
     solver_failures: int
     n_samples: int
     sample_period_s: float
+
+    def __post_init__(self) -> None:
+        """Complete the log with the errors against the reference's *path* (:data:`PATH_LOG_COLUMNS`), computed
+        once for the whole run from its poses (one k-d tree on the path; none of this in the per-sample loop)."""
+        log = self.log
+        if all(name in log for name in ("x_m", "y_m", "theta_rad")) and not all(n in log for n in PATH_LOG_COLUMNS):
+            errors = path_error_columns(log["t_s"], log["x_m"], log["y_m"], log["theta_rad"], self.reference)
+            log.columns.update(errors)
 
 
 def _rim_per_motor(vehicle: VehicleParams) -> NDArray[np.float64]:

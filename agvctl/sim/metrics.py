@@ -20,10 +20,22 @@ def time_to_converge_s(t_s: np.ndarray, error_m: np.ndarray, threshold_m: float)
     return float(t_s[last + 1]) if last + 1 < len(t_s) else math.inf
 
 
+def _peak_abs(values: np.ndarray) -> float:
+    """max |values|; NaN if any value is NaN (a run that diverged), never a silently smaller number."""
+    return float(np.max(np.abs(values))) if len(values) else 0.0
+
+
 def closed_loop_metrics(result: ClosedLoopResult) -> dict[str, float]:
-    """Tracking, actuator and computation figures of a run (SI units, names carry them)."""
+    """Tracking, actuator and computation figures of a run (SI units, names carry them).
+
+    Besides the time-indexed tracking error |p(t) − p_d(t)|, the errors against the reference's path separate
+    being off the path from being behind the clock (:mod:`agvctl.sim.path_metrics`): ``cross_track_error_*_m``
+    (distance to the path), ``along_track_lag_max_m`` (the largest |lag| along the path, behind or ahead) and
+    ``path_heading_error_max_deg`` (heading against the path's at the nearest point).
+    """
     log = result.log
     err = log["position_error_m"]
+    cross = log["cross_track_error_m"]
     solve_ms = log["solve_time_s"][:-1] * 1e3 if len(log) > 1 else log["solve_time_s"] * 1e3
     clipped = (log["da_clipped_left"] > 0) | (log["da_clipped_right"] > 0)
     limited = np.maximum(log["current_limited_fraction_left"], log["current_limited_fraction_right"])
@@ -32,6 +44,10 @@ def closed_loop_metrics(result: ClosedLoopResult) -> dict[str, float]:
         "tracking_error_max_m": float(np.max(err)),
         "heading_error_max_deg": float(np.degrees(np.max(np.abs(log["heading_error_rad"])))),
         "final_position_error_m": float(err[-1]),
+        "cross_track_error_max_m": _peak_abs(cross),
+        "cross_track_error_rms_m": float(np.sqrt(np.mean(cross**2))),
+        "along_track_lag_max_m": _peak_abs(log["along_track_lag_m"]),
+        "path_heading_error_max_deg": float(np.degrees(_peak_abs(log["path_heading_error_rad"]))),
         "peak_wheel_speed_m_s": float(
             max(np.max(np.abs(log["wheel_speed_left_m_s"])), np.max(np.abs(log["wheel_speed_right_m_s"])))
         ),

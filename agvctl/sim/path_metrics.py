@@ -35,9 +35,13 @@ from scipy.spatial import cKDTree
 
 from agvctl.planning.reference import Reference
 
-__all__ = ["PathErrors", "ReferencePath", "path_errors"]
+__all__ = ["PATH_LOG_COLUMNS", "PathErrors", "ReferencePath", "path_error_columns", "path_errors"]
 
 FloatArray = NDArray[np.float64]
+
+PATH_LOG_COLUMNS = ("cross_track_error_m", "along_track_lag_m", "path_heading_error_rad")
+"""The log columns of :func:`path_error_columns`: :class:`PathErrors`' cross-track error, along-track lag and
+heading error, per sample."""
 
 
 def _wrap(angle_rad: FloatArray) -> FloatArray:
@@ -189,3 +193,22 @@ def path_errors(
     against the path of ``reference`` (see the module notes). Build a :class:`ReferencePath` once to evaluate
     several runs of one reference."""
     return ReferencePath(reference, spacing_m).errors(t_s, x_m, y_m, theta_rad)
+
+
+def path_error_columns(
+    t_s: ArrayLike, x_m: ArrayLike, y_m: ArrayLike, theta_rad: ArrayLike, reference: Reference
+) -> dict[str, FloatArray]:
+    """The :data:`PATH_LOG_COLUMNS` of a run's samples against the path of ``reference`` (one k-d tree per call).
+
+    Samples whose pose is not finite (a run that diverged) get NaN; the others their errors as usual.
+    """
+    t, x, y, th = (np.atleast_1d(np.asarray(a, dtype=np.float64)).ravel() for a in (t_s, x_m, y_m, theta_rad))
+    out = {name: np.full(len(t), np.nan) for name in PATH_LOG_COLUMNS}
+    ok = np.isfinite(t) & np.isfinite(x) & np.isfinite(y) & np.isfinite(th)
+    if np.any(ok):
+        e = ReferencePath(reference).errors(t[ok], x[ok], y[ok], th[ok])
+        for name, values in zip(
+            PATH_LOG_COLUMNS, (e.cross_track_m, e.along_track_lag_m, e.heading_error_rad), strict=True
+        ):
+            out[name][ok] = values
+    return out
