@@ -166,11 +166,15 @@ def test_bad_path_limit_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixtur
 
 def test_beside_a_turn_in_place_its_headings_count() -> None:
     ref = _plan(LineSegment(length_m=1.0), TurnSegment(angle_deg=90), LineSegment(length_m=1.0))
-    t = np.full(3, 0.5 * ref.duration_s)
-    # 2 cm right of the second line, 3 cm up it: nearer to that line than to the corner, and within reach of it
-    x, y = np.array([1.02, 1.02, 1.01]), np.array([0.03, 0.03, 0.5])
-    theta = np.radians([45.0, 180.0, 45.0])
+    turning = 0.5 * ref.duration_s  # the reference is turning at the corner (1, 0)
+    assert ref.sample([turning]).x_m[0] == pytest.approx(1.0) and ref.sample([turning]).y_m[0] == pytest.approx(0.0)
+    t = np.array([ref.duration_s, ref.duration_s, ref.duration_s, turning])
+    # 2 cm right of the second line, 3 cm up it: nearer to that line than to the corner, and within reach of it;
+    # then half a metre up the line (out of reach); then 20 cm up the line while the reference turns
+    x, y = np.array([1.02, 1.02, 1.01, 1.0]), np.array([0.03, 0.03, 0.5, 0.2])
+    theta = np.radians([45.0, 180.0, 45.0, 45.0])
     e = path_errors(t, x, y, theta, ref)
-    np.testing.assert_allclose(e.cross_track_m, [0.02, 0.02, 0.01], atol=1e-12)
-    # mid-turn beside the corner: on the path; 90° past the turn's end: 90°; half a metre up the line: the line's
-    np.testing.assert_allclose(e.heading_error_rad, np.radians([0.0, 90.0, -45.0]), atol=1e-6)
+    np.testing.assert_allclose(e.cross_track_m, [0.02, 0.02, 0.01, 0.0], atol=1e-12)
+    # mid-turn beside the corner: on the path; 90° past the turn's end: 90°; up the line: the line's heading;
+    # while the reference turns: the turn's headings
+    np.testing.assert_allclose(e.heading_error_rad, np.radians([0.0, 90.0, -45.0, 0.0]), atol=1e-6)

@@ -13,7 +13,8 @@ its positions sampled at most ``spacing_m`` apart in arc length s; for a vehicle
   place, the nearest point is a vertex with a range of headings; the error is the distance to that range. A
   vehicle a little off such a turn (its nearest point on the next line) is judged against the turn's range too,
   if that is nearer in angle: any vertex with a heading range within 2·d + spacing of it counts (d: its
-  cross-track error), so a vehicle spinning a few cm beside the turn is not "turned around".
+  cross-track error), and the one where the time-indexed reference is turning now, so a vehicle spinning a few cm
+  beside the turn is not "turned around" (its offset shows in the cross-track error and the lag).
 
 Where the path crosses, retraces or ends on itself, the nearest point is ambiguous, and the lag would jump by
 a lap. Lag and heading therefore use the nearest point of the *branch* that minimises
@@ -143,22 +144,30 @@ class ReferencePath:
         branch = np.abs(s_c - s_c[rows, seed][:, None]) <= neighbours * self.spacing_m
         pick = np.argmin(np.where(branch, dist, np.inf), axis=1)
         j, uj = seg[rows, pick], u[rows, pick]
-        heading = self._near_turns(px, py, th, dist[rows, pick], self._heading_error(th, j, uj))
+        heading = self._near_turns(px, py, th, s_ref, dist[rows, pick], self._heading_error(th, j, uj))
         return PathErrors(d_min, s_ref - s_c[rows, pick], heading, s_c[rows, pick])
 
     def _near_turns(
-        self, px: FloatArray, py: FloatArray, theta: FloatArray, d_near: FloatArray, heading: FloatArray
+        self,
+        px: FloatArray,
+        py: FloatArray,
+        theta: FloatArray,
+        s_ref: FloatArray,
+        d_near: FloatArray,
+        heading: FloatArray,
     ) -> FloatArray:
         """Where the path turns in place near the vehicle, any heading in the turn's range is on the path: a
-        vertex with a range of headings within 2·d + spacing of the vehicle (d: its distance to the nearest point)
-        gives the error instead, if its range is nearer in angle. (Off a turn by a few cm, the nearest point is on
-        the next line, whose heading the vehicle only takes once the turn is done.)"""
+        vertex with a range of headings within 2·d + spacing of the vehicle (d: its distance to the nearest point),
+        or the one the time-indexed reference point is at, gives the error instead if its range is nearer in
+        angle. (Off a turn by a few cm, the nearest point is on the next line, whose heading the vehicle only
+        takes once the turn is done.)"""
         turns = np.nonzero(np.abs(self.theta_leave_rad - self.theta_arrive_rad) > 1e-9)[0]
         if turns.size == 0:
             return heading
         near = np.hypot(px[:, None] - self.x_m[turns], py[:, None] - self.y_m[turns]) <= (
             2.0 * d_near[:, None] + self.spacing_m
         )
+        near |= np.abs(s_ref[:, None] - self.s_m[turns]) <= 0.5 * self.spacing_m
         errors = np.column_stack([self._vertex_heading_error(theta, np.full(len(theta), v)) for v in turns])
         errors = np.where(near, errors, np.inf)
         best = errors[np.arange(len(theta)), np.argmin(np.abs(errors), axis=1)]
