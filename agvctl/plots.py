@@ -14,10 +14,12 @@ from typing import Any
 
 import numpy as np
 
+from agvctl.checks.fuzz_report import FUZZ_METRICS, FuzzReport
 from agvctl.checks.report import CheckReport
 from agvctl.controllers.tuning import TuningResult, frequency_response, loop_polynomials
 from agvctl.fileio import atomic_open
 from agvctl.params import VehicleParams
+from agvctl.sim.limits import LIMITS
 from agvctl.sim.log import SimLog
 from agvctl.sim.wheel_step import WheelStepResult
 
@@ -25,6 +27,7 @@ __all__ = [
     "CLOSED_LOOP_PLOTS",
     "render_tuning_plots",
     "save_closed_loop_plots",
+    "save_fuzz_plot",
     "save_metric_histograms",
     "save_open_loop_plot",
 ]
@@ -204,6 +207,35 @@ def save_metric_histograms(report: CheckReport, out_dir: str | Path) -> list[Pat
             _save(fig, path)
             written.append(path)
     return written
+
+
+def save_fuzz_plot(report: FuzzReport, path: str | Path) -> Path:
+    """One PNG of a fuzz run: per metric of :data:`~agvctl.checks.fuzz_report.FUZZ_METRICS`, the cumulative
+    distribution over the scenarios for each controller (log scale), with the configured limit; crashed runs
+    count as beyond the right edge."""
+    metrics = FUZZ_METRICS[:4]
+    fig, axes = _subplots(2, 2, figsize=(11, 7.5))
+    bounds = {LIMITS[key].metric: bound for key, bound in report.spec.limits.items()}
+    for ax, metric in zip(np.ravel(axes), metrics, strict=True):
+        for i, c in enumerate(report.spec.controllers):
+            values = np.array([o.value(metric) for o in report.runs(c)], dtype=float)
+            n = values.size
+            finite = np.sort(values[np.isfinite(values)])
+            if n == 0 or finite.size == 0:
+                continue
+            floor = max(float(finite[finite > 0].min()) if np.any(finite > 0) else 1e-9, 1e-9)
+            shown = np.maximum(finite, floor)
+            ax.step(shown, np.arange(1, finite.size + 1) / n, where="post", color=f"C{i}", label=f"{c} ({n} runs)")
+        if metric in bounds:
+            ax.axvline(bounds[metric], color="r", ls="--", lw=1, label=f"limit {bounds[metric]:g}")
+        ax.set(xscale="log", xlabel=metric, ylabel="share of scenarios ≤ x", ylim=(0.0, 1.02))
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(loc="lower right", fontsize=8)
+    fig.suptitle(f"fuzz {report.spec.name}: seed {report.spec.seed}, {len(report.outcomes)} runs")
+    fig.tight_layout()
+    out = Path(path)
+    _save(fig, out)
+    return out
 
 
 def render_tuning_plots(

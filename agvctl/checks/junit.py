@@ -1,50 +1,86 @@
-"""JUnit XML for ``agvctl check``: one test suite per experiment, one test case per limit."""
+"""JUnit XML for ``agvctl check`` (one test suite per experiment, one test case per limit) and ``agvctl fuzz``
+(one test suite per pose controller, one test case per scenario)."""
 
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 from agvctl.checks.report import CheckReport
 
-__all__ = ["junit_xml"]
+__all__ = ["JUnitCase", "JUnitSuite", "junit_suites", "junit_xml"]
+
+
+@dataclass(frozen=True)
+class JUnitCase:
+    """One test case: passed (``output`` only), failed (``failure``) or broken (``error``, e.g. a crash)."""
+
+    classname: str
+    name: str
+    time_s: float
+    output: str = ""
+    failure: str | None = None
+    error: str | None = None
+
+
+@dataclass(frozen=True)
+class JUnitSuite:
+    name: str
+    file: str
+    cases: Sequence[JUnitCase]
+    time_s: float
+
+
+def junit_suites(name: str, suites: Sequence[JUnitSuite], time_s: float) -> str:
+    """JUnit XML of ``suites`` (the schema CI systems read: testsuites/testsuite/testcase/failure|error).
+
+    Dashboards count from the ``tests``, ``failures``, ``errors`` and ``skipped`` attributes of ``<testsuites>`` and
+    each ``<testsuite>``; a failure's or error's ``message`` is its text.
+    """
+    root = ET.Element("testsuites", name=name)
+    totals = {"tests": 0, "failures": 0, "errors": 0}
+    for s in suites:
+        suite = ET.SubElement(root, "testsuite", name=s.name, file=s.file)
+        counts = {"tests": len(s.cases), "failures": 0, "errors": 0}
+        for c in s.cases:
+            case = ET.SubElement(suite, "testcase", classname=c.classname, name=c.name, time=f"{c.time_s:.3f}")
+            if c.error is not None:
+                counts["errors"] += 1
+                ET.SubElement(case, "error", message=c.error, type="Crash").text = c.error
+            elif c.failure is not None:
+                counts["failures"] += 1
+                ET.SubElement(case, "failure", message=c.failure, type="LimitViolated").text = c.failure
+            if c.output:
+                ET.SubElement(case, "system-out").text = c.output
+        for key, value in counts.items():
+            suite.set(key, str(value))
+            totals[key] += value
+        suite.set("skipped", "0")
+        suite.set("time", f"{s.time_s:.3f}")
+    for key, value in totals.items():
+        root.set(key, str(value))
+    root.set("skipped", "0")
+    root.set("time", f"{time_s:.3f}")
+    ET.indent(root)
+    return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
 
 def junit_xml(report: CheckReport) -> str:
-    """The report as JUnit XML (the schema CI systems read: testsuites/testsuite/testcase/failure).
-
-    Dashboards count from the ``tests``, ``failures``, ``errors`` and ``skipped`` attributes of ``<testsuites>`` and
-    each ``<testsuite>``; a violated limit is a ``<failure>`` whose ``message`` is the limit message.
-    """
-    root = ET.Element("testsuites", name="agvctl check")
-    total = failures = 0
+    """The check report as JUnit XML: one test suite per experiment, one test case per limit; a violated limit is
+    a ``<failure>`` whose ``message`` is the limit message."""
+    suites = []
     for exp in report.experiments:
-        suite = ET.SubElement(root, "testsuite", name=exp.name, file=exp.path)
-        n_fail = 0
-        for v in exp.verdicts:
-            case = ET.SubElement(
-                suite,
-                "testcase",
-                classname=f"agvctl.check.{exp.name}",
-                name=v.limit,
-                time=f"{exp.wall_time_s / max(1, len(exp.verdicts)):.3f}",
+        each = exp.wall_time_s / max(1, len(exp.verdicts))
+        cases = [
+            JUnitCase(
+                f"agvctl.check.{exp.name}",
+                v.limit,
+                each,
+                output="" if not v.passed else v.message,
+                failure=None if v.passed else v.message,
             )
-            if not v.passed:
-                n_fail += 1
-                fail = ET.SubElement(case, "failure", message=v.message, type="LimitViolated")
-                fail.text = v.message
-            else:
-                ET.SubElement(case, "system-out").text = v.message
-        suite.set("tests", str(len(exp.verdicts)))
-        suite.set("failures", str(n_fail))
-        suite.set("errors", "0")
-        suite.set("skipped", "0")
-        suite.set("time", f"{exp.wall_time_s:.3f}")
-        total += len(exp.verdicts)
-        failures += n_fail
-    root.set("tests", str(total))
-    root.set("failures", str(failures))
-    root.set("errors", "0")
-    root.set("skipped", "0")
-    root.set("time", f"{report.wall_time_s:.3f}")
-    ET.indent(root)
-    return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+            for v in exp.verdicts
+        ]
+        suites.append(JUnitSuite(exp.name, exp.path, cases, exp.wall_time_s))
+    return junit_suites("agvctl check", suites, report.wall_time_s)

@@ -19,7 +19,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 import numpy as np
 
@@ -30,9 +30,11 @@ from agvctl.errors import ConfigError
 from agvctl.sim.experiment import Experiment, load_experiment, run_experiment
 from agvctl.sim.metrics import closed_loop_metrics
 
-__all__ = ["ExecutorKind", "check_experiments", "monte_carlo_samples", "run_task"]
+__all__ = ["ExecutorKind", "check_experiments", "execute", "monte_carlo_samples", "open_executor", "run_task"]
 
 ExecutorKind = Literal["local", "dask"]
+T = TypeVar("T")
+R = TypeVar("R")
 
 
 # -- Monte Carlo samples ----------------------------------------------------------------------------------------
@@ -126,7 +128,7 @@ _THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "B
 
 
 @contextlib.contextmanager
-def _open_executor(kind: ExecutorKind, jobs: int, scheduler: str | None, n_tasks: int) -> Iterator[Executor]:
+def open_executor(kind: ExecutorKind, jobs: int, scheduler: str | None, n_tasks: int) -> Iterator[Executor]:
     """The executor the runs go to, shut down (its workers and any cluster of ours stopped) on leaving.
 
     ``"local"``: ``jobs`` spawned worker processes, or, for one job or one task, one worker thread in this process
@@ -163,10 +165,13 @@ def _open_executor(kind: ExecutorKind, jobs: int, scheduler: str | None, n_tasks
                 os.environ.pop(k, None)
 
 
-def _execute(pool: Executor, tasks: Sequence[RunTask], progress: Callable[[int, int], None] | None) -> list[RunOutcome]:
-    """Every task's outcome, in the order of ``tasks`` whatever order they finish in; the first error stops all."""
-    futures = [pool.submit(run_task, task) for task in tasks]
-    outcomes: dict[Future[RunOutcome], RunOutcome] = {}
+def execute(
+    pool: Executor, run: Callable[[T], R], tasks: Sequence[T], progress: Callable[[int, int], None] | None
+) -> list[R]:
+    """``run(task)`` of every task on ``pool``, in the order of ``tasks`` whatever order they finish in; the first
+    error stops all. ``run`` must be a module-level function (it is pickled for worker processes)."""
+    futures = [pool.submit(run, task) for task in tasks]
+    outcomes: dict[Future[R], R] = {}
     try:
         for done, future in enumerate(as_completed(futures), start=1):
             outcomes[future] = future.result()
@@ -219,8 +224,8 @@ def check_experiments(
         experiments.append(exp)
         tasks_of.append(tasks)
     all_tasks = [t for ts in tasks_of for t in ts]
-    with _open_executor(executor, jobs, scheduler, len(all_tasks)) as pool:
-        outcomes = _execute(pool, all_tasks, progress)
+    with open_executor(executor, jobs, scheduler, len(all_tasks)) as pool:
+        outcomes = execute(pool, run_task, all_tasks, progress)
     report = CheckReport()
     pos = 0
     for exp, path, tasks in zip(experiments, paths, tasks_of, strict=True):

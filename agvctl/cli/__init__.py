@@ -35,12 +35,12 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from agvctl.cli import check_cmd, identify_cmd, params_cmd, plan_cmd, run_cmd, simulate_cmd, tune_cmd
+    from agvctl.cli import check_cmd, fuzz_cmd, identify_cmd, params_cmd, plan_cmd, run_cmd, simulate_cmd, tune_cmd
 
     parser = _Parser(prog="agvctl", description="Control design and trajectory planning for the IAU AGV.")
     parser.add_argument("--version", action="version", version=f"agvctl {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    for module in (run_cmd, check_cmd, params_cmd, simulate_cmd, plan_cmd, tune_cmd, identify_cmd):
+    for module in (run_cmd, check_cmd, fuzz_cmd, params_cmd, simulate_cmd, plan_cmd, tune_cmd, identify_cmd):
         module.register(sub)
     return parser
 

@@ -1,0 +1,156 @@
+"""``agvctl fuzz``: random scenarios through the closed loop with one or more pose controllers, against limits.
+
+Exit 0 when every run of every controller passes, 1 when any fails (its files are written out, ready for
+``agvctl run``), 2 on bad input (one line naming the file and key; nothing is run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from agvctl.checks.fuzz import fuzz
+from agvctl.checks.fuzz_report import FUZZ_METRICS, FuzzReport
+from agvctl.checks.fuzz_spec import load_fuzz_config, override_fuzz_config
+from agvctl.cli.progress import ProgressBar
+from agvctl.cli.run_cmd import check_out_dir
+from agvctl.errors import ConfigError
+from agvctl.fileio import write_text
+from agvctl.plots import save_fuzz_plot
+from agvctl.sim.limits import LIMITS
+
+__all__ = ["format_fuzz_report", "register", "run"]
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "fuzz",
+        help="random scenarios (paths, plants, starts) through the closed loop, against limits",
+        description="Draw random scenarios from a fuzz configuration's seed (paths of lines, arcs and turns; default "
+        "or explicit limits; a plant within an envelope; an off-path start), run each with every pose controller "
+        "listed, report per controller and write every failing scenario as a ready-to-run experiment file. "
+        "Exit 0 when all pass, 1 when any fails, 2 on bad input.",
+    )
+    p.add_argument("config", metavar="FUZZ.toml")
+    p.add_argument("--out", metavar="DIR", help="output directory (default: out/fuzz/<name>)")
+    p.add_argument("--jobs", type=int, default=None, metavar="N", help="local worker processes (default: all cores)")
+    p.add_argument("--executor", choices=("local", "dask"), default="local", help="where the runs go (default local)")
+    p.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
+    p.add_argument("--junit", metavar="FILE", help="write JUnit XML: one test case per scenario and controller")
+    p.add_argument("--seed", type=int, default=None, help="instead of the file's seed")
+    p.add_argument("--scenarios", type=int, default=None, metavar="N", help="instead of the file's number")
+    p.add_argument("--controllers", metavar="A,B", help="instead of the file's pose controllers (comma-separated)")
+    p.add_argument("--no-plot", action="store_true", help="skip fuzz.png")
+    p.set_defaults(func=run)
+
+
+def _value(metric: str, value: float | None) -> str:
+    if value is None or not math.isfinite(value):
+        return "—"
+    unit = LIMITS[metric].unit if metric in LIMITS else ""
+    return f"{value:.4g}{unit}"
+
+
+def format_fuzz_report(report: FuzzReport, worst: int = 5) -> str:
+    """The readable report: per controller the pass count, percentiles, the worst scenarios; comparisons."""
+    spec = report.spec
+    lines = [
+        f"fuzz {spec.name}: {len({t.scenario for t in report.tasks})} scenarios (seed {spec.seed}) × "
+        f"{', '.join(spec.controllers)}: {len(report.outcomes)} runs in {report.wall_time_s:.1f} s"
+    ]
+    stats = report.statistics()
+    for c in spec.controllers:
+        s = stats[c]
+        lines.append(
+            f"{'PASS' if s['failed'] == 0 else 'FAIL'}  {c}: {s['passed']} of {s['runs']} passed, "
+            f"{s['failed']} failed ({s['crashed']} crashed)"
+        )
+        lines.append(f"    {'metric':<28}" + "".join(f"{h:>12}" for h in ("p50", "p90", "p99", "max")))
+        for m in FUZZ_METRICS:
+            lines.append(f"    {m:<28}" + "".join(f"{_value(m, s[m][h]):>12}" for h in ("p50", "p90", "p99", "max")))
+        bad = [o for o in report.worst(c, worst) if not o.passed]
+        if bad:
+            lines.append("    worst:")
+        names = {(t.scenario, t.controller): t for t in report.tasks}
+        for o in bad:
+            task = names[(o.scenario, o.controller)]
+            lines.append(f"      {task.files[-1][0]}: {'; '.join(o.reasons)}")
+    for cmp in report.comparisons():
+        frac, ratio = cmp["a_cross_track_max_le_b_fraction"], cmp["median_rms_ratio"]
+        frac_text = "—" if frac is None else f"{100 * frac:.1f} %"
+        ratio_text = "—" if ratio is None or not math.isfinite(ratio) else f"{ratio:.3g}"
+        rms_a, rms_b = (_value("tracking_error_rms_m", cmp[k]) for k in ("median_rms_a_m", "median_rms_b_m"))
+        lines.append(
+            f"{cmp['a']} vs {cmp['b']}: {cmp['a']}'s max cross-track error ≤ {cmp['b']}'s in {frac_text} of "
+            f"{cmp['scenarios']} scenarios; median RMS tracking error {rms_a} vs {rms_b} (ratio {ratio_text})"
+        )
+    return "\n".join(lines)
+
+
+class _Progress:
+    """A progress bar on a terminal; otherwise a line on stderr every tenth of the runs."""
+
+    def __init__(self) -> None:
+        self.bar = ProgressBar("fuzz:")
+        self.t0 = time.perf_counter()
+        self.step = 0
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.bar.enabled:
+            self.bar(done / total)
+            return
+        tenth = 10 * done // total
+        if tenth > self.step:
+            self.step = tenth
+            print(f"fuzz: {done} of {total} runs, {time.perf_counter() - self.t0:.0f} s", file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.scheduler and args.executor != "dask":
+        raise ConfigError("--scheduler", "", "only with --executor dask")
+    if args.junit and Path(args.junit).is_dir():
+        raise ConfigError(args.junit, "", "is a directory; expected a file name")
+    spec = load_fuzz_config(args.config)
+    controllers = None if args.controllers is None else [c.strip() for c in args.controllers.split(",") if c.strip()]
+    spec = override_fuzz_config(spec, seed=args.seed, scenarios=args.scenarios, controllers=controllers)
+    out_dir = Path(args.out) if args.out else Path("out") / "fuzz" / spec.name
+    check_out_dir(out_dir)
+    jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
+    where = f"a Dask cluster ({args.scheduler or 'local'})" if args.executor == "dask" else f"{jobs} local jobs"
+    n_runs = spec.scenarios * len(spec.controllers)
+    print(f"fuzz {spec.name}: {n_runs} runs on {where}", file=sys.stderr, flush=True)
+    progress = _Progress()
+    try:
+        report = fuzz(spec, jobs=jobs, executor=args.executor, scheduler=args.scheduler, progress=progress)
+    finally:
+        progress.close()
+    # everything is computed before anything is written
+    texts = {out_dir / "summary.json": json.dumps(report.as_dict(), indent=2) + "\n"}
+    failures = report.failure_files()
+    texts.update({out_dir / "failures" / name: text for name, text in failures.items()})
+    if args.junit:
+        texts[Path(args.junit)] = report.junit()
+    for path, text in texts.items():
+        write_text(path, text)
+    written = [str(out_dir / "summary.json")]
+    if not args.no_plot:
+        written.append(str(save_fuzz_plot(report, out_dir / "fuzz.png")))
+    print(format_fuzz_report(report))
+    print(f"wrote {', '.join(written)}" + (f", {args.junit}" if args.junit else ""))
+    if failures:
+        first = next(t.files[-1][0] for t, o in zip(report.tasks, report.outcomes, strict=True) if not o.passed)
+        n_fail = sum(not o.passed for o in report.outcomes)
+        print(
+            f"wrote {n_fail} failing runs as experiment files in {out_dir / 'failures'}; "
+            f"reproduce one with: agvctl run {out_dir / 'failures' / first}"
+        )
+    return 0 if report.passed else 1
