@@ -178,3 +178,30 @@ def test_beside_a_turn_in_place_its_headings_count() -> None:
     # mid-turn beside the corner: on the path; 90° past the turn's end: 90°; up the line: the line's heading;
     # while the reference turns: the turn's headings
     np.testing.assert_allclose(e.heading_error_rad, np.radians([0.0, 90.0, -45.0, 0.0]), atol=1e-6)
+
+
+def test_the_way_back_after_a_sharp_turn_is_another_branch() -> None:
+    ref = _plan(LineSegment(length_m=1.0), TurnSegment(angle_deg=165), LineSegment(length_m=1.0))
+    way_there = 0.97  # arc length on the first line, 3 cm before the turn
+    t = ref.sample(np.linspace(0.0, ref.duration_s, 20001))
+    clock = float(np.interp(way_there, t.path_length_m, np.linspace(0.0, ref.duration_s, 20001)))
+    # 6 mm beside the way there, 2 mm from the way back (it leaves the corner at 165°, 15° from the way there)
+    x, y = 0.97, 0.006
+    back = math.radians(165.0)
+    to_back = abs(-(x - 1.0) * math.sin(back) + y * math.cos(back))
+    assert to_back < 0.006
+    e = path_errors([clock], [x], [y], [0.0], ref)
+    np.testing.assert_allclose(e.cross_track_m, [to_back], atol=1e-9)  # the true distance to the path
+    np.testing.assert_allclose(e.heading_error_rad, [0.0], atol=1e-6)  # along the way there, not turned around
+    np.testing.assert_allclose(e.path_length_m, [way_there], atol=1e-6)
+    np.testing.assert_allclose(e.along_track_lag_m, [0.0], atol=1e-6)
+
+
+def test_turning_one_way_and_back_covers_every_heading_between() -> None:
+    ref = _plan(
+        LineSegment(length_m=1.0), TurnSegment(angle_deg=150), TurnSegment(angle_deg=-120), LineSegment(length_m=1.0)
+    )
+    t = np.full(3, 0.5 * ref.duration_s)
+    theta = np.radians([140.0, 150.0, 170.0])  # past both ends (0° and 30°) but within the excursion to 150°
+    e = path_errors(t, np.ones(3), np.zeros(3), theta, ref)
+    np.testing.assert_allclose(e.heading_error_rad, np.radians([0.0, 0.0, 20.0]), atol=1e-6)

@@ -18,9 +18,12 @@ its positions sampled at most ``spacing_m`` apart in arc length s; for a vehicle
 
 Where the path crosses, retraces or ends on itself, the nearest point is ambiguous, and the lag would jump by
 a lap. Lag and heading therefore use the nearest point of the *branch* that minimises
-distance + ``branch_weight``·|s − s_d(t)|: another part of the path is taken only if it is nearer by more than
-``branch_weight`` times its arc length from the clock (with the default 0.1, 10 cm nearer per metre). Along one
-branch the nearest point itself is unbiased. The cross-track error is always the true distance to the path.
+distance + ``branch_weight``·|σ − σ_d(t)|, with σ the travel along the path: its arc length plus, for each turn
+in place, what the wheels roll in it (b/2 per radian), so that the way back after a sharp turn, which may run
+within millimetres of the way there, is as far from it as the wheels' travel between. Another part of the path
+is taken only if it is nearer by more than ``branch_weight`` times its travel from the clock (with the default
+0.1, 10 cm nearer per metre). Along one branch the nearest point itself is unbiased. The cross-track error is
+always the true distance to the path.
 
 The nearest points come from a k-d tree (``scipy.spatial.cKDTree``) on the polyline's vertices: each vehicle
 sample is projected onto the segments next to its ``neighbours`` nearest vertices, and onto those around the
@@ -100,6 +103,8 @@ class ReferencePath:
         keep |= last > first
         keep[np.searchsorted(first, np.searchsorted(times, stops), side="right") - 1] = True
         keep[-1] = True
+        # the headings a vertex takes: all those of its run (turns in place one way, then back, go beyond the ends)
+        low, high = np.minimum.reduceat(th, first)[keep], np.maximum.reduceat(th, first)[keep]
         first, last = first[keep], last[keep]
         self.x_m: FloatArray = x[first]
         self.y_m: FloatArray = y[first]
@@ -108,7 +113,16 @@ class ReferencePath:
         """The reference heading on arriving at each vertex."""
         self.theta_leave_rad: FloatArray = th[last]
         """The heading on leaving it (differs from the arrival after a turn in place)."""
+        self.theta_low_rad: FloatArray = low
+        self.theta_high_rad: FloatArray = high
+        """The range of headings the reference takes at each vertex (arrival and leaving included)."""
         self.spacing_m = spacing_m
+        # travel along the path counting turns in place as the wheels do (b/2 per radian): the branch measure
+        rotated = np.concatenate(([0.0], np.where(moved, 0.0, np.abs(np.diff(th)))))
+        travel = s + 0.5 * reference.separation_m * np.cumsum(rotated)
+        self._clock_t_s, self._clock_travel_m = times, travel
+        self.travel_leave_m: FloatArray = travel[last]
+        """The travel (arc length plus b/2 per radian turned in place) on leaving each vertex."""
         self.tree = cKDTree(np.column_stack([self.x_m, self.y_m]), balanced_tree=False, compact_nodes=False)
         self.reference = reference
 
@@ -138,10 +152,12 @@ class ReferencePath:
         dist, seg, u = self._candidates(px, py, s_ref, neighbours)
         rows = np.arange(len(px))
         s_c = self.s_m[seg] + u * (self.s_m[seg + 1] - self.s_m[seg])
+        travel_c = s_c + (self.travel_leave_m[seg] - self.s_m[seg])
+        travel_ref = np.interp(t, self._clock_t_s, self._clock_travel_m)
         d_min = np.min(dist, axis=1)
-        # the branch (a stretch of arc length) nearest with a preference for the clock's, then its nearest point
-        seed = np.argmin(dist + branch_weight * np.abs(s_c - s_ref[:, None]), axis=1)
-        branch = np.abs(s_c - s_c[rows, seed][:, None]) <= neighbours * self.spacing_m
+        # the branch (a stretch of travel) nearest with a preference for the clock's, then its nearest point
+        seed = np.argmin(dist + branch_weight * np.abs(travel_c - travel_ref[:, None]), axis=1)
+        branch = np.abs(travel_c - travel_c[rows, seed][:, None]) <= neighbours * self.spacing_m
         pick = np.argmin(np.where(branch, dist, np.inf), axis=1)
         j, uj = seg[rows, pick], u[rows, pick]
         heading = self._near_turns(px, py, th, s_ref, dist[rows, pick], self._heading_error(th, j, uj))
@@ -161,7 +177,7 @@ class ReferencePath:
         or the one the time-indexed reference point is at, gives the error instead if its range is nearer in
         angle. (Off a turn by a few cm, the nearest point is on the next line, whose heading the vehicle only
         takes once the turn is done.)"""
-        turns = np.nonzero(np.abs(self.theta_leave_rad - self.theta_arrive_rad) > 1e-9)[0]
+        turns = np.nonzero(self.theta_high_rad - self.theta_low_rad > 1e-9)[0]
         if turns.size == 0:
             return heading
         near = np.hypot(px[:, None] - self.x_m[turns], py[:, None] - self.y_m[turns]) <= (
@@ -204,7 +220,7 @@ class ReferencePath:
 
     def _vertex_heading_error(self, theta: FloatArray, vertex: NDArray[np.int64]) -> FloatArray:
         """Signed distance (wrapped) of θ to the range of headings the path takes at ``vertex``."""
-        lo, hi = self.theta_arrive_rad[vertex], self.theta_leave_rad[vertex]
+        lo, hi = self.theta_low_rad[vertex], self.theta_high_rad[vertex]
         half = 0.5 * np.abs(hi - lo)
         d = _wrap(theta - 0.5 * (lo + hi))
         return np.asarray(np.sign(d) * np.maximum(np.abs(d) - half, 0.0), dtype=np.float64)
