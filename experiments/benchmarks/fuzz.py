@@ -1,0 +1,61 @@
+"""Benchmark of the scenario fuzzer: issue 10's 500 scenarios on local worker processes.
+
+Runs ``experiments/fuzz/acceptance.toml`` (500 scenarios; by default only its first controller, the default pose
+controller, as issue 10's speed goal counts) through :func:`agvctl.checks.fuzz.fuzz` with ``--jobs`` spawned worker
+processes, and prints the wall time, scenarios/s and runs/s, the simulated time per wall second, and where a run's
+time goes (the per-run wall time spent in the workers). Goal: the 500 scenarios in ≤ 4 min with 2 jobs on a
+2-core machine.
+
+Run:  python experiments/benchmarks/fuzz.py [--jobs 2] [--scenarios 500] [--controllers mpc,ramsete]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+from agvctl.checks.fuzz import fuzz
+from agvctl.checks.fuzz_spec import load_fuzz_config, override_fuzz_config
+
+CONFIG = Path(__file__).resolve().parent.parent / "fuzz" / "acceptance.toml"
+GOAL_S = 240.0
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--scenarios", type=int, default=None, help="default: the configuration's 500")
+    ap.add_argument("--controllers", default=None, help="comma-separated (default: the configuration's first)")
+    args = ap.parse_args()
+
+    spec = load_fuzz_config(CONFIG)
+    controllers = args.controllers.split(",") if args.controllers else [spec.controllers[0]]
+    spec = override_fuzz_config(spec, scenarios=args.scenarios, controllers=controllers)
+    t0 = time.perf_counter()
+    report = fuzz(spec, jobs=args.jobs)
+    wall = time.perf_counter() - t0
+    runs = len(report.outcomes)
+    simulated = sum(o.simulated_s for o in report.outcomes)
+    per_run = [o.wall_time_s for o in report.outcomes]
+    print(f"fuzz benchmark: {spec.scenarios} scenarios × {', '.join(spec.controllers)} = {runs} runs, jobs {args.jobs}")
+    print(f"  wall time        {wall:.1f} s   ({spec.scenarios / wall:.2f} scenarios/s, {runs / wall:.2f} runs/s)")
+    print(f"  simulated        {simulated:.0f} s ({simulated / wall:.0f} s simulated per wall second)")
+    print(
+        f"  per run          median {statistics.median(per_run):.2f} s, max {max(per_run):.2f} s "
+        f"(load, plan, loop, metrics in a worker)"
+    )
+    for c, s in report.statistics().items():
+        print(f"  {c:<16} {s['passed']} of {s['runs']} passed ({s['crashed']} crashed)")
+    goal = spec.scenarios / 500 * GOAL_S * len(spec.controllers)
+    print(
+        f"  goal             {spec.scenarios} scenarios × {len(spec.controllers)} in ≤ {goal:.0f} s: "
+        f"{'met' if wall <= goal else 'NOT met'}"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
