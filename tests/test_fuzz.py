@@ -201,15 +201,31 @@ def test_bad_config_is_one_line_naming_file_and_key(
 
 
 @pytest.mark.slow
-def test_results_do_not_depend_on_the_number_of_jobs() -> None:
+def test_results_do_not_depend_on_the_number_of_jobs_or_the_executor() -> None:
+    from dask.distributed import Client, LocalCluster
+
     spec = load_fuzz_config(FUZZ / "ci.toml")
     serial = fuzz(spec, jobs=1, scenarios=[0, 1, 2])
-    parallel = fuzz(spec, jobs=2, scenarios=[0, 1, 2])
-    assert serial.tasks == parallel.tasks
-    for a, b in zip(serial.outcomes, parallel.outcomes, strict=True):
-        assert (a.scenario, a.controller, a.passed, a.error) == (b.scenario, b.controller, b.passed, b.error)
-        physical = {k: v for k, v in a.metrics.items() if k not in TIMING_METRICS}
-        assert physical == {k: v for k, v in b.metrics.items() if k not in TIMING_METRICS}
+    parallel = fuzz(spec, jobs=2, scenarios=[2, 0, 1])
+    with (
+        LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster,
+        Client(cluster),
+    ):
+        on_dask = fuzz(spec, executor="dask", scheduler=cluster.scheduler_address, scenarios=[0, 1, 2])
+
+    def physical(report: FuzzReport) -> dict[int, tuple[object, ...]]:
+        return {
+            o.scenario: (
+                o.controller,
+                o.passed,
+                o.error,
+                {k: v for k, v in o.metrics.items() if k not in TIMING_METRICS},
+            )
+            for o in report.outcomes
+        }
+
+    assert physical(serial) == physical(parallel) == physical(on_dask)
+    assert len({o.metrics["cross_track_error_max_m"] for o in serial.outcomes}) == 3  # three different scenarios
 
 
 @pytest.mark.slow
