@@ -176,6 +176,18 @@ def test_an_impossible_criterion_fails_and_writes_a_file_that_reproduces_it(
     assert rerun["metrics"]["cross_track_error_max_m"] == row["metrics"]["cross_track_error_max_m"]
 
 
+def test_help_and_only_some_scenarios(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["fuzz", "--help"]) == 0
+    assert "--jobs" in capsys.readouterr().out
+    config = _config(tmp_path, 'seed = 4\nscenarios = 100\ncontrollers = ["ramsete"]\nsettle_s = 0.5\n')
+    out = tmp_path / "out"
+    main(["fuzz", str(config), "--only", "17", "--jobs", "1", "--out", str(out), "--no-plot"])
+    rows = json.loads((out / "summary.json").read_text())["runs"]
+    assert [(r["scenario"], r["name"]) for r in rows] == [(17, "s4_00017")]
+    assert main(["fuzz", str(config), "--only", "x", "--out", str(out)]) == 2
+    assert "--only" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(
     ("text", "key"),
     [

@@ -46,6 +46,9 @@ def register(sub: Any) -> None:
     p.add_argument("--seed", type=int, default=None, help="instead of the file's seed")
     p.add_argument("--scenarios", type=int, default=None, metavar="N", help="instead of the file's number")
     p.add_argument("--controllers", metavar="A,B", help="instead of the file's pose controllers (comma-separated)")
+    p.add_argument(
+        "--only", metavar="I,J", help="run only these scenario indices (comma-separated), each as in the full run"
+    )
     p.add_argument("--no-plot", action="store_true", help="skip fuzz.png")
     p.set_defaults(func=run)
 
@@ -114,6 +117,17 @@ class _Progress:
         self.bar.close()
 
 
+def _indices(text: str) -> list[int]:
+    """``"3,17"`` → ``[3, 17]``; anything else is a one-line error naming ``--only``."""
+    try:
+        indices = [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise ConfigError("--only", "", f"expected scenario indices like 3,17 (got {text!r})") from None
+    if not indices or min(indices) < 0:
+        raise ConfigError("--only", "", f"expected scenario indices >= 0 (got {text!r})")
+    return sorted(set(indices))
+
+
 def run(args: argparse.Namespace) -> int:
     if args.scheduler and args.executor != "dask":
         raise ConfigError("--scheduler", "", "only with --executor dask")
@@ -122,15 +136,18 @@ def run(args: argparse.Namespace) -> int:
     spec = load_fuzz_config(args.config)
     controllers = None if args.controllers is None else [c.strip() for c in args.controllers.split(",") if c.strip()]
     spec = override_fuzz_config(spec, seed=args.seed, scenarios=args.scenarios, controllers=controllers)
+    only = _indices(args.only) if args.only is not None else None
     out_dir = Path(args.out) if args.out else Path("out") / "fuzz" / spec.name
     check_out_dir(out_dir)
     jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
     where = f"a Dask cluster ({args.scheduler or 'local'})" if args.executor == "dask" else f"{jobs} local jobs"
-    n_runs = spec.scenarios * len(spec.controllers)
+    n_runs = (spec.scenarios if only is None else len(only)) * len(spec.controllers)
     print(f"fuzz {spec.name}: {n_runs} runs on {where}", file=sys.stderr, flush=True)
     progress = _Progress()
     try:
-        report = fuzz(spec, jobs=jobs, executor=args.executor, scheduler=args.scheduler, progress=progress)
+        report = fuzz(
+            spec, jobs=jobs, executor=args.executor, scheduler=args.scheduler, scenarios=only, progress=progress
+        )
     finally:
         progress.close()
     # everything is computed before anything is written
