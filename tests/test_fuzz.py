@@ -138,6 +138,7 @@ def test_comparison_counts_scenario_by_scenario() -> None:
     (cmp,) = report.comparisons()
     # A ≤ B in scenarios 0 and 1 (a tie counts); A crashed in 4: infinitely far off
     assert cmp["scenarios"] == 5 and cmp["a_cross_track_max_le_b_fraction"] == pytest.approx(2 / 5)
+    assert cmp["a_cross_track_max_above_b"] == [2, 3, 4]
     assert cmp["median_rms_ratio"] == pytest.approx(0.0025 / 0.010)
     stats = report.statistics()
     assert stats["mpc"]["crashed"] == 1 and stats["mpc"]["runs"] == 5

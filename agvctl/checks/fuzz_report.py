@@ -120,7 +120,8 @@ class FuzzReport:
     def comparisons(self) -> list[dict[str, Any]]:
         """The first controller (A) against each other one (B), scenario by scenario: the share of scenarios where
         A's maximum cross-track error is at most B's (a crashed run counts as infinitely far off; scenarios where
-        both crashed are left out), and median RMS tracking error of A over that of B."""
+        both crashed are left out), and median RMS tracking error of A over that of B;
+        ``a_cross_track_max_above_b`` lists the scenarios where A's maximum cross-track error is the larger."""
         if len(self.spec.controllers) < 2:
             return []
         a = self.spec.controllers[0]
@@ -131,11 +132,11 @@ class FuzzReport:
         out = []
         for b in self.spec.controllers[1:]:
             xa, xb = by_scenario(a, "cross_track_error_max_m"), by_scenario(b, "cross_track_error_max_m")
-            pairs = [
-                (math.inf if math.isnan(xa[s]) else xa[s], math.inf if math.isnan(xb[s]) else xb[s])
+            pairs = {
+                s: (math.inf if math.isnan(xa[s]) else xa[s], math.inf if math.isnan(xb[s]) else xb[s])
                 for s in xa
                 if s in xb and not (math.isnan(xa[s]) and math.isnan(xb[s]))
-            ]
+            }
             ra, rb = by_scenario(a, "tracking_error_rms_m"), by_scenario(b, "tracking_error_rms_m")
             med_a = float(np.nanmedian(list(ra.values()))) if any(np.isfinite(list(ra.values()))) else math.nan
             med_b = float(np.nanmedian(list(rb.values()))) if any(np.isfinite(list(rb.values()))) else math.nan
@@ -144,9 +145,10 @@ class FuzzReport:
                     "a": a,
                     "b": b,
                     "scenarios": len(pairs),
-                    "a_cross_track_max_le_b_fraction": (sum(pa <= pb for pa, pb in pairs) / len(pairs))
+                    "a_cross_track_max_le_b_fraction": (sum(pa <= pb for pa, pb in pairs.values()) / len(pairs))
                     if pairs
                     else None,
+                    "a_cross_track_max_above_b": sorted(s for s, (pa, pb) in pairs.items() if pa > pb),
                     "median_rms_a_m": med_a,
                     "median_rms_b_m": med_b,
                     "median_rms_ratio": med_a / med_b if med_b > 0 else None,

@@ -93,6 +93,10 @@ def format_fuzz_report(report: FuzzReport, worst: int = 5) -> str:
             f"{cmp['a']} vs {cmp['b']}: {cmp['a']}'s max cross-track error ≤ {cmp['b']}'s in {frac_text} of "
             f"{cmp['scenarios']} scenarios; median RMS tracking error {rms_a} vs {rms_b} (ratio {ratio_text})"
         )
+        above = cmp["a_cross_track_max_above_b"]
+        if above:
+            shown = ", ".join(f"s{spec.seed}_{i:05d}" for i in above[:8]) + (", …" if len(above) > 8 else "")
+            lines.append(f"    {cmp['a']}'s max cross-track error above {cmp['b']}'s in: {shown}")
     return "\n".join(lines)
 
 
