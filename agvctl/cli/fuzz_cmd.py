@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from agvctl.checks.fuzz import fuzz
-from agvctl.checks.fuzz_report import FUZZ_METRICS, FuzzReport
+from agvctl.checks.fuzz_report import FUZZ_METRICS, FuzzOutcome, FuzzReport
 from agvctl.checks.fuzz_spec import load_fuzz_config, override_fuzz_config
 from agvctl.cli.progress import ProgressBar
 from agvctl.cli.run_cmd import check_out_dir
@@ -60,6 +60,17 @@ def _value(metric: str, value: float | None) -> str:
     return f"{value:.4g}{unit}"
 
 
+def _worst_line(outcome: FuzzOutcome) -> str:
+    """``cross-track 0.43 m  final 0.2 m  heading 178°  (violated: a, b)``, or the crash."""
+    if outcome.error is not None:
+        return f"crashed: {outcome.error}"
+    shown = {"cross-track": "cross_track_error_max_m", "final": "final_position_error_m"}
+    text = "  ".join(f"{label} {_value(m, outcome.value(m))}" for label, m in shown.items())
+    text += f"  heading {_value('path_heading_error_max_deg', outcome.value('path_heading_error_max_deg'))}"
+    violated = [r.limit for r in outcome.limits if not r.passed or math.isnan(r.value)]
+    return text + f"  (violated: {', '.join(violated)})"
+
+
 def format_fuzz_report(report: FuzzReport, worst: int = 5) -> str:
     """The readable report: per controller the pass count, percentiles, the worst scenarios; comparisons."""
     spec = report.spec
@@ -82,8 +93,7 @@ def format_fuzz_report(report: FuzzReport, worst: int = 5) -> str:
             lines.append("    worst:")
         names = {(t.scenario, t.controller): t for t in report.tasks}
         for o in bad:
-            task = names[(o.scenario, o.controller)]
-            lines.append(f"      {task.files[-1][0]}: {'; '.join(o.reasons)}")
+            lines.append(f"      {names[(o.scenario, o.controller)].files[-1][0]}  {_worst_line(o)}")
     for cmp in report.comparisons():
         frac, ratio = cmp["a_cross_track_max_le_b_fraction"], cmp["median_rms_ratio"]
         frac_text = "—" if frac is None else f"{100 * frac:.1f} %"
