@@ -10,7 +10,11 @@ its positions sampled at most ``spacing_m`` apart in arc length s; for a vehicle
   path point (positive: the vehicle is behind the reference point);
 - heading error: θ − θ_path(s*), wrapped to [−π, π), with θ_path the reference's heading along the path (so a
   path driven in reverse has the heading of the vehicle, not of the tangent). Where the path stops and turns in
-  place, the nearest point is a vertex with a range of headings; the error is the distance to that range.
+  place, the nearest point is a vertex with a range of headings; the error is the distance to that range. Beside
+  such a vertex the nearest point is ambiguous (a vehicle 1 mm past it is nearest to the next segment, whose
+  heading may differ by the whole turn), so within ``turn_zone_m`` (default 5 cm) of a turn-in-place vertex, or
+  within twice the cross-track distance, the error against the turn's heading range counts too, the smaller of
+  the two: a vehicle turning in place a few centimetres off the vertex is turning, not turned around.
 
 Where the path crosses, retraces or ends on itself, the nearest point is ambiguous, and the lag would jump by
 a lap. Lag and heading therefore use the nearest point of the *branch* that minimises
@@ -99,8 +103,16 @@ class ReferencePath:
         self.theta_arrive_rad: FloatArray = th[first]
         """The reference heading on arriving at each vertex."""
         self.theta_leave_rad: FloatArray = th[last]
+        bounds = np.column_stack([first, last + 1]).ravel()  # each vertex's run of samples [first, last]
+        th_ext = np.append(th, th[-1])  # th is continuous (unwrapped)
+        self._theta_lowest_rad: FloatArray = np.minimum.reduceat(th_ext, bounds)[::2]
+        self._theta_highest_rad: FloatArray = np.maximum.reduceat(th_ext, bounds)[::2]
+        """The range of headings the path takes at each vertex (consecutive turns in place may overshoot both ends)."""
         """The heading on leaving it (differs from the arrival after a turn in place)."""
         self.spacing_m = spacing_m
+        self._turns = np.nonzero(self._theta_highest_rad - self._theta_lowest_rad > 1e-9)[0]
+        """The vertices where the path turns in place (a range of headings at one point)."""
+        self._turn_tree = cKDTree(np.column_stack([self.x_m[self._turns], self.y_m[self._turns]]).reshape(-1, 2))
         self.tree = cKDTree(np.column_stack([self.x_m, self.y_m]), balanced_tree=False, compact_nodes=False)
         self.reference = reference
 
@@ -116,6 +128,7 @@ class ReferencePath:
         *,
         neighbours: int = 8,
         branch_weight: float = 0.1,
+        turn_zone_m: float = 0.05,
     ) -> PathErrors:
         """Cross-track error, along-track lag and heading error of vehicle samples (times in s, poses in m, rad)."""
         t, px, py, th = (np.atleast_1d(np.asarray(a, dtype=np.float64)).ravel() for a in (t_s, x_m, y_m, theta_rad))
@@ -137,6 +150,13 @@ class ReferencePath:
         pick = np.argmin(np.where(branch, dist, np.inf), axis=1)
         j, uj = seg[rows, pick], u[rows, pick]
         heading = self._heading_error(th, j, uj)
+        if len(self._turns):  # beside a turn in place, its heading range counts too (see the module notes)
+            d_pick = dist[rows, pick]
+            to_turn, nearest_turn = self._turn_tree.query(np.column_stack([px, py]), k=1)
+            near = to_turn <= np.maximum(2.0 * d_pick, turn_zone_m)
+            if np.any(near):
+                at_turn = self._vertex_heading_error(th[near], self._turns[nearest_turn[near]])
+                heading[near] = np.where(np.abs(at_turn) < np.abs(heading[near]), at_turn, heading[near])
         return PathErrors(d_min, s_ref - s_c[rows, pick], heading, s_c[rows, pick])
 
     def _candidates(
@@ -170,7 +190,7 @@ class ReferencePath:
 
     def _vertex_heading_error(self, theta: FloatArray, vertex: NDArray[np.int64]) -> FloatArray:
         """Signed distance (wrapped) of θ to the range of headings the path takes at ``vertex``."""
-        lo, hi = self.theta_arrive_rad[vertex], self.theta_leave_rad[vertex]
+        lo, hi = self._theta_lowest_rad[vertex], self._theta_highest_rad[vertex]
         half = 0.5 * np.abs(hi - lo)
         d = _wrap(theta - 0.5 * (lo + hi))
         return np.asarray(np.sign(d) * np.maximum(np.abs(d) - half, 0.0), dtype=np.float64)
