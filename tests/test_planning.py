@@ -43,11 +43,18 @@ def shipped(request, vehicle):
 
 
 def _file_limits(path: Path, vehicle) -> tuple[float, float, float]:
-    """The limits as the file sets them, else the vehicle's (top speed, a_lim, jerk convention)."""
+    """The limits as the file sets them, else the defaults: 80 % of I_max for the acceleration (eq 5 with 0.8
+    I_max) and the speed at which that acceleration needs 80 % of the full-scale voltage (eq 33), and the jerk
+    convention."""
     lim = load_toml(path).get("limits", {})
+    k_t, r_n, R = 0.027, 0.1 / 36, 0.38
+    j_tot = 2.5e-5 + 0.5 * 85.0 * r_n**2  # eq 5
+    a_default = (0.8 * 5.5 * k_t - 0.065) / j_tot * r_n
+    u_fs = 2.0 * 2047 * 10.0 / 4096  # the amplifier at the DA's last code
+    v_default = (0.8 * u_fs - R * 0.8 * 5.5) / k_t * r_n
     return (
-        lim.get("wheel_speed_m_s", vehicle.derived.max_speed_m_s),
-        lim.get("wheel_accel_m_s2", vehicle.derived.accel_limit_m_s2),
+        lim.get("wheel_speed_m_s", v_default),
+        lim.get("wheel_accel_m_s2", a_default),
         lim.get("wheel_jerk_m_s3", vehicle.derived.accel_limit_m_s2 / (5 * vehicle.control.sample_period_s)),
     )
 
@@ -70,8 +77,9 @@ def test_wheel_limits_hold_by_finite_differences(shipped, vehicle):
     v_lim, a_lim, j_lim = _file_limits(path, vehicle)
     t = np.arange(0.0, ref.duration_s + 0.05, DT)
     s = ref.sample(t)
-    peak_a = 0.0
+    peak_a = peak_v = 0.0
     for v in _wheel_speeds_by_differences(s.x_m, s.y_m, s.theta_rad, DT):
+        peak_v = max(peak_v, np.max(np.abs(v)))
         a = np.diff(v) / DT
         j = np.diff(a) / DT
         assert np.max(np.abs(v)) <= v_lim * (1 + 1e-9)
@@ -79,9 +87,10 @@ def test_wheel_limits_hold_by_finite_differences(shipped, vehicle):
         assert np.max(np.abs(j)) <= j_lim * 1.01
         peak_a = max(peak_a, np.max(np.abs(a)))
     # the limits are used, not just respected: the outer wheel reaches the acceleration limit on every segment
-    # path (a waypoint path's curvature changes all along, and takes a share of the acceleration everywhere)
+    # path, or the speed limit binds first (the figure-8's outer wheel at its crossing) (a waypoint path's
+    # curvature changes all along, and takes a share of the acceleration everywhere)
     if "segments" in load_toml(path):
-        assert peak_a >= 0.98 * a_lim
+        assert peak_a >= 0.98 * a_lim or peak_v >= 0.995 * v_lim
     # the planner's own numbers agree with the differences (mid-point speeds)
     mid = ref.sample(t[:-1] + DT / 2)
     v_l, v_r = _wheel_speeds_by_differences(s.x_m, s.y_m, s.theta_rad, DT)
@@ -349,7 +358,18 @@ def test_programmatic_path_spec_and_start_pose(vehicle):
 
 
 def test_default_limits_come_from_the_vehicle(vehicle):
+    # the defaults leave 20 % of the current limit and of the full-scale voltage to the feedback: the planned
+    # acceleration needs k_t i = J_tot a N/r + τ_c (eq 5's balance) with i = 0.8 I_max, and at the planned top speed
+    # that current plus the back-EMF needs u = R i + k_e ω = 0.8 u_fs (eq 33), u_fs = k_pow · 2047 · 10 V/4096
     ref = plan(PathSpec(segments=[LineSegment(length_m=20.0)]), vehicle)
-    assert ref.limits.wheel_speed_m_s == vehicle.derived.max_speed_m_s
-    assert ref.limits.wheel_accel_m_s2 == pytest.approx(0.657, rel=5e-3)  # eq 5
-    assert ref.peaks()["peak_wheel_speed_m_s"] == pytest.approx(vehicle.derived.max_speed_m_s, rel=1e-6)
+    k_t, k_e, R, n, r, tau_c = 0.027, 0.027, 0.38, 36.0, 0.1, 0.065
+    j_tot = 2.5e-5 + 0.5 * 85.0 * r**2 / n**2  # eq 5
+    a = ref.limits.wheel_accel_m_s2
+    current = (j_tot * a * n / r + tau_c) / k_t
+    assert current == pytest.approx(0.8 * 5.5, rel=1e-9)
+    assert a < 0.657  # below a_lim of eq 5
+    u_fs = 2.0 * 2047 * 10.0 / 4096
+    omega = ref.limits.wheel_speed_m_s * n / r
+    assert R * current + k_e * omega == pytest.approx(0.8 * u_fs, rel=1e-9)
+    assert ref.limits.wheel_speed_m_s < vehicle.derived.max_speed_m_s
+    assert ref.peaks()["peak_wheel_speed_m_s"] == pytest.approx(ref.limits.wheel_speed_m_s, rel=1e-6)

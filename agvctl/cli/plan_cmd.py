@@ -12,7 +12,8 @@ from agvctl.cli.options import add_vehicle_options
 from agvctl.errors import ConfigError
 from agvctl.fileio import atomic_open, write_csv
 from agvctl.params import load_vehicle
-from agvctl.planning import CSV_COLUMNS, PhysicalLimitWarning, Reference, load_path, plan
+from agvctl.planning import CSV_COLUMNS, HeadroomWarning, PhysicalLimitWarning, Reference, load_path, plan
+from agvctl.planning.headroom import limits_report
 
 
 def register(sub: Any) -> None:
@@ -85,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
     spec = load_path(args.file)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", PhysicalLimitWarning)
+        warnings.simplefilter("always", HeadroomWarning)
         ref: Reference = plan(spec, vehicle, force=args.force)
     for w in caught:
         print(f"agvctl: warning: {w.message}", file=sys.stderr)
@@ -100,4 +102,6 @@ def run(args: argparse.Namespace) -> int:
     if png is not None:
         _write("plot", args.plot, lambda: _write_bytes(args.plot, png))
     print(json.dumps(summary, indent=2) if args.json else format_summary(summary))
+    if not args.json:
+        print("\n".join(limits_report(ref, spec.limits, vehicle)))
     return 0

@@ -12,14 +12,21 @@ They command DA voltages; the actuator chain does the rest.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal, Protocol
+from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.planning.reference import Reference
 
-__all__ = ["FeedForwardPoseController", "PoseCommand", "PoseController", "SolveStatus", "WheelSpeedController"]
+__all__ = [
+    "FeedForwardPoseController",
+    "GovernedPoseController",
+    "PoseCommand",
+    "PoseController",
+    "SolveStatus",
+    "WheelSpeedController",
+]
 
 SolveStatus = Literal["solved", "fallback_shifted", "fallback_feedforward"]
 
@@ -45,6 +52,17 @@ class PoseController(Protocol):
     def update(self, t_s: float, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]) -> PoseCommand:
         """Setpoints for the sample starting at ``t_s`` given the pose (x_m, y_m, theta_rad) and the measured
         wheel rim speeds (left, right) in m/s."""
+        ...
+
+
+@runtime_checkable
+class GovernedPoseController(PoseController, Protocol):
+    """A pose controller that tracks the reference at its own clock (a reference governor): the closed loop runs
+    until :attr:`reference_time_s` reaches the reference's end (then its settling time), at most twice as long."""
+
+    @property
+    def reference_time_s(self) -> float:
+        """The reference time being tracked at the last update (s), ≤ the loop's time."""
         ...
 
 

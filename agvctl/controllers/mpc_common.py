@@ -34,6 +34,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from agvctl.actuator import wheel_accel_reach_m_s2
+from agvctl.angles import wrap_angle
 from agvctl.config import number
 from agvctl.controllers.base import PoseCommand, SolveStatus
 from agvctl.params import VehicleParams
@@ -45,6 +47,7 @@ __all__ = [
     "HorizonReference",
     "MpcConfig",
     "SetpointFallback",
+    "lead_factor_s",
     "limit_command",
     "resolved_config",
     "resolved_limits",
@@ -83,6 +86,18 @@ class MpcConfig:
     """None (default): no wall-clock limit, so a simulation gives the same result on any machine and under any
     load; the solve time is still measured and checked (``solve_time_p99_ms``, ``deadline_misses``). Set it to
     emulate a real-time budget: then a solve that runs out of time falls back, as it would on the vehicle."""
+    reach_lead: float = number(gt=0, le=5, default=2.5, doc="setpoint lead, in one-sample reachable leads")
+    """How far a setpoint may lead its wheel, in multiples of what the wheel can follow in one sample
+    (:func:`lead_factor_s`). Bounded, so the setpoints never run away from a saturated wheel; above 1, so that the PI
+    loop's proportional action can still push a wheel that is heavier or stiffer than the controller's model
+    (measured on the figure-8 with a 35 kg payload: tracking RMS 2.0 mm at 1, 1.45 mm at 2.5)."""
+    reference_governor: bool = True
+    """Slow the reference's clock down while the vehicle lags behind it (graceful lag; see :class:`MpcStepper`)."""
+    governor_lag_start_m: float = number(gt=0, default=0.04, doc="lag at which the governor starts to slow, m")
+    governor_lag_stop_m: float = number(gt=0, default=0.10, doc="lag at which the governor holds the reference, m")
+    governor_catch_up: float = number(ge=1, le=2, default=1.5, doc="largest clock rate while catching up")
+    """Behind the loop's clock and within ``governor_lag_start_m`` of the reference, the governed clock runs up to
+    this much faster than time (the reference's speed along the path scaled alike), so a delay is made up."""
     max_iterations: int = number(ge=1, default=400, doc="solver iteration limit per step")
     tolerance: float = number(gt=0, default=1.0e-3, doc="solver tolerance (OSQP eps_abs/eps_rel, IPOPT tol)")
 
@@ -172,6 +187,16 @@ class SetpointFallback:
         return float(self.sequence_m_s[j, 0]), float(self.sequence_m_s[j, 1])
 
 
+def lead_factor_s(config: MpcConfig, sample_period_s: float) -> float:
+    """D/a (s): how far a setpoint may lead its wheel per m/s² the wheel can reach — T_s/(1 − e^(−T_s/τ)) for the
+    wheel-loop lag (its exact discretisation moves v by (1 − e^(−T_s/τ))(s − v) in one sample), T_s for the
+    kinematic model (the setpoint is the next sample's speed)."""
+    if config.prediction_model == "kinematic":
+        return config.reach_lead * sample_period_s
+    tau = wheel_loop_time_constant_s(config)
+    return config.reach_lead * sample_period_s / (1.0 - math.exp(-sample_period_s / tau))
+
+
 def resolved_limits(config: MpcConfig, vehicle: VehicleParams) -> tuple[float, float]:
     """(v_max in m/s, a_lim in m/s²): the config's, or the vehicle's derived max speed and eq-5 limit."""
     d = vehicle.derived
@@ -191,25 +216,113 @@ def limit_command(setpoint_m_s: float, previous_m_s: float, max_speed_m_s: float
 
 
 class MpcStepper:
-    """The step both MPCs share: solve, or fall back (shifted plan, then feed-forward), count, clip to limits.
+    """The step both MPCs share: the reference governor, the reachable-setpoint window, solve or fall back
+    (shifted plan, then feed-forward), count, clip to limits.
+
+    **Reference governor (graceful lag).** The controller tracks the reference at its own clock c (in samples),
+    not at t/T_s: every step c advances by σ ∈ [0, 1], σ = 1 while the vehicle's lag behind the reference point
+    stays under ``governor_lag_start_m`` and falling linearly to 0 (the reference waits) at ``governor_lag_stop_m``;
+    below ``governor_lag_start_m`` it rises on the same line up to ``governor_catch_up`` while c is behind t/T_s, so
+    a delay (an offset start, a weak stretch) is made up where the vehicle can, and c never runs ahead of t/T_s.
+    The lag is the along-path error (in the reference's heading frame) or, in a turn in place, the heading lag
+    times b/2 (the wheels' arc length). So a vehicle weaker than its model, or starting behind, falls behind
+    *along* the path and stays on it instead of cutting corners after a point that runs away; the reference
+    never runs more than a few centimetres ahead, and it reaches the end and stops there (the closed loop runs
+    until c reaches the end: see :attr:`reference_time_s`). While the vehicle keeps up, c = t/T_s exactly and
+    nothing changes.
+
+    **Reachable setpoints (anti-windup across the cascade).** Each wheel's setpoint stays within what that wheel
+    can reach in ``reach_lead`` samples from its *measured* speed: s − v ∈ [−D↓, D↑],
+    D = reach_lead·a_reach·T_s/(1 − e^(−T_s/τ)) for the wheel-loop lag τ (reach_lead·a_reach·T_s for the kinematic
+    model), a_reach from
+    :func:`~agvctl.actuator.wheel_accel_reach_m_s2` (current limit, back-EMF and friction of the controller's
+    model). The previous command s_{−1} is brought into the same window before the solve, so the setpoints never
+    run away from wheels that are current- or voltage-limited.
 
     Subclasses set ``_grid`` (a :class:`HorizonReference`, at reset), ``_fallback``, ``max_wheel_speed_m_s``,
-    ``max_wheel_accel_m_s2``, ``sample_period_s`` and implement ``_solve(k, pose, wheel_speed_m_s)``, returning
-    the first setpoint pair or None on failure.
+    ``max_wheel_accel_m_s2``, ``sample_period_s``, ``separation_m``, ``_vehicle``, ``_lead_factor_s`` (D/a_reach)
+    and implement ``_solve(k, pose, wheel_speed_m_s)``, returning the first setpoint pair or None on failure;
+    ``_fraction`` ∈ [0, 1) is the governed clock's position between grid points k and k + 1.
     """
 
     _grid: HorizonReference | None
     _fallback: SetpointFallback
     _u_prev: NDArray[np.float64] | None
     _failures: int
+    _vehicle: VehicleParams
+    _lead_factor_s: float
     max_wheel_speed_m_s: float
     max_wheel_accel_m_s2: float
     sample_period_s: float
+    separation_m: float
+    config: MpcConfig
+    _lead_up_m_s: NDArray[np.float64] = np.zeros(2)
+    _lead_down_m_s: NDArray[np.float64] = np.zeros(2)
+    _window: tuple[NDArray[np.float64], NDArray[np.float64]] = (np.zeros(2), np.zeros(2))
+    _clock: float = -1.0
+    """The governed reference clock in samples (−1: not started)."""
+    _fraction: float = 0.0
 
     @property
     def failures(self) -> int:
         """How many updates since construction fell back because the solver failed or ran out of time."""
         return self._failures
+
+    @property
+    def reference_time_s(self) -> float:
+        """The reference time the controller is tracking (≤ t; equal to t while the vehicle keeps up)."""
+        return max(self._clock, 0.0) * self.sample_period_s
+
+    def _restart_clock(self) -> None:
+        self._clock = -1.0
+        self._fraction = 0.0
+
+    def setpoint_window_m_s(
+        self, wheel_speed_m_s: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(lower, upper) setpoints (left, right) each wheel can follow in one sample from ``wheel_speed_m_s``; the
+        leads D↓, D↑ (m/s) are kept in ``_lead_down_m_s``, ``_lead_up_m_s``."""
+        up, down = wheel_accel_reach_m_s2(self._vehicle, wheel_speed_m_s)
+        self._lead_up_m_s, self._lead_down_m_s = up * self._lead_factor_s, down * self._lead_factor_s
+        v_max = self.max_wheel_speed_m_s  # kept meeting the speed box, even from a measured speed beyond it
+        lo = np.minimum(wheel_speed_m_s - self._lead_down_m_s, v_max)
+        hi = np.maximum(wheel_speed_m_s + self._lead_up_m_s, -v_max)
+        return lo, hi
+
+    def _lag_m(self, g: HorizonReference, clock: float, pose: NDArray[np.float64]) -> float:
+        """How far the vehicle at ``pose`` is behind the reference at ``clock`` (samples): along the path, or in a
+        turn the heading lag times b/2; negative when ahead."""
+        k = min(int(clock), g.n_points - 2)
+        f = clock - k
+        x = g.x_m[k] + f * (g.x_m[k + 1] - g.x_m[k])
+        y = g.y_m[k] + f * (g.y_m[k + 1] - g.y_m[k])
+        th = g.theta_rad[k] + f * wrap_angle(g.theta_rad[k + 1] - g.theta_rad[k])
+        along = math.cos(th) * (float(pose[0]) - x) + math.sin(th) * (float(pose[1]) - y)
+        yaw = g.yaw_rate_rad_s[k]
+        heading_lag = 0.0
+        if abs(yaw) * 0.5 * self.separation_m > 4.0 * abs(g.speed_m_s[k]) + 1e-6:  # turning (almost) in place
+            heading_lag = -math.copysign(1.0, yaw) * wrap_angle(float(pose[2]) - th) * 0.5 * self.separation_m
+        return float(max(-along, heading_lag))
+
+    def _advance_clock(self, g: HorizonReference, t_s: float, pose: NDArray[np.float64]) -> int:
+        """Advance the governed clock for the sample at ``t_s``; the window start k (``_fraction`` set)."""
+        c = self.config
+        if not c.reference_governor:
+            self._clock = float(g.window_start(t_s))
+            self._fraction = 0.0
+            return int(self._clock)
+        if self._clock < 0.0:
+            self._clock = float(g.window_start(t_s))
+        else:
+            lag = self._lag_m(g, self._clock + 1.0, pose)
+            if not math.isfinite(lag):
+                lag = 0.0
+            band = max(c.governor_lag_stop_m - c.governor_lag_start_m, 1e-9)
+            sigma = min(max((c.governor_lag_stop_m - lag) / band, 0.0), c.governor_catch_up)
+            self._clock = min(self._clock + sigma, float(g.window_start(t_s)))  # never ahead of t
+        k = int(self._clock)
+        self._fraction = self._clock - k
+        return k
 
     def _solve(
         self, k: int, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]
@@ -226,12 +339,18 @@ class MpcStepper:
         g = self._grid
         if g is None:
             raise RuntimeError(f"{type(self).__name__}.update called before reset(reference)")
-        k = g.window_start(t_s)
+        k = self._advance_clock(g, t_s, pose)
+        measured = np.asarray(wheel_speed_m_s, dtype=np.float64)
+        lo, hi = self.setpoint_window_m_s(measured) if np.all(np.isfinite(measured)) else (measured, measured)
+        self._window = (lo, hi)
+        a_step = self.max_wheel_accel_m_s2 * self.sample_period_s
         if self._u_prev is None:
-            self._u_prev = np.array(wheel_speed_m_s, dtype=np.float64)
+            self._u_prev = measured.copy()
+        elif np.all(np.isfinite(measured)):  # anti-windup: the previous command stays reachable from the wheels
+            np.clip(self._u_prev, lo - a_step, hi + a_step, out=self._u_prev)
         status: SolveStatus = "solved"
         try:
-            setpoint = self._solve(k, pose, wheel_speed_m_s)
+            setpoint = self._solve(k, pose, measured)
         except Exception:  # noqa: BLE001 - a solver failure must never stop the run
             setpoint = None
         if setpoint is None:
@@ -246,7 +365,10 @@ class MpcStepper:
                 status = "fallback_feedforward"
         else:
             left, right = setpoint
-        v_max, a_step = self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 * self.sample_period_s
+        if np.all(np.isfinite(measured)):
+            left = min(max(left, float(lo[0])), float(hi[0]))
+            right = min(max(right, float(lo[1])), float(hi[1]))
+        v_max = self.max_wheel_speed_m_s
         left = limit_command(left, self._u_prev[0], v_max, a_step)
         right = limit_command(right, self._u_prev[1], v_max, a_step)
         self._u_prev[0], self._u_prev[1] = left, right

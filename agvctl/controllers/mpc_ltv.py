@@ -33,12 +33,14 @@ import scipy.linalg
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from agvctl.actuator import wheel_accel_reach_m_s2
 from agvctl.angles import wrap_angle
 from agvctl.controllers.mpc_common import (
     HorizonReference,
     MpcConfig,
     MpcStepper,
     SetpointFallback,
+    lead_factor_s,
     resolved_config,
     resolved_limits,
     wheel_loop_time_constant_s,
@@ -87,6 +89,8 @@ class LtvMpcController(MpcStepper):
         c = self.config
         self.sample_period_s = vehicle.control.sample_period_s
         self.separation_m = vehicle.wheels.separation_m
+        self._vehicle = vehicle
+        self._lead_factor_s = lead_factor_s(c, self.sample_period_s)
         self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 = resolved_limits(c, vehicle)
         self._lag = c.prediction_model == "kinematic+wheel_loop"
         self.nx = 5 if self._lag else 3
@@ -110,6 +114,7 @@ class LtvMpcController(MpcStepper):
         self._precompute(grid)
         self._fallback.clear()
         self._u_prev = None
+        self._restart_clock()
 
     # -- problem structure --------------------------------------------------------------------------------
 
@@ -121,7 +126,8 @@ class LtvMpcController(MpcStepper):
         self._r_box = r_box = N * nx
         self._r_rate = r_rate = r_box + 2 * N
         self._r_first = r_first = r_rate + 2 * (N - 1)
-        n_rows = r_first + 2
+        self._r_reach = r_reach = r_first + 2
+        n_rows = r_reach + (2 * N if self._lag else 0)
 
         rows: list[int] = []
         cols: list[int] = []
@@ -154,6 +160,12 @@ class LtvMpcController(MpcStepper):
                 add(r_rate + 2 * (k - 1) + j, iU + 2 * (k - 1) + j, -1.0)
         for j in range(2):  # first move from the previous command s_{−1}
             add(r_first + j, iU + j, 1.0)
+        if self._lag:  # reachable lead of the setpoint over the wheel: s_k − v_k (v_0 is data, in the bounds)
+            for k in range(N):
+                for j in range(2):
+                    add(r_reach + 2 * k + j, iU + 2 * k + j, 1.0)
+                    if k >= 1:
+                        add(r_reach + 2 * k + j, (k - 1) * nx + 3 + j, -1.0)
 
         ids = np.arange(1, len(rows) + 1, dtype=np.float64)
         A = sp.csc_matrix((ids, (rows, cols)), shape=(n_rows, n_z))
@@ -240,6 +252,11 @@ class LtvMpcController(MpcStepper):
         self._d_flat = d.ravel()
         self._rate_lo = (-a_step - d).ravel()
         self._rate_hi = (a_step - d).ravel()
+        # s_k − v_k ∈ [−D↓, D↑] at the reference's wheel speeds: δs_k − δv_k ∈ v_ref − s_ff + [−D↓, D↑]
+        up, down = wheel_accel_reach_m_s2(self._vehicle, g.wheel_m_s[:-1])
+        self._reach_base = (g.wheel_m_s[:-1] - ff).ravel()
+        self._reach_down = (down * self._lead_factor_s).ravel()
+        self._reach_up = (up * self._lead_factor_s).ravel()
 
     # -- one step -----------------------------------------------------------------------------------------
 
@@ -251,16 +268,25 @@ class LtvMpcController(MpcStepper):
         c, N, nx = self.config, self.config.horizon, self.nx
         iU, iS = self._iU, self._iS
         x0 = self._x0
-        dx, dy = float(pose[0]) - g.x_m[k], float(pose[1]) - g.y_m[k]
+        f = self._fraction  # the governed clock between grid points k and k + 1 (0 while it keeps time)
+        x_ref, y_ref, th_ref = g.x_m[k], g.y_m[k], g.theta_rad[k]
+        ct, st = g.cos_theta[k], g.sin_theta[k]
+        wheel_ref = g.wheel_m_s[k]
+        if f > 0.0:
+            x_ref += f * (g.x_m[k + 1] - x_ref)
+            y_ref += f * (g.y_m[k + 1] - y_ref)
+            th_ref += f * wrap_angle(g.theta_rad[k + 1] - th_ref)
+            ct, st = math.cos(th_ref), math.sin(th_ref)
+            wheel_ref = wheel_ref + f * (g.wheel_m_s[k + 1] - wheel_ref)
+        dx, dy = float(pose[0]) - x_ref, float(pose[1]) - y_ref
         if c.error_frame == "path":
-            ct, st = g.cos_theta[k], g.sin_theta[k]
             x0[0], x0[1] = ct * dx + st * dy, -st * dx + ct * dy
         else:
             x0[0], x0[1] = dx, dy
-        x0[2] = wrap_angle(float(pose[2]) - g.theta_rad[k])
+        x0[2] = wrap_angle(float(pose[2]) - th_ref)
         if self._lag:
-            x0[3] = float(wheel_speed_m_s[0]) - g.wheel_m_s[k, 0]
-            x0[4] = float(wheel_speed_m_s[1]) - g.wheel_m_s[k, 1]
+            x0[3] = float(wheel_speed_m_s[0]) - wheel_ref[0]
+            x0[4] = float(wheel_speed_m_s[1]) - wheel_ref[1]
         if not (math.isfinite(float(x0.sum())) and math.isfinite(float(self._u_prev.sum()))):
             return None  # a broken measurement: never let NaN into OSQP's warm start
 
@@ -289,6 +315,23 @@ class LtvMpcController(MpcStepper):
         a_step = self.max_wheel_accel_m_s2 * self.sample_period_s
         lo[rf : rf + 2] = start - a_step
         hi[rf : rf + 2] = start + a_step
+        if self._lag:
+            # the first sample's lead from the measured speed; later ones from the reference's speeds, never
+            # tighter than the first (so that holding the first setpoint stays feasible as the wheel converges)
+            rc = self._r_reach
+            window_lo, window_hi = self._window
+            lo[rc : rc + 2] = window_lo - ff0
+            hi[rc : rc + 2] = window_hi - ff0
+            ahead = slice(2 * (k + 1), 2 * (k + N))
+            if float(np.max(np.abs(wheel_speed_m_s))) <= v_max:
+                base = self._reach_base[ahead]
+                lead_down = np.maximum(self._reach_down[ahead].reshape(-1, 2), self._lead_down_m_s).ravel()
+                lead_up = np.maximum(self._reach_up[ahead].reshape(-1, 2), self._lead_up_m_s).ravel()
+                lo[rc + 2 : rc + 2 * N] = base - lead_down
+                hi[rc + 2 : rc + 2 * N] = base + lead_up
+            else:  # a wheel beyond the speed box (a reset at speed): only the first sample is bounded
+                lo[rc + 2 : rc + 2 * N] = -_INF
+                hi[rc + 2 : rc + 2 * N] = _INF
 
         # rate cost w_Δ‖D δs + r‖², r_0 = −start, r_k = d_{k+k'}: linear term 2 w_Δ Dᵀ r
         r = self._rate_c

@@ -24,6 +24,7 @@ from agvctl.controllers.mpc_common import (
     MpcConfig,
     MpcStepper,
     SetpointFallback,
+    lead_factor_s,
     resolved_config,
     resolved_limits,
     wheel_loop_time_constant_s,
@@ -87,6 +88,8 @@ class NonlinearMpcController(MpcStepper):
         self.config = resolved_config(config or MpcConfig())
         self.sample_period_s = vehicle.control.sample_period_s
         self.separation_m = vehicle.wheels.separation_m
+        self._vehicle = vehicle
+        self._lead_factor_s = lead_factor_s(self.config, self.sample_period_s)
         self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 = resolved_limits(self.config, vehicle)
         self._lag = self.config.prediction_model == "kinematic+wheel_loop"
         self.nx = 5 if self._lag else 3
@@ -110,6 +113,7 @@ class NonlinearMpcController(MpcStepper):
         self._u_prev = None
         self._w0 = None
         self._last_k = -1
+        self._restart_clock()
 
     # -- the NLP ------------------------------------------------------------------------------------------
 
@@ -184,6 +188,11 @@ class NonlinearMpcController(MpcStepper):
             return None  # a broken measurement
         ref = np.stack([g.x_m[k + 1 : k + N + 1], g.y_m[k + 1 : k + N + 1], g.theta_rad[k + 1 : k + N + 1]])
         ff = g.feedforward_m_s[k : k + N]
+        f = self._fraction  # the governed clock between grid points (0 while it keeps time): interpolate
+        if f > 0.0:
+            ahead = np.stack([g.x_m[k + 2 : k + N + 2], g.y_m[k + 2 : k + N + 2], g.theta_rad[k + 2 : k + N + 2]])
+            ref = ref + f * (ahead - ref)
+            ff = ff + f * (g.feedforward_m_s[k + 1 : k + N + 1] - ff)
         v_max = self.max_wheel_speed_m_s
         u_prev = np.clip(self._u_prev, -v_max, v_max)  # as in the LTV MPC: keeps the first move feasible
         p = np.concatenate([x0, ref.T.ravel(), ff.ravel(), u_prev])

@@ -23,6 +23,7 @@ from agvctl.planning.profile import JerkProfile, rest_to_rest
 from agvctl.planning.reference import CSV_COLUMNS, Motion, Reference, ReferenceSamples
 from agvctl.planning.spec import (
     ArcSegment,
+    HeadroomWarning,
     LineSegment,
     PathLimits,
     PathSpec,
@@ -45,6 +46,7 @@ __all__ = [
     "Motion",
     "PathLimits",
     "PathSpec",
+    "HeadroomWarning",
     "PhysicalLimitWarning",
     "Pose",
     "Reference",

@@ -47,12 +47,21 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
+from agvctl.actuator import (
+    CURRENT_HEADROOM,
+    MIN_HEADROOM,
+    VOLTAGE_HEADROOM,
+    HeadroomWarning,
+    actuator_headroom,
+    feasible_wheel_limits,
+)
 from agvctl.config import build, did_you_mean, load_toml, number
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 
 __all__ = [
     "ArcSegment",
+    "HeadroomWarning",
     "LineSegment",
     "PathLimits",
     "PathSpec",
@@ -268,10 +277,12 @@ def default_jerk_limit_m_s3(vehicle: VehicleParams) -> float:
 def resolve_limits(spec: PathSpec, vehicle: VehicleParams, *, force: bool = False) -> WheelLimits:
     """The wheel limits of ``spec`` with the vehicle's defaults filled in, checked against the vehicle.
 
-    Defaults: the no-load top speed, a_lim of eq 5 and :func:`default_jerk_limit_m_s3`. A wheel speed limit
-    (or a segment's ``speed_m_s``) above the no-load top speed, or an acceleration limit above a_lim, raises a
+    Defaults leave headroom for feedback (:func:`~agvctl.actuator.feasible_wheel_limits`: the plan uses at most
+    80 % of I_max and of the full-scale voltage) and :func:`default_jerk_limit_m_s3`. A wheel speed limit (or a
+    segment's ``speed_m_s``) above the no-load top speed, or an acceleration limit above a_lim (eq 5), raises a
     :class:`ConfigError` naming both values, unless ``force`` is true: then a :class:`PhysicalLimitWarning` is
-    issued instead.
+    issued instead. Explicit limits the actuator can deliver but with less than
+    :data:`~agvctl.actuator.MIN_HEADROOM` of current or voltage left get a :class:`~agvctl.actuator.HeadroomWarning`.
     """
     top, a_lim = vehicle.derived.max_speed_m_s, vehicle.derived.accel_limit_m_s2
     lim = spec.limits
@@ -291,9 +302,41 @@ def resolve_limits(spec: PathSpec, vehicle: VehicleParams, *, force: bool = Fals
             warnings.warn(
                 f"{spec.source}: {key}: {problem}; planning anyway (--force)", PhysicalLimitWarning, stacklevel=2
             )
+    _warn_headroom(spec, vehicle)
+    default = feasible_wheel_limits(vehicle)
     jerk = lim.wheel_jerk_m_s3 if lim.wheel_jerk_m_s3 is not None else default_jerk_limit_m_s3(vehicle)
     return WheelLimits(
-        wheel_speed_m_s=lim.wheel_speed_m_s if lim.wheel_speed_m_s is not None else top,
-        wheel_accel_m_s2=lim.wheel_accel_m_s2 if lim.wheel_accel_m_s2 is not None else a_lim,
+        wheel_speed_m_s=lim.wheel_speed_m_s if lim.wheel_speed_m_s is not None else default.wheel_speed_m_s,
+        wheel_accel_m_s2=lim.wheel_accel_m_s2 if lim.wheel_accel_m_s2 is not None else default.wheel_accel_m_s2,
         wheel_jerk_m_s3=jerk,
     )
+
+
+def _warn_headroom(spec: PathSpec, vehicle: VehicleParams) -> None:
+    """A :class:`HeadroomWarning` for each explicit limit that leaves less than MIN_HEADROOM for feedback."""
+    lim = spec.limits
+    if lim.wheel_accel_m_s2 is not None:
+        a = lim.wheel_accel_m_s2
+        current, _ = actuator_headroom(vehicle, [[1e-9, 1e-9]], [[a, a]])
+        if current < MIN_HEADROOM:
+            warnings.warn(
+                f"{spec.source}: limits.wheel_accel_m_s2: {a:g} m/s² leaves {max(current, 0):.0%} of the current "
+                f"limit for feedback (at least {MIN_HEADROOM:.0%} advised; the default "
+                f"{feasible_wheel_limits(vehicle).wheel_accel_m_s2:.3g} m/s² leaves {CURRENT_HEADROOM:.0%})",
+                HeadroomWarning,
+                stacklevel=3,
+            )
+    speeds = [("limits.wheel_speed_m_s", lim.wheel_speed_m_s)]
+    speeds += [(f"segments[{i}].speed_m_s", seg.speed_m_s) for i, seg in enumerate(spec.segments)]
+    for key, v in speeds:
+        if v is None:
+            continue
+        _, voltage = actuator_headroom(vehicle, [[v, v]], [[0.0, 0.0]])
+        if voltage < MIN_HEADROOM:
+            warnings.warn(
+                f"{spec.source}: {key}: {v:g} m/s leaves {max(voltage, 0):.0%} of the full-scale voltage for "
+                f"feedback at cruise (at least {MIN_HEADROOM:.0%} advised; the default "
+                f"{feasible_wheel_limits(vehicle).wheel_speed_m_s:.3g} m/s leaves {VOLTAGE_HEADROOM:.0%})",
+                HeadroomWarning,
+                stacklevel=3,
+            )

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
-from agvctl.controllers.base import PoseController, WheelSpeedController
+from agvctl.controllers.base import GovernedPoseController, PoseController, WheelSpeedController
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference, ReferenceSamples
 from agvctl.plant.full import PlantOptions
@@ -126,6 +126,12 @@ class _Delay:
         return applied
 
 
+def _longest_run(duration_s: float, settle_s: float, ts: float) -> int:
+    """Samples a governed run may take at most: twice the reference's duration (at least 30 s more), then
+    ``settle_s`` — a vehicle that has not reached the end by then is reported where it is."""
+    return max(int(math.ceil((max(2.0 * duration_s, duration_s + 30.0) + settle_s) / ts - 1e-9)), 1)
+
+
 def run_closed_loop(
     *,
     plant_vehicle: VehicleParams,
@@ -150,7 +156,9 @@ def run_closed_loop(
     ts = controller_vehicle.control.sample_period_s
     if plant_vehicle.control.sample_period_s != ts:
         raise ValueError("the plant and the controller must share control.sample_period_s")
-    n = max(int(math.ceil((reference.duration_s + settle_s) / ts - 1e-9)), 1)
+    n_planned = max(int(math.ceil((reference.duration_s + settle_s) / ts - 1e-9)), 1)
+    governor = pose_controller if isinstance(pose_controller, GovernedPoseController) else None
+    n = _longest_run(reference.duration_s, settle_s, ts) if governor is not None else n_planned
     t = np.arange(n + 1) * ts
     ref = reference.sample(t)
     start = (float(ref.x_m[0]), float(ref.y_m[0]), float(ref.theta_rad[0])) if initial_pose is None else initial_pose
@@ -163,6 +171,7 @@ def run_closed_loop(
     wheel_controller.reset()
     control = np.zeros((n + 1, len(_PER_SAMPLE)))
     failures = 0
+    end_reached_k: int | None = None  # the sample at which a governed reference reached its end
     progress_every = max(1, int(round(1.0 / ts)))
     setup = time.perf_counter() - t_setup
     t0 = time.perf_counter()
@@ -173,6 +182,9 @@ def run_closed_loop(
         tc = time.perf_counter()  # 2. pose controller
         cmd = pose_controller.update(float(t[k]), est, wheel_meas)
         solve = time.perf_counter() - tc
+        if governor is not None and end_reached_k is None and governor.reference_time_s >= reference.duration_s - 1e-9:
+            end_reached_k = k
+            n = min(n, max(n_planned, k + int(math.ceil(settle_s / ts - 1e-9))))
         status = _STATUS_CODE.get(cmd.status, 2)
         failures += status > 0
         setpoint = delay(np.array([cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s]))
@@ -185,11 +197,14 @@ def run_closed_loop(
         control[k] = (*est, *setpoint, *sp_motor, *da_cmd, solve, status)
         if progress is not None and k % progress_every == 0:
             progress(k / n)
+        if k >= n:
+            break
     wall = time.perf_counter() - t0
     if progress is not None:
         progress(1.0)
+    ref = reference.sample(t[: n + 1])
     return ClosedLoopResult(
-        log=_closed_loop_log(plant.log(), control, ref, _rim_per_motor(plant_vehicle)),
+        log=_closed_loop_log(plant.log(), control[: n + 1], ref, _rim_per_motor(plant_vehicle)),
         reference=reference,
         wall_time_s=wall,
         setup_time_s=setup,

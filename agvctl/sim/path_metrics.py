@@ -10,11 +10,14 @@ its positions sampled at most ``spacing_m`` apart in arc length s; for a vehicle
   path point (positive: the vehicle is behind the reference point);
 - heading error: θ − θ_path(s*), wrapped to [−π, π), with θ_path the reference's heading along the path (so a
   path driven in reverse has the heading of the vehicle, not of the tangent). Where the path stops and turns in
-  place, the nearest point is a vertex with a range of headings; the error is the distance to that range. A
-  vehicle a little off such a turn (its nearest point on the next line) is judged against the turn's range too,
-  if that is nearer in angle: any vertex with a heading range within 2·d + spacing of it counts (d: its
-  cross-track error), and the one where the time-indexed reference is turning now, so a vehicle spinning a few cm
-  beside the turn is not "turned around" (its offset shows in the cross-track error and the lag).
+  place, the nearest point is a vertex with a range of headings (every heading the reference takes there:
+  consecutive turns one way and back overshoot both ends); the error is the distance to that range. Beside such a
+  vertex the nearest point is ambiguous (a vehicle 1 mm past it is nearest to the next segment, whose heading may
+  differ by the whole turn), so the error against the turn's range counts too, the smaller of the two, for every
+  turn-in-place vertex within ``turn_zone_m`` (default 5 cm) or within 2·d + spacing of the vehicle (d: its
+  cross-track error), and for the one where the time-indexed reference is turning now: a vehicle turning in
+  place a few centimetres off the vertex is turning, not turned around (its offset shows in the cross-track error
+  and the lag).
 
 Where the path crosses, retraces or ends on itself, the nearest point is ambiguous, and the lag would jump by
 a lap. Lag and heading therefore use the nearest point of the *branch* that minimises
@@ -138,6 +141,7 @@ class ReferencePath:
         *,
         neighbours: int = 8,
         branch_weight: float = 0.1,
+        turn_zone_m: float = 0.05,
     ) -> PathErrors:
         """Cross-track error, along-track lag and heading error of vehicle samples (times in s, poses in m, rad)."""
         t, px, py, th = (np.atleast_1d(np.asarray(a, dtype=np.float64)).ravel() for a in (t_s, x_m, y_m, theta_rad))
@@ -160,7 +164,8 @@ class ReferencePath:
         branch = np.abs(travel_c - travel_c[rows, seed][:, None]) <= neighbours * self.spacing_m
         pick = np.argmin(np.where(branch, dist, np.inf), axis=1)
         j, uj = seg[rows, pick], u[rows, pick]
-        heading = self._near_turns(px, py, th, s_ref, dist[rows, pick], self._heading_error(th, j, uj))
+        reach = np.maximum(2.0 * dist[rows, pick] + self.spacing_m, turn_zone_m)
+        heading = self._near_turns(px, py, th, s_ref, reach, self._heading_error(th, j, uj))
         return PathErrors(d_min, s_ref - s_c[rows, pick], heading, s_c[rows, pick])
 
     def _near_turns(
@@ -169,20 +174,17 @@ class ReferencePath:
         py: FloatArray,
         theta: FloatArray,
         s_ref: FloatArray,
-        d_near: FloatArray,
+        reach: FloatArray,
         heading: FloatArray,
     ) -> FloatArray:
         """Where the path turns in place near the vehicle, any heading in the turn's range is on the path: a
-        vertex with a range of headings within 2·d + spacing of the vehicle (d: its distance to the nearest point),
-        or the one the time-indexed reference point is at, gives the error instead if its range is nearer in
-        angle. (Off a turn by a few cm, the nearest point is on the next line, whose heading the vehicle only
-        takes once the turn is done.)"""
+        vertex with a range of headings within ``reach`` of the vehicle, or the one the time-indexed reference
+        point is at, gives the error instead if its range is nearer in angle. (Off a turn by a few cm, the nearest
+        point is on the next line, whose heading the vehicle only takes once the turn is done.)"""
         turns = np.nonzero(self.theta_high_rad - self.theta_low_rad > 1e-9)[0]
         if turns.size == 0:
             return heading
-        near = np.hypot(px[:, None] - self.x_m[turns], py[:, None] - self.y_m[turns]) <= (
-            2.0 * d_near[:, None] + self.spacing_m
-        )
+        near = np.hypot(px[:, None] - self.x_m[turns], py[:, None] - self.y_m[turns]) <= reach[:, None]
         near |= np.abs(s_ref[:, None] - self.s_m[turns]) <= 0.5 * self.spacing_m
         errors = np.column_stack([self._vertex_heading_error(theta, np.full(len(theta), v)) for v in turns])
         errors = np.where(near, errors, np.inf)

@@ -1,0 +1,41 @@
+"""Which path limits bind on a planned reference, and the actuator headroom it leaves (``plan`` and ``run``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from agvctl.actuator import actuator_headroom
+from agvctl.params import VehicleParams
+from agvctl.planning.reference import Reference
+from agvctl.planning.spec import PathLimits
+
+__all__ = ["limits_report"]
+
+
+def limits_report(reference: Reference, limits: PathLimits, vehicle: VehicleParams) -> list[str]:
+    """Readable lines: each wheel limit of ``reference`` (from the file or the default), whether the plan reaches
+    it (binds), and the smallest fractions of I_max and of the full-scale voltage the nominal ``vehicle`` has left
+    for feedback along the plan (straight-line model of eq 5 per wheel, sampled every 10 ms)."""
+    peaks = reference.peaks()
+    rows = (
+        ("wheel speed", "m/s", reference.limits.wheel_speed_m_s, limits.wheel_speed_m_s, "peak_wheel_speed_m_s"),
+        ("wheel accel", "m/s²", reference.limits.wheel_accel_m_s2, limits.wheel_accel_m_s2, "peak_wheel_accel_m_s2"),
+        ("wheel jerk", "m/s³", reference.limits.wheel_jerk_m_s3, limits.wheel_jerk_m_s3, "peak_wheel_jerk_m_s3"),
+    )
+    lines = []
+    for what, unit, value, given, peak_key in rows:
+        origin = "file" if given is not None else "default"
+        binds = "binds" if peaks[peak_key] >= 0.99 * value else f"peak {peaks[peak_key]:.3g}"
+        lines.append(f"  limit {what:12s} {value:8.4g} {unit:5s} ({origin}; {binds})")
+    s = reference.sample(np.arange(0.0, reference.duration_s + 0.01, 0.01))
+    speed = np.column_stack([s.wheel_speed_left_m_s, s.wheel_speed_right_m_s])
+    accel = np.column_stack([s.wheel_accel_left_m_s2, s.wheel_accel_right_m_s2])
+    current, voltage = actuator_headroom(vehicle, speed, accel)
+
+    def share(fraction: float) -> str:
+        return f"{fraction:.0%}" if fraction >= 0 else f"none ({-fraction:.0%} short)"
+
+    lines.append(
+        f"  headroom left for feedback: {share(current)} of the current limit, {share(voltage)} of the voltage"
+    )
+    return lines
