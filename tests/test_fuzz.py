@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -97,7 +98,9 @@ def test_written_files_load_as_the_scenario(tmp_path: Path, vehicle: VehiclePara
         path = load_path(path_file)
         assert len(path.segments) == len(s.path["segments"])
         assert path.join == s.path["join"]
-        exp = load_experiment(exp_file)
+        with warnings.catch_warnings():  # explicit limits may leave little headroom: the planner warns
+            warnings.simplefilter("ignore")
+            exp = load_experiment(exp_file)
         assert exp.spec.controller.pose == "ramsete"
         assert exp.reference.duration_s > 0
         for key, value in s.plant_set.items():
@@ -173,7 +176,9 @@ def test_an_impossible_criterion_fails_and_writes_a_file_that_reproduces_it(
     failing = out / "failures" / row["experiment_file"]
     assert failing.exists()
     # the written file, run as a user would, gives the same verdict and the same value
-    assert main(["run", str(failing), "--no-plot", "--out", str(tmp_path / "rerun")]) == 0
+    with warnings.catch_warnings():  # explicit limits may leave little headroom: the planner warns
+        warnings.simplefilter("ignore")
+        assert main(["run", str(failing), "--no-plot", "--out", str(tmp_path / "rerun")]) == 0
     rerun = json.loads((tmp_path / "rerun" / "summary.json").read_text())
     assert rerun["passed"] is False
     assert rerun["metrics"]["cross_track_error_max_m"] == row["metrics"]["cross_track_error_max_m"]
@@ -246,8 +251,8 @@ def test_results_do_not_depend_on_the_number_of_jobs_or_the_executor() -> None:
 @pytest.mark.slow
 @pytest.mark.xfail(
     strict=False,
-    reason="issue 10: today's default pose controller (the LTV MPC) leaves the path on about a third of the CI "
-    "scenarios (turnarounds, lost references after stops); the saturation-aware controller is being built",
+    reason="issue 10: the default pose controller still fails a CI scenario (s2026_00004: it stops 5 cm beside the "
+    "end of a 0.41 m line that follows two turns in place); before the saturation-aware MPC, 11 of 30 failed",
 )
 def test_the_ci_fuzz_configuration_passes(tmp_path: Path) -> None:
     code = main(["fuzz", str(FUZZ / "ci.toml"), "--jobs", "2", "--out", str(tmp_path), "--no-plot"])
@@ -261,9 +266,10 @@ REGRESSIONS = sorted((FUZZ / "regressions").glob("*_mpc.toml"))
 
 @pytest.mark.slow
 @pytest.mark.parametrize("path", REGRESSIONS, ids=[p.stem for p in REGRESSIONS])
-@pytest.mark.xfail(strict=False, reason="issue 10: generated cases today's LTV MPC fails (Ramsete passes them)")
 def test_kept_generated_cases_pass_their_limits(path: Path) -> None:
-    exp = load_experiment(path)
+    with warnings.catch_warnings():  # a generated path may plan with little headroom: warned, as the fuzzer records
+        warnings.simplefilter("ignore")
+        exp = load_experiment(path)
     result = run_experiment(exp)
     verdicts = evaluate_limits(
         exp.spec.limits, result.log, closed_loop_metrics(result), exp.controller_vehicle, result.sample_period_s
