@@ -71,7 +71,7 @@ def test_explicit_limits_without_headroom_warn_in_one_line(tmp_path, capsys):
     assert main(["plan", str(path)]) == 0
     captured = capsys.readouterr()
     assert captured.err.count("\n") == 1 and "warning" in captured.err
-    assert "limit wheel accel" in captured.out and "(file; binds)" in captured.out
+    assert "path limit  wheel accel" in captured.out and "(file; binds)" in captured.out
     assert "headroom left for feedback" in captured.out
     # the defaults themselves never warn
     with warnings.catch_warnings():
