@@ -25,6 +25,7 @@ __all__ = [
     "CURRENT_HEADROOM",
     "MIN_HEADROOM",
     "VOLTAGE_HEADROOM",
+    "WheelReach",
     "Actuator",
     "ActuatorOutput",
     "FeasibleLimits",
@@ -155,27 +156,60 @@ def _sides(vehicle: VehicleParams) -> tuple[_Side, _Side]:
     return out[0], out[1]
 
 
+class WheelReach:
+    """The largest rim accelerations each wheel can reach at its rim speed, from eq 33 with the current limit and
+    the full-scale voltage: i = min(I_max, (u_fs − k_e ω)/R), J_tot ω̇ = k_t i − f_m ω − τ_c sign(ω) (τ_s from
+    rest), J_tot of eq 5 (both wheels alike). Constants are gathered once; a call is a few array operations."""
+
+    def __init__(self, vehicle: VehicleParams) -> None:
+        sides = _sides(vehicle)
+
+        def field(name: str) -> NDArray[np.float64]:
+            return np.array([getattr(side, name) for side in sides], dtype=np.float64)
+
+        self._r_over_n, self._j_tot, self._k_t = field("r_over_n"), field("j_tot"), field("k_t")
+        self._k_e, self._resistance, self._f_m = field("k_e"), field("resistance"), field("f_m")
+        self._tau_c, self._tau_s = field("tau_c"), field("tau_s")
+        self._u_fs, self._i_max = full_scale_voltage_v(vehicle), vehicle.amplifier.current_limit_a
+
+    def _up(self, v: NDArray[np.float64]) -> NDArray[np.float64]:
+        omega = v / self._r_over_n
+        current = np.clip((self._u_fs - self._k_e * omega) / self._resistance, 0.0, self._i_max)
+        friction = np.where(omega > 0, self._tau_c, np.where(omega < 0, -self._tau_c, self._tau_s))
+        accel = (self._k_t * current - self._f_m * omega - friction) / self._j_tot * self._r_over_n
+        return np.asarray(np.maximum(accel, 0.0), dtype=np.float64)
+
+    def accel_pair_m_s2(self, left_m_s: float, right_m_s: float) -> tuple[float, float, float, float]:
+        """(up_left, up_right, down_left, down_right) of :meth:`accel_m_s2` for one pair of rim speeds, in plain
+        floats (a controller's per-sample call: no array overhead)."""
+        out = [0.0, 0.0, 0.0, 0.0]
+        for j, v in enumerate((left_m_s, right_m_s)):
+            r_n, k_e, res, i_max = (
+                float(self._r_over_n[j]),
+                float(self._k_e[j]),
+                float(self._resistance[j]),
+                self._i_max,
+            )
+            for sign, slot in ((1.0, j), (-1.0, j + 2)):
+                omega = sign * v / r_n
+                current = min(max((self._u_fs - k_e * omega) / res, 0.0), i_max)
+                friction = self._tau_c[j] if omega > 0 else (-self._tau_c[j] if omega < 0 else self._tau_s[j])
+                accel = (self._k_t[j] * current - self._f_m[j] * omega - friction) / self._j_tot[j] * r_n
+                out[slot] = max(float(accel), 0.0)
+        return out[0], out[1], out[2], out[3]
+
+    def accel_m_s2(self, wheel_speed_m_s: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(up, down) ≥ 0 in m/s², shaped like ``wheel_speed_m_s`` (…, 2: left, right): towards +v and towards −v
+        (the mirror image, down(v) = up(−v))."""
+        v = np.asarray(wheel_speed_m_s, dtype=np.float64)
+        return self._up(v), self._up(-v)
+
+
 def wheel_accel_reach_m_s2(
     vehicle: VehicleParams, wheel_speed_m_s: ArrayLike
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(up, down) ≥ 0: the largest rim acceleration towards +v and towards −v each wheel can reach at its rim
-    speed, arrays shaped like ``wheel_speed_m_s`` (…, 2: left, right), from eq 33 with the current limit and the
-    full-scale voltage: i = min(I_max, (u_fs − k_e ω)/R), J_tot ω̇ = k_t i − f_m ω − τ_c sign(ω) (τ_s from rest),
-    J_tot of eq 5. Moving towards −v is the mirror image: down(v) = up(−v)."""
-    v = np.asarray(wheel_speed_m_s, dtype=np.float64)
-    u_fs, i_max = full_scale_voltage_v(vehicle), vehicle.amplifier.current_limit_a
-
-    def up(speed: NDArray[np.float64], s: _Side) -> NDArray[np.float64]:
-        omega = speed / s.r_over_n
-        current = np.clip((u_fs - s.k_e * omega) / s.resistance, 0.0, i_max)
-        friction = np.where(omega > 0, s.tau_c, np.where(omega < 0, -s.tau_c, s.tau_s))
-        accel = (s.k_t * current - s.f_m * omega - friction) / s.j_tot * s.r_over_n
-        return np.maximum(accel, 0.0)
-
-    left, right = _sides(vehicle)
-    ups = np.stack([up(v[..., 0], left), up(v[..., 1], right)], axis=-1)
-    downs = np.stack([up(-v[..., 0], left), up(-v[..., 1], right)], axis=-1)
-    return ups, downs
+    """(up, down) of :meth:`WheelReach.accel_m_s2` for ``vehicle``."""
+    return WheelReach(vehicle).accel_m_s2(wheel_speed_m_s)
 
 
 @dataclass(frozen=True)

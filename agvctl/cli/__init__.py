@@ -11,10 +11,12 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 from collections.abc import Sequence
 from typing import NoReturn
 
 from agvctl import __version__
+from agvctl.actuator import HeadroomWarning
 from agvctl.cli.options import add_vehicle_options
 from agvctl.errors import AgvctlError, ConfigError
 
@@ -45,6 +47,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line_warning(
+    message: Warning | str, category: type[Warning], filename: str, lineno: int, *args: object, **kwargs: object
+) -> None:
+    print(f"agvctl: warning: {message}", file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI with ``argv`` (default ``sys.argv[1:]``) and return the exit code."""
     parser = build_parser()
@@ -56,7 +64,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not getattr(args, "func", None):
             parser.print_help()
             return EXIT_BAD_INPUT
-        return int(args.func(args))
+        with warnings.catch_warnings():  # advice (limits without headroom) as one line on stderr, never an error
+            warnings.simplefilter("always", HeadroomWarning)
+            warnings.showwarning = _one_line_warning
+            return int(args.func(args))
     except _UsageError as exc:
         print(f"{exc} (see --help)", file=sys.stderr)
         return EXIT_BAD_INPUT

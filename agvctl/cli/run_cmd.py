@@ -10,6 +10,7 @@ from typing import Any
 from agvctl.checks.summary import run_summary
 from agvctl.cli.progress import ProgressBar
 from agvctl.errors import ConfigError
+from agvctl.planning.headroom import limits_report
 from agvctl.reports import write_run_outputs
 from agvctl.sim.experiment import load_experiment, run_experiment
 
@@ -98,5 +99,7 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(summary, indent=2))
     else:
         print(format_summary(summary))
+        if experiment.path is not None:
+            print("\n".join(limits_report(experiment.reference, experiment.path.limits, experiment.controller_vehicle)))
         print(f"  wrote             {', '.join(str(p) for p in written)}")
     return 0

@@ -34,7 +34,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.actuator import wheel_accel_reach_m_s2
+from agvctl.actuator import WheelReach
 from agvctl.angles import wrap_angle
 from agvctl.config import number
 from agvctl.controllers.base import PoseCommand, SolveStatus
@@ -70,7 +70,7 @@ class MpcConfig:
 
     horizon: int = number(ge=1, default=20, doc="N, prediction and control horizon in samples")
     weight_position: float = number(ge=0, default=1.0e3, doc="on each predicted position error, 1/m²")
-    weight_heading: float = number(ge=0, default=10.0, doc="on each predicted heading error, 1/rad²")
+    weight_heading: float = number(ge=0, default=30.0, doc="on each predicted heading error, 1/rad²")
     weight_terminal_scale: float = number(ge=0, default=1.0, doc="multiplies the pose weights at k = N")
     weight_input: float = number(ge=0, default=0.1, doc="on setpoint minus feed-forward, 1/(m/s)²")
     weight_input_rate: float = number(ge=0, default=10.0, doc="on setpoint change per sample, 1/(m/s)²")
@@ -231,17 +231,18 @@ class MpcStepper:
     until c reaches the end: see :attr:`reference_time_s`). While the vehicle keeps up, c = t/T_s exactly and
     nothing changes.
 
-    **Reachable setpoints (anti-windup across the cascade).** Each wheel's setpoint stays within what that wheel
-    can reach in ``reach_lead`` samples from its *measured* speed: s − v ∈ [−D↓, D↑],
-    D = reach_lead·a_reach·T_s/(1 − e^(−T_s/τ)) for the wheel-loop lag τ (reach_lead·a_reach·T_s for the kinematic
-    model), a_reach from
-    :func:`~agvctl.actuator.wheel_accel_reach_m_s2` (current limit, back-EMF and friction of the controller's
-    model). The previous command s_{−1} is brought into the same window before the solve, so the setpoints never
-    run away from wheels that are current- or voltage-limited.
+    **Reachable setpoints (anti-windup across the cascade).** Each wheel's setpoint stays within a bounded lead of
+    its *measured* speed: s − v ∈ [−D↓, D↑], D = reach_lead·a_reach·T_s/(1 − e^(−T_s/τ)) for the wheel-loop lag τ
+    (reach_lead·a_reach·T_s for the kinematic model), a_reach from :class:`~agvctl.actuator.WheelReach` (current
+    limit, back-EMF and friction of the controller's model): for the first sample from the measured speed, for
+    the predicted ones from the reference's (never tighter than the first, so the problem stays feasible). The
+    previous command s_{−1} is brought into the same window before the solve, so the setpoints never run away
+    from wheels that are current- or voltage-limited.
 
     Subclasses set ``_grid`` (a :class:`HorizonReference`, at reset), ``_fallback``, ``max_wheel_speed_m_s``,
-    ``max_wheel_accel_m_s2``, ``sample_period_s``, ``separation_m``, ``_vehicle``, ``_lead_factor_s`` (D/a_reach)
-    and implement ``_solve(k, pose, wheel_speed_m_s)``, returning the first setpoint pair or None on failure;
+    ``max_wheel_accel_m_s2``, ``sample_period_s``, ``separation_m``, ``_reach`` (the controller vehicle's
+    :class:`~agvctl.actuator.WheelReach`), ``_lead_factor_s`` (D/a_reach) and implement
+    ``_solve(k, pose, wheel_speed_m_s)``, returning the first setpoint pair or None on failure;
     ``_fraction`` ∈ [0, 1) is the governed clock's position between grid points k and k + 1.
     """
 
@@ -249,7 +250,7 @@ class MpcStepper:
     _fallback: SetpointFallback
     _u_prev: NDArray[np.float64] | None
     _failures: int
-    _vehicle: VehicleParams
+    _reach: WheelReach
     _lead_factor_s: float
     max_wheel_speed_m_s: float
     max_wheel_accel_m_s2: float
@@ -280,13 +281,16 @@ class MpcStepper:
     def setpoint_window_m_s(
         self, wheel_speed_m_s: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """(lower, upper) setpoints (left, right) each wheel can follow in one sample from ``wheel_speed_m_s``; the
+        """(lower, upper) setpoints (left, right) each wheel can follow from ``wheel_speed_m_s`` (finite); the
         leads D↓, D↑ (m/s) are kept in ``_lead_down_m_s``, ``_lead_up_m_s``."""
-        up, down = wheel_accel_reach_m_s2(self._vehicle, wheel_speed_m_s)
-        self._lead_up_m_s, self._lead_down_m_s = up * self._lead_factor_s, down * self._lead_factor_s
-        v_max = self.max_wheel_speed_m_s  # kept meeting the speed box, even from a measured speed beyond it
-        lo = np.minimum(wheel_speed_m_s - self._lead_down_m_s, v_max)
-        hi = np.maximum(wheel_speed_m_s + self._lead_up_m_s, -v_max)
+        v_l, v_r = float(wheel_speed_m_s[0]), float(wheel_speed_m_s[1])
+        up_l, up_r, down_l, down_r = self._reach.accel_pair_m_s2(v_l, v_r)
+        f, v_max = self._lead_factor_s, self.max_wheel_speed_m_s
+        self._lead_up_m_s = np.array([up_l * f, up_r * f])
+        self._lead_down_m_s = np.array([down_l * f, down_r * f])
+        # kept meeting the speed box, even from a measured speed beyond it
+        lo = np.array([min(v_l - down_l * f, v_max), min(v_r - down_r * f, v_max)])
+        hi = np.array([max(v_l + up_l * f, -v_max), max(v_r + up_r * f, -v_max)])
         return lo, hi
 
     def _lag_m(self, g: HorizonReference, clock: float, pose: NDArray[np.float64]) -> float:
@@ -341,12 +345,13 @@ class MpcStepper:
             raise RuntimeError(f"{type(self).__name__}.update called before reset(reference)")
         k = self._advance_clock(g, t_s, pose)
         measured = np.asarray(wheel_speed_m_s, dtype=np.float64)
-        lo, hi = self.setpoint_window_m_s(measured) if np.all(np.isfinite(measured)) else (measured, measured)
+        finite = math.isfinite(float(measured[0])) and math.isfinite(float(measured[1]))
+        lo, hi = self.setpoint_window_m_s(measured) if finite else (measured, measured)
         self._window = (lo, hi)
         a_step = self.max_wheel_accel_m_s2 * self.sample_period_s
         if self._u_prev is None:
             self._u_prev = measured.copy()
-        elif np.all(np.isfinite(measured)):  # anti-windup: the previous command stays reachable from the wheels
+        elif finite:  # anti-windup: the previous command stays reachable from the wheels
             np.clip(self._u_prev, lo - a_step, hi + a_step, out=self._u_prev)
         status: SolveStatus = "solved"
         try:
@@ -365,7 +370,7 @@ class MpcStepper:
                 status = "fallback_feedforward"
         else:
             left, right = setpoint
-        if np.all(np.isfinite(measured)):
+        if finite:
             left = min(max(left, float(lo[0])), float(hi[0]))
             right = min(max(right, float(lo[1])), float(hi[1]))
         v_max = self.max_wheel_speed_m_s

@@ -19,6 +19,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
+from agvctl.actuator import WheelReach
 from agvctl.controllers.mpc_common import (
     HorizonReference,
     MpcConfig,
@@ -88,7 +89,7 @@ class NonlinearMpcController(MpcStepper):
         self.config = resolved_config(config or MpcConfig())
         self.sample_period_s = vehicle.control.sample_period_s
         self.separation_m = vehicle.wheels.separation_m
-        self._vehicle = vehicle
+        self._reach = WheelReach(vehicle)
         self._lead_factor_s = lead_factor_s(self.config, self.sample_period_s)
         self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 = resolved_limits(self.config, vehicle)
         self._lag = self.config.prediction_model == "kinematic+wheel_loop"

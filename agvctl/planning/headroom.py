@@ -26,7 +26,7 @@ def limits_report(reference: Reference, limits: PathLimits, vehicle: VehiclePara
     for what, unit, value, given, peak_key in rows:
         origin = "file" if given is not None else "default"
         binds = "binds" if peaks[peak_key] >= 0.99 * value else f"peak {peaks[peak_key]:.3g}"
-        lines.append(f"  limit {what:12s} {value:8.4g} {unit:5s} ({origin}; {binds})")
+        lines.append(f"  path limit  {what:12s} {value:8.4g} {unit:5s} ({origin}; {binds})")
     s = reference.sample(np.arange(0.0, reference.duration_s + 0.01, 0.01))
     speed = np.column_stack([s.wheel_speed_left_m_s, s.wheel_speed_right_m_s])
     accel = np.column_stack([s.wheel_accel_left_m_s2, s.wheel_accel_right_m_s2])

@@ -294,15 +294,17 @@ def resolve_limits(spec: PathSpec, vehicle: VehicleParams, *, force: bool = Fals
         (f"segments[{i}].speed_m_s", seg.speed_m_s, top, "m/s", "no-load top speed")
         for i, seg in enumerate(spec.segments)
     ]
+    over = set()
     for key, value, physical, unit, what in checks:
         if value is not None and value > physical:
+            over.add(key)
             problem = f"{value:g} {unit} is above the vehicle's {what} of {physical:.4g} {unit}"
             if not force:
                 raise ConfigError(spec.source, key, problem + " (use --force to plan anyway)")
             warnings.warn(
                 f"{spec.source}: {key}: {problem}; planning anyway (--force)", PhysicalLimitWarning, stacklevel=2
             )
-    _warn_headroom(spec, vehicle)
+    _warn_headroom(spec, vehicle, skip=over)
     default = feasible_wheel_limits(vehicle)
     jerk = lim.wheel_jerk_m_s3 if lim.wheel_jerk_m_s3 is not None else default_jerk_limit_m_s3(vehicle)
     return WheelLimits(
@@ -312,10 +314,11 @@ def resolve_limits(spec: PathSpec, vehicle: VehicleParams, *, force: bool = Fals
     )
 
 
-def _warn_headroom(spec: PathSpec, vehicle: VehicleParams) -> None:
-    """A :class:`HeadroomWarning` for each explicit limit that leaves less than MIN_HEADROOM for feedback."""
+def _warn_headroom(spec: PathSpec, vehicle: VehicleParams, skip: set[str]) -> None:
+    """A :class:`HeadroomWarning` for each explicit limit that leaves less than MIN_HEADROOM for feedback (but
+    those in ``skip``, already above the physical limit)."""
     lim = spec.limits
-    if lim.wheel_accel_m_s2 is not None:
+    if lim.wheel_accel_m_s2 is not None and "limits.wheel_accel_m_s2" not in skip:
         a = lim.wheel_accel_m_s2
         current, _ = actuator_headroom(vehicle, [[1e-9, 1e-9]], [[a, a]])
         if current < MIN_HEADROOM:
@@ -329,7 +332,7 @@ def _warn_headroom(spec: PathSpec, vehicle: VehicleParams) -> None:
     speeds = [("limits.wheel_speed_m_s", lim.wheel_speed_m_s)]
     speeds += [(f"segments[{i}].speed_m_s", seg.speed_m_s) for i, seg in enumerate(spec.segments)]
     for key, v in speeds:
-        if v is None:
+        if v is None or key in skip:
             continue
         _, voltage = actuator_headroom(vehicle, [[v, v]], [[0.0, 0.0]])
         if voltage < MIN_HEADROOM:

@@ -37,7 +37,7 @@ from agvctl.config import build, load_toml
 from agvctl.controllers.base import PoseController, WheelSpeedController
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams, load_vehicle
-from agvctl.planning import load_path, plan
+from agvctl.planning import PathSpec, load_path, plan
 from agvctl.planning.reference import Reference
 from agvctl.sim.controllers import POSE_CONTROLLERS, WheelLoops, design_wheel_loops
 from agvctl.sim.loop import ClosedLoopResult, run_closed_loop
@@ -60,6 +60,8 @@ class Experiment:
     """The planned trajectory."""
     wheel_loops: WheelLoops
     """The PI wheel-speed loops (gains designed or from the gains file)."""
+    path: PathSpec | None = None
+    """The trajectory file, validated (its explicit limits; None for an experiment built without one)."""
 
 
 def load_experiment(path: str | Path) -> Experiment:
@@ -81,7 +83,8 @@ def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
     traj = spec.resolve(spec.trajectory)
     if not traj.exists():
         raise ConfigError(src, "trajectory", f"file not found: {traj}")
-    reference = plan(load_path(traj), controller_vehicle)
+    path = load_path(traj)
+    reference = plan(path, controller_vehicle)
     c = spec.controller
     wheel_loops = design_wheel_loops(
         controller_vehicle,
@@ -95,7 +98,7 @@ def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
     if fit is not None:
         c = dataclasses.replace(c, pose_settings=fit(c.pose_settings, wheel_loops.design))
     spec = dataclasses.replace(spec, controller=c)
-    return Experiment(spec, controller_vehicle, plant_vehicle, reference, wheel_loops)
+    return Experiment(spec, controller_vehicle, plant_vehicle, reference, wheel_loops, path)
 
 
 def run_experiment(

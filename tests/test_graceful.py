@@ -1,0 +1,141 @@
+"""Issue 10: feasible defaults, a saturation-aware cascade and graceful lag, judged on the full closed loop.
+
+Physics behind the checks: a wheel's rim acceleration at I_max is (k_t I_max − τ_c)/J_tot · r/N (eq 5), so a
+plant 30 % heavier with 50 % more Coulomb friction cannot follow the default plan's acceleration; the vehicle must
+fall behind along the path, stay on it and still reach the end.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agvctl.actuator import HeadroomWarning, WheelReach
+from agvctl.checks.runner import check_experiments
+from agvctl.cli import main
+from agvctl.controllers.mpc_common import MpcConfig, lead_factor_s
+from agvctl.params import load_vehicle
+from agvctl.planning import load_path, plan
+from agvctl.sim.experiment import load_experiment, run_experiment
+from agvctl.sim.path_metrics import path_errors
+
+DATA = Path(__file__).resolve().parent / "data" / "graceful"
+
+LINE_AND_BEND = """\
+name = "line-and-bend"
+[[segments]]
+type = "line"
+length_m = 2.0
+[[segments]]
+type = "arc"
+radius_m = 1.0
+angle_deg = 90
+"""
+
+
+def _experiment(tmp_path: Path, plant: str = "", controller: str = "") -> Path:
+    (tmp_path / "path.toml").write_text(LINE_AND_BEND, encoding="utf-8")
+    text = f'name = "first"\ntrajectory = "path.toml"\n{plant}\n[controller]\npose = "mpc"\n{controller}\n'
+    (tmp_path / "first.toml").write_text(text, encoding="utf-8")
+    return tmp_path / "first.toml"
+
+
+def _path_figures(path: Path):
+    exp = load_experiment(path)
+    result = run_experiment(exp)
+    log = result.log
+    pe = path_errors(log["t_s"], log["x_m"], log["y_m"], log["theta_rad"], exp.reference)
+    end = exp.reference.final_pose
+    to_end = math.hypot(log["x_m"][-1] - end.x_m, log["y_m"][-1] - end.y_m)
+    return exp, result, pe, to_end
+
+
+def test_a_users_first_line_and_bend_passes_check_with_default_limits(tmp_path):
+    """No [limits], nominal vehicle: the plan leaves headroom, so the wheels stay within a_lim (the default
+    check) — the report's a_lim of eq 5 is the straight-line acceleration at I_max."""
+    path = _experiment(tmp_path)
+    report = check_experiments([str(path)], jobs=1)
+    assert report.passed
+    assert main(["check", str(path)]) == 0
+
+
+def test_explicit_limits_without_headroom_warn_in_one_line(tmp_path, capsys):
+    path = tmp_path / "p.toml"
+    path.write_text(LINE_AND_BEND.replace('name = "line-and-bend"', "[limits]\nwheel_accel_m_s2 = 0.65"), "utf-8")
+    with pytest.warns(HeadroomWarning, match=r"limits\.wheel_accel_m_s2: 0\.65 m/s² leaves 1% of the current limit"):
+        plan(load_path(path))
+    assert main(["plan", str(path)]) == 0
+    captured = capsys.readouterr()
+    assert captured.err.count("\n") == 1 and "warning" in captured.err
+    assert "path limit  wheel accel" in captured.out and "(file; binds)" in captured.out
+    assert "headroom left for feedback" in captured.out
+    # the defaults themselves never warn
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", HeadroomWarning)
+        plan(load_path(_experiment(tmp_path).parent / "path.toml"))
+
+
+def test_a_weak_plant_falls_behind_along_the_path_and_still_reaches_the_end(tmp_path):
+    """30 % heavier, 50 % more Coulomb friction and stiction: the true eq-5 limit (k_t I_max − 1.5 τ_c)/J_tot r/N
+    is about 0.31 m/s², below the default plan's 0.42. The run lasts longer than the plan, the vehicle stays on
+    the path, never turns around, and ends at the end."""
+    heavy = (
+        '[plant]\nset = { "body.mass_kg" = 110.5, "motor.left.coulomb_friction_n_m" = 0.0975, '
+        '"motor.right.coulomb_friction_n_m" = 0.0975, "motor.left.stiction_n_m" = 0.0975, '
+        '"motor.right.stiction_n_m" = 0.0975 }'
+    )
+    exp, result, pe, to_end = _path_figures(_experiment(tmp_path, plant=heavy))
+    k_t, i_max, tau_c, r_n = 0.027, 5.5, 0.0975, 0.1 / 36
+    j_tot = 2.5e-5 + 0.5 * 110.5 * r_n**2
+    assert (k_t * i_max - tau_c) / j_tot * r_n < exp.reference.limits.wheel_accel_m_s2
+    assert result.log["t_s"][-1] > exp.reference.duration_s + exp.spec.settle_s  # it took longer: it lagged
+    assert np.max(pe.along_track_lag_m) > 0.05  # behind the clock...
+    assert np.max(pe.cross_track_m) < 0.03  # ...but on the path
+    assert np.max(np.abs(pe.heading_error_rad)) < math.radians(20)
+    assert to_end < 0.01
+
+
+def test_setpoints_never_run_away_from_the_wheels(tmp_path):
+    """Every setpoint is within the bounded lead of the measured wheel speed of its sample: what that wheel can
+    reach (eq 33 at I_max and the full-scale voltage) times the controller's lead factor — even on the weak plant
+    whose wheels sit at the current limit."""
+    heavy = '[plant]\nset = { "body.mass_kg" = 110.5, "motor.left.coulomb_friction_n_m" = 0.06 }'
+    exp, result, _, _ = _path_figures(_experiment(tmp_path, plant=heavy))
+    log = result.log
+    config = exp.spec.controller.pose_settings
+    assert isinstance(config, MpcConfig)
+    lead = lead_factor_s(config, exp.controller_vehicle.control.sample_period_s)
+    rim = np.array([exp.controller_vehicle.wheels.radius_left_m, exp.controller_vehicle.wheels.radius_right_m]) / 36.0
+    measured = np.column_stack([log["omega_motor_left_rad_s"], log["omega_motor_right_rad_s"]]) * rim
+    setpoint = np.column_stack([log["setpoint_wheel_speed_left_m_s"], log["setpoint_wheel_speed_right_m_s"]])
+    up, down = WheelReach(exp.controller_vehicle).accel_m_s2(measured)
+    assert np.all(setpoint - measured <= up * lead + 1e-9)
+    assert np.all(measured - setpoint <= down * lead + 1e-9)
+    assert np.max(log["current_peak_left_a"]) > 5.4  # the wheels did saturate
+
+
+def test_the_governor_keeps_time_while_the_vehicle_keeps_up(tmp_path):
+    """Nominal plant: the run lasts exactly the plan plus its settling time and tracks the clock."""
+    exp, result, pe, to_end = _path_figures(_experiment(tmp_path))
+    n = math.ceil((exp.reference.duration_s + exp.spec.settle_s) / 0.04 - 1e-9)
+    assert len(result.log) == n + 1
+    assert np.max(result.log["position_error_m"]) < 0.005 and to_end < 0.002
+
+
+@pytest.mark.slow
+def test_kept_generated_case_no_longer_oscillates():
+    """A generated scenario that lost the vehicle by metres before the saturation-aware cascade."""
+    _, _, pe, to_end = _path_figures(DATA / "oscillation.toml")
+    assert np.max(pe.cross_track_m) < 0.10
+    assert np.max(np.abs(pe.heading_error_rad)) < math.radians(90)
+    assert to_end < 0.02
+
+
+def test_default_vehicle_reach_is_eq5_at_rest():
+    """At rest, towards either direction, a wheel reaches (k_t I_max − τ_s)/J_tot · r/N: eq 5 (τ_s = τ_c here)."""
+    up, down = WheelReach(load_vehicle()).accel_m_s2(np.zeros(2))
+    assert up == pytest.approx([0.657, 0.657], rel=5e-3) and down == pytest.approx(up)
