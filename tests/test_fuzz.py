@@ -251,8 +251,8 @@ def test_results_do_not_depend_on_the_number_of_jobs_or_the_executor() -> None:
 @pytest.mark.slow
 @pytest.mark.xfail(
     strict=False,
-    reason="issue 10: the default pose controller still fails a CI scenario (s2026_00004: it stops 5 cm beside the "
-    "end of a 0.41 m line that follows two turns in place); before the saturation-aware MPC, 11 of 30 failed",
+    reason="issue 10: the default pose controller still fails some CI scenarios (at main 2701aa2: 3 of 30, "
+    "s2026_00004, _00008, _00024 stop 3-5 cm from the path's end; 11 of 30 before the saturation-aware MPC)",
 )
 def test_the_ci_fuzz_configuration_passes(tmp_path: Path) -> None:
     code = main(["fuzz", str(FUZZ / "ci.toml"), "--jobs", "2", "--out", str(tmp_path), "--no-plot"])
