@@ -139,3 +139,36 @@ def test_default_vehicle_reach_is_eq5_at_rest():
     """At rest, towards either direction, a wheel reaches (k_t I_max − τ_s)/J_tot · r/N: eq 5 (τ_s = τ_c here)."""
     up, down = WheelReach(load_vehicle()).accel_m_s2(np.zeros(2))
     assert up == pytest.approx([0.657, 0.657], rel=5e-3) and down == pytest.approx(up)
+
+
+def test_docking_removes_a_lateral_error_at_rest_at_the_end():
+    """Pushed 2 cm sideways at rest at the end of a line, the vehicle (ideal wheels: each follows its setpoint
+    within the sample) backs up along the line and comes in again, ending within the docking tolerance — a
+    controller linearised about the reference at rest could not remove it (ẏ = U sin θ, eqs 41-43)."""
+    from agvctl.controllers.mpc_ltv import LtvMpcController
+    from agvctl.planning import LineSegment, PathSpec
+
+    vehicle = load_vehicle()
+    reference = plan(PathSpec(segments=[LineSegment(length_m=1.0)]), vehicle)
+    ctrl = LtvMpcController(vehicle, MpcConfig(wheel_loop_time_constant_s=0.031))
+    ctrl.reset(reference)
+    T, b = vehicle.control.sample_period_s, vehicle.wheels.separation_m
+    pose, wheel = np.zeros(3), np.zeros(2)
+    n_end = math.ceil(reference.duration_s / T) + 5
+    lateral, heading = [], []
+    for k in range(n_end + 600):
+        if k == n_end:
+            assert ctrl.reference_time_s >= reference.duration_s  # on the path: done at the end
+            pose[1] += 0.02  # pushed sideways at rest
+        cmd = ctrl.update(k * T, pose, wheel)
+        wheel = np.array([cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s])
+        U, omega = 0.5 * (wheel[0] + wheel[1]), (wheel[1] - wheel[0]) / b  # eqs 39-40
+        mid = pose[2] + 0.5 * omega * T
+        pose = pose + T * np.array([U * math.cos(mid), U * math.sin(mid), omega])  # eqs 41-43
+        lateral.append(pose[1])
+        heading.append(pose[2])
+        if k == n_end + 1:
+            assert ctrl.reference_time_s < reference.duration_s  # back at work: docking
+    assert abs(pose[1]) < 0.008 and abs(pose[0] - 1.0) < 0.01
+    assert max(abs(h) for h in heading) < math.radians(30)
+    assert ctrl.reference_time_s >= reference.duration_s

@@ -38,6 +38,7 @@ from agvctl.actuator import WheelReach
 from agvctl.angles import wrap_angle
 from agvctl.config import number
 from agvctl.controllers.base import PoseCommand, SolveStatus
+from agvctl.controllers.docking import Docking
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 
@@ -91,6 +92,8 @@ class MpcConfig:
     (:func:`lead_factor_s`). Bounded, so the setpoints never run away from a saturated wheel; above 1, so that the PI
     loop's proportional action can still push a wheel that is heavier or stiffer than the controller's model
     (measured on the figure-8 with a 35 kg payload: tracking RMS 2.0 mm at 1, 1.45 mm at 2.5)."""
+    docking: bool = True
+    """Stopped beside the end of the path, back up and come in again (:mod:`~agvctl.controllers.docking`)."""
     reference_governor: bool = True
     """Slow the reference's clock down while the vehicle lags behind it (graceful lag; see :class:`MpcStepper`)."""
     governor_lag_start_m: float = number(gt=0, default=0.04, doc="lag at which the governor starts to slow, m")
@@ -260,8 +263,13 @@ class MpcStepper:
     _lead_up_m_s: NDArray[np.float64] = np.zeros(2)
     _lead_down_m_s: NDArray[np.float64] = np.zeros(2)
     _window: tuple[NDArray[np.float64], NDArray[np.float64]] = (np.zeros(2), np.zeros(2))
+    _docking: Docking
     _clock: float = -1.0
     """The governed reference clock in samples (−1: not started)."""
+    _main_duration_s: float = 0.0
+    _current_duration_s: float = 0.0
+    _time_offset_s: float = 0.0
+    _done: bool = False
     _fraction: float = 0.0
 
     @property
@@ -271,12 +279,49 @@ class MpcStepper:
 
     @property
     def reference_time_s(self) -> float:
-        """The reference time the controller is tracking (≤ t; equal to t while the vehicle keeps up)."""
-        return max(self._clock, 0.0) * self.sample_period_s
+        """The reference time the controller is tracking (≤ t; equal to t while the vehicle keeps up). Just short
+        of the reference's duration while the controller is still at work at its end (docking)."""
+        if self._done:
+            return max(self._main_duration_s, max(self._clock, 0.0) * self.sample_period_s)
+        return min(max(self._clock, 0.0) * self.sample_period_s, self._main_duration_s - 1e-6)
 
     def _restart_clock(self) -> None:
         self._clock = -1.0
         self._fraction = 0.0
+
+    def _retarget(self, reference: Reference) -> None:
+        """Track ``reference`` from now on: its horizon grid and whatever the solver precomputes for it."""
+        raise NotImplementedError
+
+    def reset(self, reference: Reference) -> None:
+        """Start tracking ``reference`` (precomputes its horizon data; clears warm starts and fallbacks)."""
+        self._retarget(reference)
+        self._u_prev = None
+        self._restart_clock()
+        self._main_duration_s = self._current_duration_s = reference.duration_s
+        self._time_offset_s = 0.0
+        self._done = False
+        self._docking.reset(reference)
+
+    def _at_the_end(self, t_s: float, pose: NDArray[np.float64], measured: NDArray[np.float64], at_end: bool) -> None:
+        """At the end of the current reference: done, or (stopped beside the end, even after being done) start
+        docking."""
+        if not at_end:
+            return
+        if not (self.config.docking and self._docking.needed(pose)):
+            self._done = True
+            return
+        if max(abs(float(measured[0])), abs(float(measured[1]))) > 0.01:
+            return  # still moving: decide at rest
+        manoeuvre = self._docking.plan(pose)
+        if manoeuvre is None:
+            self._done = True
+            return
+        self._done = False
+        self._retarget(manoeuvre)
+        self._current_duration_s = manoeuvre.duration_s
+        self._restart_clock()
+        self._time_offset_s = t_s + self.sample_period_s  # the manoeuvre's t = 0 is the next sample
 
     def setpoint_window_m_s(
         self, wheel_speed_m_s: NDArray[np.float64]
@@ -343,7 +388,8 @@ class MpcStepper:
         g = self._grid
         if g is None:
             raise RuntimeError(f"{type(self).__name__}.update called before reset(reference)")
-        k = self._advance_clock(g, t_s, pose)
+        t_local = max(t_s - self._time_offset_s, 0.0)  # the time on the current reference (docking restarts it)
+        k = self._advance_clock(g, t_local, pose)
         measured = np.asarray(wheel_speed_m_s, dtype=np.float64)
         finite = math.isfinite(float(measured[0])) and math.isfinite(float(measured[1]))
         lo, hi = self.setpoint_window_m_s(measured) if finite else (measured, measured)
@@ -377,4 +423,7 @@ class MpcStepper:
         left = limit_command(left, self._u_prev[0], v_max, a_step)
         right = limit_command(right, self._u_prev[1], v_max, a_step)
         self._u_prev[0], self._u_prev[1] = left, right
+        if finite:
+            at_end = self._clock * self.sample_period_s >= self._current_duration_s - 1e-9
+            self._at_the_end(t_s, pose, measured, at_end)
         return PoseCommand(left, right, time.perf_counter() - t0, status)

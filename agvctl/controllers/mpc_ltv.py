@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 
 from agvctl.actuator import WheelReach
 from agvctl.angles import wrap_angle
+from agvctl.controllers.docking import Docking
 from agvctl.controllers.mpc_common import (
     HorizonReference,
     MpcConfig,
@@ -108,6 +109,7 @@ class LtvMpcController(MpcStepper):
         self.sample_period_s = vehicle.control.sample_period_s
         self.separation_m = vehicle.wheels.separation_m
         self._reach = WheelReach(vehicle)
+        self._docking = Docking(vehicle)
         self._lead_factor_s = lead_factor_s(c, self.sample_period_s)
         self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 = resolved_limits(c, vehicle)
         self._lag = c.prediction_model == "kinematic+wheel_loop"
@@ -125,14 +127,12 @@ class LtvMpcController(MpcStepper):
         """The last solved setpoint sequence (N×2, left/right, m/s) — for plots and tests."""
         return self._fallback.sequence_m_s.copy()
 
-    def reset(self, reference: Reference) -> None:
-        """Start tracking ``reference``: precompute its horizon grid and every time-varying matrix entry."""
+    def _retarget(self, reference: Reference) -> None:
+        """Precompute ``reference``'s horizon grid and every time-varying matrix entry."""
         grid = HorizonReference(reference, self.config, self.sample_period_s)
         self._grid = grid
         self._precompute(grid)
         self._fallback.clear()
-        self._u_prev = None
-        self._restart_clock()
 
     # -- problem structure --------------------------------------------------------------------------------
 

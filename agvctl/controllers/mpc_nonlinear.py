@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.actuator import WheelReach
+from agvctl.controllers.docking import Docking
 from agvctl.controllers.mpc_common import (
     HorizonReference,
     MpcConfig,
@@ -90,6 +91,7 @@ class NonlinearMpcController(MpcStepper):
         self.sample_period_s = vehicle.control.sample_period_s
         self.separation_m = vehicle.wheels.separation_m
         self._reach = WheelReach(vehicle)
+        self._docking = Docking(vehicle)
         self._lead_factor_s = lead_factor_s(self.config, self.sample_period_s)
         self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 = resolved_limits(self.config, vehicle)
         self._lag = self.config.prediction_model == "kinematic+wheel_loop"
@@ -107,14 +109,12 @@ class NonlinearMpcController(MpcStepper):
     def _on_failure(self) -> None:
         self._w0 = None  # a failed solve's iterate is no warm start
 
-    def reset(self, reference: Reference) -> None:
-        """Start tracking ``reference`` (samples its horizon grid; clears warm starts and fallbacks)."""
+    def _retarget(self, reference: Reference) -> None:
+        """Sample ``reference``'s horizon grid; forget the warm start and the fallbacks."""
         self._grid = HorizonReference(reference, self.config, self.sample_period_s)
         self._fallback.clear()
-        self._u_prev = None
         self._w0 = None
         self._last_k = -1
-        self._restart_clock()
 
     # -- the NLP ------------------------------------------------------------------------------------------
 

@@ -158,7 +158,7 @@ def run_closed_loop(
         raise ValueError("the plant and the controller must share control.sample_period_s")
     n_planned = max(int(math.ceil((reference.duration_s + settle_s) / ts - 1e-9)), 1)
     governor = pose_controller if isinstance(pose_controller, GovernedPoseController) else None
-    n = _longest_run(reference.duration_s, settle_s, ts) if governor is not None else n_planned
+    n = n_longest = _longest_run(reference.duration_s, settle_s, ts) if governor is not None else n_planned
     t = np.arange(n + 1) * ts
     ref = reference.sample(t)
     start = (float(ref.x_m[0]), float(ref.y_m[0]), float(ref.theta_rad[0])) if initial_pose is None else initial_pose
@@ -182,9 +182,13 @@ def run_closed_loop(
         tc = time.perf_counter()  # 2. pose controller
         cmd = pose_controller.update(float(t[k]), est, wheel_meas)
         solve = time.perf_counter() - tc
-        if governor is not None and end_reached_k is None and governor.reference_time_s >= reference.duration_s - 1e-9:
-            end_reached_k = k
-            n = min(n, max(n_planned, k + int(math.ceil(settle_s / ts - 1e-9))))
+        if governor is not None:  # the run ends settle_s after the governed reference is done (again, if it resumes)
+            done = governor.reference_time_s >= reference.duration_s - 1e-9
+            if done and end_reached_k is None:
+                end_reached_k = k
+                n = min(n_longest, max(n_planned, k + int(math.ceil(settle_s / ts - 1e-9))))
+            elif not done and end_reached_k is not None:
+                end_reached_k, n = None, n_longest
         status = _STATUS_CODE.get(cmd.status, 2)
         failures += status > 0
         setpoint = delay(np.array([cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s]))

@@ -1,0 +1,96 @@
+"""Docking: the final approach when a tracking controller stops beside the end of its path.
+
+At the end the reference is at rest, and a vehicle beside it cannot move sideways (eqs 41-43: ẏ = U sin θ in the
+path's frame needs U ≠ 0); a controller linearised about the reference at rest sees no way to remove a lateral
+error there, so it stays. A driver backs up and comes in again. :class:`Docking` decides when and plans that
+manoeuvre as an ordinary reference: once the vehicle has (nearly) stopped at the end with a lateral error above
+``tolerance_m``, a straight line backwards along the final heading and the same line forwards again, slowly
+(``speed_m_s``, ``accel_m_s2``), ending at the path's end pose; the controller tracks it like any reference and
+removes the lateral error while moving. The distance grows with the error (a heading change of about 2·e/L
+suffices) and shrinks where the path ends on a curve, so that backing straight up stays within
+``max_deviation_m`` of the path's arc (L ≤ √(2δ/|κ|)), and never reaches back beyond the path's last motion.
+It is never tried after a turn in place or a reversal (backing up would leave the path) nor more than
+``attempts`` times.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.config import number
+from agvctl.params import VehicleParams
+from agvctl.planning import PathLimits, PathSpec, StartPose, plan
+from agvctl.planning.reference import Reference
+from agvctl.planning.spec import LineSegment
+
+__all__ = ["Docking", "DockingConfig"]
+
+
+@dataclass(frozen=True)
+class DockingConfig:
+    """When and how to dock (SI units)."""
+
+    tolerance_m: float = number(gt=0, default=0.008, doc="lateral error at rest beyond which to dock, m")
+    speed_m_s: float = number(gt=0, default=0.15, doc="speed of the manoeuvre, m/s")
+    accel_m_s2: float = number(gt=0, default=0.3, doc="acceleration of the manoeuvre, m/s²")
+    max_deviation_m: float = number(gt=0, default=0.01, doc="largest departure from a curved final segment, m")
+    attempts: int = number(ge=0, default=2, doc="manoeuvres at most per run")
+
+
+class Docking:
+    """Decides on and plans the docking manoeuvre for one reference (see the module notes)."""
+
+    def __init__(self, vehicle: VehicleParams, config: DockingConfig | None = None) -> None:
+        self.vehicle = vehicle
+        self.config = config if config is not None else DockingConfig()
+        self._end = np.zeros(3)
+        self._curvature_1_m = 0.0
+        self._after_turn = False
+        self._last_length_m = 0.0
+        self._left = 0
+
+    def reset(self, reference: Reference) -> None:
+        """Start a run on ``reference``: its end pose and how it arrives there."""
+        end = reference.final_pose
+        self._end = np.array([end.x_m, end.y_m, end.theta_rad])
+        last = reference.motions[-1]
+        self._after_turn = last.kind != "path" or last.direction < 0
+        s = reference.sample([last.t_start_s, reference.duration_s, max(reference.duration_s - 0.2, 0.0)])
+        self._last_length_m = float(s.path_length_m[1] - s.path_length_m[0])
+        self._curvature_1_m = 0.0 if self._after_turn else float(s.curvature_1_m[2])
+        self._left = self.config.attempts
+
+    def lateral_error_m(self, pose: NDArray[np.float64]) -> float:
+        """The pose's offset across the end heading (m, positive to the left)."""
+        x, y, theta = self._end
+        return float(-math.sin(theta) * (pose[0] - x) + math.cos(theta) * (pose[1] - y))
+
+    def needed(self, pose: NDArray[np.float64]) -> bool:
+        """Whether a vehicle at rest at ``pose`` should dock (attempts left, not after a turn in place)."""
+        return self._left > 0 and not self._after_turn and abs(self.lateral_error_m(pose)) > self.config.tolerance_m
+
+    def plan(self, pose: NDArray[np.float64]) -> Reference | None:
+        """The manoeuvre for a vehicle at ``pose`` (and count the attempt), or None when it cannot help."""
+        if not self.needed(pose):
+            return None
+        self._left -= 1
+        c = self.config
+        lateral = abs(self.lateral_error_m(pose))
+        distance = min(max(20.0 * lateral, 0.15), 0.5, 0.8 * self._last_length_m)  # back along the last motion
+        if abs(self._curvature_1_m) > 1e-9:
+            distance = min(distance, math.sqrt(2.0 * c.max_deviation_m / abs(self._curvature_1_m)))
+        if distance < 0.05:
+            return None
+        x, y, theta = self._end
+        spec = PathSpec(
+            segments=(LineSegment(length_m=-distance), LineSegment(length_m=distance)),
+            name="docking",
+            start=StartPose(x_m=float(x), y_m=float(y), theta_deg=math.degrees(float(theta))),
+            limits=PathLimits(wheel_speed_m_s=c.speed_m_s, wheel_accel_m_s2=c.accel_m_s2),
+            join="stop",
+        )
+        return plan(spec, self.vehicle)
