@@ -251,8 +251,8 @@ def test_results_do_not_depend_on_the_number_of_jobs_or_the_executor() -> None:
 @pytest.mark.slow
 @pytest.mark.xfail(
     strict=False,
-    reason="issue 10: the default pose controller still fails some CI scenarios (at main 2701aa2: 3 of 30, "
-    "s2026_00004, _00008, _00024 stop 3-5 cm from the path's end; 11 of 30 before the saturation-aware MPC)",
+    reason="issue 10: the default pose controller still fails some CI scenarios (at main 85b6be7: 2 of 30, "
+    "s2026_00008 ends 3.2 cm from the path's end, s2026_00024 11 cm off it; 11 of 30 before the saturation-aware MPC)",
 )
 def test_the_ci_fuzz_configuration_passes(tmp_path: Path) -> None:
     code = main(["fuzz", str(FUZZ / "ci.toml"), "--jobs", "2", "--out", str(tmp_path), "--no-plot"])
