@@ -3,14 +3,14 @@
 At the end the reference is at rest, and a vehicle beside it cannot move sideways (eqs 41-43: ẏ = U sin θ in the
 path's frame needs U ≠ 0); a controller linearised about the reference at rest sees no way to remove a lateral
 error there, so it stays. A driver backs up and comes in again. :class:`Docking` decides when and plans that
-manoeuvre as an ordinary reference: once the vehicle has (nearly) stopped at the end with a lateral error above
-``tolerance_m``, a straight line backwards along the final heading and the same line forwards again, slowly
-(``speed_m_s``, ``accel_m_s2``), ending at the path's end pose; the controller tracks it like any reference and
+manoeuvre as an ordinary reference: once the vehicle has (nearly) stopped at the end with an error across the
+path's last drive above ``tolerance_m``, a straight line back along that drive's final heading and the same line
+forwards again, slowly (``speed_m_s``, ``accel_m_s2``), ending at the path's end pose (where the path ends with
+turns in place, they are undone first and turned again after); the controller tracks it like any reference and
 removes the lateral error while moving. The distance grows with the error (a heading change of about 2·e/L
 suffices) and shrinks where the path ends on a curve, so that backing straight up stays within
 ``max_deviation_m`` of the path's arc (L ≤ √(2δ/|κ|)), and never reaches back beyond the path's last motion.
-It is never tried after a turn in place or a reversal (backing up would leave the path) nor more than
-``attempts`` times.
+It is tried at most ``attempts`` times, and never on a path that only turns in place.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from agvctl.config import number
 from agvctl.params import VehicleParams
 from agvctl.planning import PathLimits, PathSpec, StartPose, plan
 from agvctl.planning.reference import Reference
-from agvctl.planning.spec import LineSegment
+from agvctl.planning.spec import LineSegment, Segment, TurnSegment
 
 __all__ = ["Docking", "DockingConfig"]
 
@@ -48,30 +48,35 @@ class Docking:
         self.vehicle = vehicle
         self.config = config if config is not None else DockingConfig()
         self._end = np.zeros(3)
+        self._drive_heading_rad = 0.0
+        self._direction = 1.0
         self._curvature_1_m = 0.0
-        self._after_turn = False
         self._last_length_m = 0.0
         self._left = 0
 
     def reset(self, reference: Reference) -> None:
-        """Start a run on ``reference``: its end pose and how it arrives there."""
+        """Start a run on ``reference``: where its last drive ends, its heading there and the turns after it."""
+        path_motions = [m for m in reference.motions if m.kind == "path"]
+        self._left = self.config.attempts if path_motions else 0
+        if not path_motions:
+            return
+        last = path_motions[-1]
         end = reference.final_pose
         self._end = np.array([end.x_m, end.y_m, end.theta_rad])
-        last = reference.motions[-1]
-        self._after_turn = last.kind != "path" or last.direction < 0
-        s = reference.sample([last.t_start_s, reference.duration_s, max(reference.duration_s - 0.2, 0.0)])
+        self._drive_heading_rad = last.end_pose.theta_rad
+        self._direction = 1.0 if last.direction >= 0 else -1.0
+        s = reference.sample([last.t_start_s, last.t_end_s, max(last.t_start_s, last.t_end_s - 0.2)])
         self._last_length_m = float(s.path_length_m[1] - s.path_length_m[0])
-        self._curvature_1_m = 0.0 if self._after_turn else float(s.curvature_1_m[2])
-        self._left = self.config.attempts
+        self._curvature_1_m = float(s.curvature_1_m[2])
 
     def lateral_error_m(self, pose: NDArray[np.float64]) -> float:
-        """The pose's offset across the end heading (m, positive to the left)."""
-        x, y, theta = self._end
+        """The pose's offset across the heading of the path's last drive at its end (m, positive to the left)."""
+        x, y, theta = self._end[0], self._end[1], self._drive_heading_rad
         return float(-math.sin(theta) * (pose[0] - x) + math.cos(theta) * (pose[1] - y))
 
     def needed(self, pose: NDArray[np.float64]) -> bool:
-        """Whether a vehicle at rest at ``pose`` should dock (attempts left, not after a turn in place)."""
-        return self._left > 0 and not self._after_turn and abs(self.lateral_error_m(pose)) > self.config.tolerance_m
+        """Whether a vehicle at rest at ``pose`` should dock (attempts left, a lateral error beyond tolerance)."""
+        return self._left > 0 and abs(self.lateral_error_m(pose)) > self.config.tolerance_m
 
     def plan(self, pose: NDArray[np.float64]) -> Reference | None:
         """The manoeuvre for a vehicle at ``pose`` (and count the attempt), or None when it cannot help."""
@@ -80,14 +85,19 @@ class Docking:
         self._left -= 1
         c = self.config
         lateral = abs(self.lateral_error_m(pose))
-        distance = min(max(20.0 * lateral, 0.15), 0.5, 0.8 * self._last_length_m)  # back along the last motion
+        distance = min(max(20.0 * lateral, 0.15), 0.5, 0.8 * self._last_length_m)  # back along the last drive
         if abs(self._curvature_1_m) > 1e-9:
             distance = min(distance, math.sqrt(2.0 * c.max_deviation_m / abs(self._curvature_1_m)))
         if distance < 0.05:
             return None
         x, y, theta = self._end
+        turned_deg = math.degrees(float(theta) - self._drive_heading_rad)  # the turns in place after the drive
+        back = -self._direction * distance
+        segments: list[Segment] = [LineSegment(length_m=back), LineSegment(length_m=-back)]
+        if abs(turned_deg) > 1e-6:
+            segments = [TurnSegment(angle_deg=-turned_deg), *segments, TurnSegment(angle_deg=turned_deg)]
         spec = PathSpec(
-            segments=(LineSegment(length_m=-distance), LineSegment(length_m=distance)),
+            segments=tuple(segments),
             name="docking",
             start=StartPose(x_m=float(x), y_m=float(y), theta_deg=math.degrees(float(theta))),
             limits=PathLimits(wheel_speed_m_s=c.speed_m_s, wheel_accel_m_s2=c.accel_m_s2),
