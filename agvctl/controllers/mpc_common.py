@@ -101,7 +101,9 @@ class MpcConfig:
     governor_catch_up: float = number(ge=1, le=2, default=1.5, doc="largest clock rate while catching up")
     """Behind the loop's clock and within ``governor_lag_start_m`` of the reference, the governed clock runs up to
     this much faster than time (the reference's speed along the path scaled alike), so a delay is made up."""
-    max_iterations: int = number(ge=1, default=400, doc="solver iteration limit per step")
+    max_iterations: int = number(ge=1, default=1000, doc="solver iteration limit per step")
+    """A far-off start (0.3 m, 35°) needs up to about 750 OSQP iterations in its first steps at tolerance 1e-4 (with
+    the heading coupling of the LTV MPC); the steps of a tracking run, tens."""
     tolerance: float = number(gt=0, default=1.0e-3, doc="solver tolerance (OSQP eps_abs/eps_rel, IPOPT tol)")
 
 

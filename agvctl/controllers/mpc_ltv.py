@@ -193,6 +193,14 @@ class LtvMpcController(MpcStepper):
         A.data = np.asarray(vals, dtype=np.float64)[order]
         self._A_data = A.data.copy()
         self._pos_A = position[np.asarray(a_entries, dtype=np.int64)]
+        # the entries (position rows, wheel-speed columns) of A_1 … A_{N−1}: where driving with the present heading
+        # error shows in the position error (see _solve), ordered by k, row, column
+        nn = nx * nx
+        self._pos_position_wheels = (
+            self._pos_A[[(k - 1) * nn + i * nx + j for k in range(1, N) for i in (0, 1) for j in (3, 4)]]
+            if self._lag
+            else None
+        )
         self._pos_B = position[np.asarray(b_entries, dtype=np.int64)]
 
         # cost ½ zᵀPz + qᵀz
@@ -282,7 +290,7 @@ class LtvMpcController(MpcStepper):
     ) -> tuple[float, float] | None:
         g = self._grid
         assert g is not None and self._u_prev is not None
-        c, N, nx = self.config, self.config.horizon, self.nx
+        c, N, nx, T = self.config, self.config.horizon, self.nx, self.sample_period_s
         iU, iS = self._iU, self._iS
         x0 = self._x0
         f = self._fraction  # the governed clock between grid points k and k + 1 (0 while it keeps time)
@@ -315,6 +323,24 @@ class LtvMpcController(MpcStepper):
 
         lo, hi = self._l, self._u
         first = self._Ad[k] @ x0
+        if self._lag:
+            # linearised about the reference, the position error moves with δU along the reference's heading: blind,
+            # where the reference stands still (the start, a stop), to what driving with the present heading error
+            # e_θ,0 does. About the present error δU moves it along θ_ref + e_θ,0, a change of
+            # (cos e_θ,0 − 1, sin e_θ,0) in the path frame (rotated by θ_ref in world axes), δU = (δv_l + δv_r)/2:
+            # first order in T_s, held over the horizon (negative in the constraint matrix, which holds −A)
+            e0 = float(x0[2])
+            along, across = 0.5 * T * (math.cos(e0) - 1.0), 0.5 * T * math.sin(e0)
+            if c.error_frame == "path":
+                cx, cy = np.full(N, along), np.full(N, across)
+            else:
+                ct_h, st_h = g.cos_theta[k : k + N], g.sin_theta[k : k + N]
+                cx, cy = ct_h * along - st_h * across, st_h * along + ct_h * across
+            assert self._pos_position_wheels is not None
+            values = np.repeat(np.column_stack([cx[1:], cy[1:]]), 2, axis=1).ravel()
+            data[self._pos_position_wheels] -= values
+            first[0] += cx[0] * (x0[3] + x0[4])
+            first[1] += cy[0] * (x0[3] + x0[4])
         lo[:nx] = first
         hi[:nx] = first
         rb, rr, rf = self._r_box, self._r_rate, self._r_first
