@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from agvctl.config import convert_value, did_you_mean, join_key
 from agvctl.errors import ConfigError
+from agvctl.sim.estimators import estimate_heading_error_rad, estimate_position_error_m
 from agvctl.sim.log import SimLog
 
 __all__ = ["LIMITS", "Limit", "LimitsSpec"]
@@ -82,6 +83,15 @@ LIMITS: dict[str, Limit] = {
         "heading_error_max_deg", "°", lambda log, ts: np.degrees(np.abs(log["heading_error_rad"])), "peak", "positive"
     ),
     "final_position_error_m": Limit("final_position_error_m", " m", _position_error, "final", "positive"),
+    "estimate_error_rms_m": Limit("estimate_error_rms_m", " m", estimate_position_error_m, "rms", "positive"),
+    "estimate_error_max_m": Limit("estimate_error_max_m", " m", estimate_position_error_m, "peak", "positive"),
+    "heading_estimate_error_max_deg": Limit(
+        "heading_estimate_error_max_deg",
+        "°",
+        lambda log, ts: np.degrees(estimate_heading_error_rad(log, ts)),
+        "peak",
+        "positive",
+    ),
     "solve_time_p99_ms": Limit(
         "solve_time_p99_ms", " ms", lambda log, ts: log["solve_time_s"] * 1e3, "peak", "positive"
     ),

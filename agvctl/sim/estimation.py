@@ -1,0 +1,129 @@
+"""Estimation on logged data: the EKF and an RTS smoother over a closed-loop ``log.csv``.
+
+A closed-loop log records what the sensors read (``encoder_count_*``, ``gyro_rate_rad_s``, the fixes as they
+arrived with ``fix_measured_t_s``), so the estimators can be run again offline, with other settings or another
+believed vehicle::
+
+    from agvctl.params import load_vehicle
+    from agvctl.sim.estimation import filter_log, read_log, smooth_log
+
+    log = read_log("out/figure8_ekf/log.csv")
+    smoothed = smooth_log(log, load_vehicle())        # est_x_m, est_y_m, est_theta_rad, est_sigma_*, ...
+
+:func:`filter_log` replays the causal EKF exactly as the loop ran it (fixes applied when they arrived, with or
+without latency compensation). :func:`smooth_log` knows the whole run: each fix is applied at the sample it was
+measured (no latency to handle offline), then a Rauch-Tung-Striebel backward pass gives every sample the
+estimate from all the data. Only the last fix arriving at a sample is logged (fix rates up to 1/T_s).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.params import VehicleParams
+from agvctl.sim.ekf import EkfSettings, PoseEkf
+from agvctl.sim.log import SimLog
+from agvctl.sim.sensors import PositionFix
+
+__all__ = ["filter_log", "read_log", "smooth_log"]
+
+FloatArray = NDArray[np.float64]
+
+ESTIMATE_COLUMNS = (
+    "t_s",
+    "est_x_m",
+    "est_y_m",
+    "est_theta_rad",
+    "est_sigma_x_m",
+    "est_sigma_y_m",
+    "est_sigma_theta_rad",
+    "radius_error_left",
+    "radius_error_right",
+)
+"""The columns :func:`filter_log` and :func:`smooth_log` return (``radius_error_*``: the ε states, relative)."""
+
+
+def read_log(path: str | Path) -> SimLog:
+    """A log written by :meth:`SimLog.to_csv` (``agvctl run``'s ``log.csv``), every column as floats."""
+    with open(path, newline="", encoding="utf-8") as fh:
+        header = next(csv.reader(fh))
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return SimLog({name: np.array(data[:, j]) for j, name in enumerate(header)})
+
+
+def _fixes(log: SimLog, ts: float) -> list[tuple[PositionFix, ...]]:
+    """The fixes arriving at each sample, from the ``fix_*`` columns."""
+    out: list[tuple[PositionFix, ...]] = []
+    for t_meas, x, y, th in zip(
+        log["fix_measured_t_s"], log["fix_x_m"], log["fix_y_m"], log["fix_theta_rad"], strict=True
+    ):
+        if math.isnan(t_meas):
+            out.append(())
+        else:
+            j = int(round(t_meas / ts))
+            out.append((PositionFix(j, j * ts, np.array([x, y, th])),))
+    return out
+
+
+def _start(log: SimLog) -> FloatArray:
+    """The pose the loop started the estimator from: the first row's estimate."""
+    return np.array([log["est_x_m"][0], log["est_y_m"][0], log["est_theta_rad"][0]])
+
+
+def _counts(log: SimLog) -> NDArray[np.int64]:
+    return np.column_stack([log["encoder_count_left"], log["encoder_count_right"]]).round().astype(np.int64)
+
+
+def _table(t_s: FloatArray, states: FloatArray, covs: FloatArray) -> SimLog:
+    sig = np.sqrt(np.diagonal(covs, axis1=1, axis2=2))
+    cols = [t_s, *states[:, :3].T, *sig[:, :3].T, states[:, 3], states[:, 4]]
+    return SimLog({name: np.asarray(c, dtype=float) for name, c in zip(ESTIMATE_COLUMNS, cols, strict=True)})
+
+
+def filter_log(log: SimLog, vehicle: VehicleParams, settings: EkfSettings | None = None) -> SimLog:
+    """The causal EKF over a log, as the loop runs it (``vehicle``: the believed one)."""
+    ekf = PoseEkf(vehicle, settings)
+    ekf.reset(_start(log))
+    counts, gyro, fixes = _counts(log), log["gyro_rate_rad_s"], _fixes(log, vehicle.control.sample_period_s)
+    states, covs = np.empty((len(log), 5)), np.empty((len(log), 5, 5))
+    for k in range(len(log)):
+        ekf.step(k, counts[k], float(gyro[k]), fixes[k])
+        states[k], covs[k] = ekf.x, ekf.P
+    return _table(log["t_s"], states, covs)
+
+
+def smooth_log(log: SimLog, vehicle: VehicleParams, settings: EkfSettings | None = None) -> SimLog:
+    """The Rauch-Tung-Striebel smoothed estimate over a log: the EKF forward with every fix at the sample it was
+    measured, then backwards ``x_s,k = x_k + C_k (x_s,k+1 − x⁻_k+1)``, ``C_k = P_k F_k+1ᵀ (P⁻_k+1)⁻¹``."""
+    ekf = PoseEkf(vehicle, settings)
+    ekf.reset(_start(log))
+    n, ts = len(log), vehicle.control.sample_period_s
+    counts, gyro = _counts(log), log["gyro_rate_rad_s"]
+    by_sample: dict[int, list[PositionFix]] = {}
+    for arrived in _fixes(log, ts):
+        for fix in arrived:
+            by_sample.setdefault(fix.measured_sample, []).append(fix)
+    x, P = ekf.x.copy(), ekf.P.copy()
+    xs, Ps = np.empty((n, 5)), np.empty((n, 5, 5))
+    x_pred, P_pred, Fs = np.empty((n, 5)), np.empty((n, 5, 5)), np.empty((n, 5, 5))
+    for k in range(n):
+        if k > 0:
+            d = (counts[k] - counts[k - 1]) * ekf.metres_per_count
+            travel = np.array([d[0], d[1], (gyro[k] - vehicle.sensors.gyro_bias_rad_s) * ts])
+            x, F, Q = ekf.transition(x, travel)
+            P = F @ P @ F.T + Q
+            Fs[k] = F
+        x_pred[k], P_pred[k] = x, P
+        for fix in by_sample.get(k, []):
+            x, P, _nis = ekf.fix_update(x, P, fix.pose)
+        xs[k], Ps[k] = x, P
+    for k in range(n - 2, -1, -1):  # the backward pass
+        C = np.linalg.solve(P_pred[k + 1], Fs[k + 1] @ Ps[k]).T
+        xs[k] = xs[k] + C @ (xs[k + 1] - x_pred[k + 1])
+        Ps[k] = Ps[k] + C @ (Ps[k + 1] - P_pred[k + 1]) @ C.T
+    return _table(log["t_s"], xs, Ps)
