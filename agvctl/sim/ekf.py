@@ -38,8 +38,8 @@ FloatArray = NDArray[np.float64]
 class EkfSettings:
     """The EKF's tuning (beliefs about what the sensor table does not say)."""
 
-    slip_sigma: float = 0.002
-    """Relative σ of each wheel's travel per sample: slip and floor unevenness."""
+    slip_sigma: float = 0.0005
+    """Relative σ of each wheel's travel per sample: slip and floor unevenness (the simulated plant has none)."""
     radius_sigma: float = 0.01
     """Prior relative σ of each wheel radius (the ε states): tyre tolerance and wear."""
     radius_walk_sigma_per_sqrt_s: float = 1e-5

@@ -25,12 +25,13 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from agvctl.angles import wrap_angle
 from agvctl.params import VehicleParams
 from agvctl.sim.ekf import EkfSettings, PoseEkf
 from agvctl.sim.log import SimLog
-from agvctl.sim.sensors import PositionFix
+from agvctl.sim.sensors import PositionFix, Sensors
 
-__all__ = ["filter_log", "read_log", "smooth_log"]
+__all__ = ["ESTIMATE_COLUMNS", "filter_log", "read_log", "resense_log", "smooth_log"]
 
 FloatArray = NDArray[np.float64]
 
@@ -44,8 +45,10 @@ ESTIMATE_COLUMNS = (
     "est_sigma_theta_rad",
     "radius_error_left",
     "radius_error_right",
+    "nees",
 )
-"""The columns :func:`filter_log` and :func:`smooth_log` return (``radius_error_*``: the ε states, relative)."""
+"""The columns :func:`filter_log` and :func:`smooth_log` return (``radius_error_*``: the ε states, relative;
+``nees``: eᵀP⁻¹e of the pose against the log's true pose, 3 degrees of freedom, NaN for a log without it)."""
 
 
 def read_log(path: str | Path) -> SimLog:
@@ -54,6 +57,39 @@ def read_log(path: str | Path) -> SimLog:
         header = next(csv.reader(fh))
     data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     return SimLog({name: np.array(data[:, j]) for j, name in enumerate(header)})
+
+
+def resense_log(log: SimLog, vehicle: VehicleParams, *, seed: int) -> SimLog:
+    """``log`` with its sensor columns read again by ``vehicle``'s sensors with another noise ``seed``: counts from
+    the true shaft angles, gyro and fixes from the true pose. The same true run, another sensor realisation (for
+    Monte Carlo consistency checks of an estimator)."""
+    sensors = Sensors(vehicle, seed=seed)
+    angles = np.column_stack([log["motor_angle_left_rad"], log["motor_angle_right_rad"]])
+    poses = np.column_stack([log["x_m"], log["y_m"], log["theta_rad"]])
+    cols = dict(log.columns)
+    new = {name: np.full(len(log), math.nan) for name in _RESENSED}
+    for k in range(len(log)):
+        counts = sensors.encoder_counts(angles[k])
+        meas = sensors.read(k, counts, poses[k], np.zeros(2))
+        new["encoder_count_left"][k], new["encoder_count_right"][k] = counts
+        new["gyro_rate_rad_s"][k] = meas.gyro_rate_rad_s
+        if meas.fixes:
+            fix = meas.fixes[-1]
+            new["fix_x_m"][k], new["fix_y_m"][k], new["fix_theta_rad"][k] = fix.pose
+            new["fix_measured_t_s"][k] = fix.measured_t_s
+    cols.update(new)
+    return SimLog(cols)
+
+
+_RESENSED = (
+    "encoder_count_left",
+    "encoder_count_right",
+    "gyro_rate_rad_s",
+    "fix_x_m",
+    "fix_y_m",
+    "fix_theta_rad",
+    "fix_measured_t_s",
+)
 
 
 def _fixes(log: SimLog, ts: float) -> list[tuple[PositionFix, ...]]:
@@ -79,22 +115,34 @@ def _counts(log: SimLog) -> NDArray[np.int64]:
     return np.column_stack([log["encoder_count_left"], log["encoder_count_right"]]).round().astype(np.int64)
 
 
-def _table(t_s: FloatArray, states: FloatArray, covs: FloatArray) -> SimLog:
+def _table(log: SimLog, states: FloatArray, covs: FloatArray) -> SimLog:
     sig = np.sqrt(np.diagonal(covs, axis1=1, axis2=2))
-    cols = [t_s, *states[:, :3].T, *sig[:, :3].T, states[:, 3], states[:, 4]]
+    nees = np.full(len(log), math.nan)
+    if "x_m" in log:
+        e = states[:, :3] - np.column_stack([log["x_m"], log["y_m"], log["theta_rad"]])
+        e[:, 2] = wrap_angle(e[:, 2])
+        nees = np.einsum("ki,ki->k", e, np.linalg.solve(covs[:, :3, :3], e[:, :, None])[:, :, 0])
+    cols = [log["t_s"], *states[:, :3].T, *sig[:, :3].T, states[:, 3], states[:, 4], nees]
     return SimLog({name: np.asarray(c, dtype=float) for name, c in zip(ESTIMATE_COLUMNS, cols, strict=True)})
 
 
-def filter_log(log: SimLog, vehicle: VehicleParams, settings: EkfSettings | None = None) -> SimLog:
-    """The causal EKF over a log, as the loop runs it (``vehicle``: the believed one)."""
+def filter_log(
+    log: SimLog,
+    vehicle: VehicleParams,
+    settings: EkfSettings | None = None,
+    *,
+    initial_pose: FloatArray | None = None,
+) -> SimLog:
+    """The causal EKF over a log, as the loop runs it (``vehicle``: the believed one), started from
+    ``initial_pose`` (x_m, y_m, theta_rad; default the log's first estimate, as the loop did)."""
     ekf = PoseEkf(vehicle, settings)
-    ekf.reset(_start(log))
+    ekf.reset(_start(log) if initial_pose is None else np.asarray(initial_pose, dtype=float))
     counts, gyro, fixes = _counts(log), log["gyro_rate_rad_s"], _fixes(log, vehicle.control.sample_period_s)
     states, covs = np.empty((len(log), 5)), np.empty((len(log), 5, 5))
     for k in range(len(log)):
         ekf.step(k, counts[k], float(gyro[k]), fixes[k])
         states[k], covs[k] = ekf.x, ekf.P
-    return _table(log["t_s"], states, covs)
+    return _table(log, states, covs)
 
 
 def smooth_log(log: SimLog, vehicle: VehicleParams, settings: EkfSettings | None = None) -> SimLog:
@@ -126,4 +174,4 @@ def smooth_log(log: SimLog, vehicle: VehicleParams, settings: EkfSettings | None
         C = np.linalg.solve(P_pred[k + 1], Fs[k + 1] @ Ps[k]).T
         xs[k] = xs[k] + C @ (xs[k + 1] - x_pred[k + 1])
         Ps[k] = Ps[k] + C @ (Ps[k + 1] - P_pred[k + 1]) @ C.T
-    return _table(log["t_s"], xs, Ps)
+    return _table(log, xs, Ps)

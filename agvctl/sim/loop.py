@@ -42,6 +42,8 @@ __all__ = ["CONTROL_LOG_COLUMNS", "SENSOR_NAN_COLUMNS", "ClosedLoopResult", "Com
 ComputeDelay = Literal["none", "one_sample"]
 
 _SENSOR_COLUMNS = (
+    "motor_angle_left_rad",
+    "motor_angle_right_rad",
     "measured_omega_motor_left_rad_s",
     "measured_omega_motor_right_rad_s",
     "encoder_count_left",
@@ -57,10 +59,11 @@ _SENSOR_COLUMNS = (
     "nees",
     "nis",
 )
-"""What the sensors read and the estimators made of it: the motor speeds the wheel loops used, the latched counts,
-the gyro, the last fix arriving at the sample (NaN when none) with its measurement time, the estimate's σ and its
-NEES against the truth, and the NIS of a fix (NaN for estimators without a covariance)."""
-SENSOR_NAN_COLUMNS = _SENSOR_COLUMNS[4:]
+"""What the sensors read and the estimators made of it: the true shaft angles (the encoders' source), the motor
+speeds the wheel loops used, the latched counts, the gyro, the last fix arriving at the sample (NaN when none) with
+its measurement time, the estimate's σ and its NEES against the truth, and the NIS of a fix (NaN for estimators
+without a covariance)."""
+SENSOR_NAN_COLUMNS = _SENSOR_COLUMNS[6:]
 """The columns that are NaN where there is no reading: no gyro, no fix arriving, no covariance, no fix's NIS."""
 
 CONTROL_LOG_COLUMNS = (
@@ -191,7 +194,8 @@ def run_closed_loop(
     setup = time.perf_counter() - t_setup
     t0 = time.perf_counter()
     for k in range(n + 1):
-        counts = sensors.encoder_counts(plant.motor_angle_rad)  # 1. measure and estimate
+        angle = plant.motor_angle_rad  # 1. measure and estimate
+        counts = sensors.encoder_counts(angle)
         omega = speeds.update(counts, plant.measure())
         wheel_meas = omega * rim_per_motor
         meas = sensors.read(k, counts, plant.pose, wheel_meas)
@@ -210,7 +214,8 @@ def run_closed_loop(
         else:
             plant.finish(da_cmd)
         checks = consistency(estimator, est, meas.true_pose)
-        control[k] = (*est, *setpoint, *sp_motor, *da_cmd, solve, status, *omega, *counts, *_sensor_row(meas), *checks)
+        sensed = (*angle, *omega, *counts, *_sensor_row(meas), *checks)
+        control[k] = (*est, *setpoint, *sp_motor, *da_cmd, solve, status, *sensed)
         if progress is not None and k % progress_every == 0:
             progress(k / n)
     wall = time.perf_counter() - t0

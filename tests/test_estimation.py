@@ -1,0 +1,170 @@
+"""Sensors and estimation: encoder and fix models, wheel-speed estimators, the pose EKF's consistency (NEES against
+the chi-square interval), its latency handling, offline filtering and smoothing, and the wheel loops at rest."""
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from agvctl.errors import ConfigError
+from agvctl.params import load_vehicle
+from agvctl.sim.ekf import EkfSettings
+from agvctl.sim.estimation import filter_log, read_log, resense_log, smooth_log
+from agvctl.sim.experiment import load_experiment, run_experiment
+from agvctl.sim.metrics import closed_loop_metrics
+from agvctl.sim.sensors import Sensors, fix_delay_samples
+
+EXPERIMENTS = Path(__file__).resolve().parent.parent / "experiments"
+N_RUNS = 50
+
+
+@pytest.fixture(scope="module")
+def ekf_run():
+    exp = load_experiment(EXPERIMENTS / "figure8_ekf.toml")
+    return exp, run_experiment(exp)
+
+
+def variant(exp, *, settle_s=None, **controller):
+    c = dataclasses.replace(exp.spec.controller, **controller)
+    spec = dataclasses.replace(exp.spec, controller=c, settle_s=exp.spec.settle_s if settle_s is None else settle_s)
+    return dataclasses.replace(exp, spec=spec)
+
+
+def test_encoder_counts_are_the_shaft_angle_within_one_count(ekf_run):
+    exp, result = ekf_run
+    log = result.log
+    q = 2 * math.pi / exp.plant_vehicle.sensors.encoder_counts_per_rev
+    for side in ("left", "right"):
+        counts = log[f"encoder_count_{side}"]
+        assert np.all(counts == np.round(counts))  # whole counts
+        turned = (counts - counts[0]) * q
+        assert np.max(np.abs(turned - log[f"motor_angle_{side}_rad"])) < q * (1 + 1e-9)  # one latch per end
+    # the shaft angle is the integral of the motor speed: trapezoid over each sample, to the rule's own error
+    dphi = np.diff(log["motor_angle_left_rad"])
+    trap = 0.5 * (log["omega_motor_left_rad_s"][1:] + log["omega_motor_left_rad_s"][:-1]) * 0.04
+    assert np.max(np.abs(dphi - trap)) < 0.02 * np.max(np.abs(dphi))
+
+
+def test_fixes_arrive_at_the_rate_and_latency_of_the_sensor_table(ekf_run):
+    exp, result = ekf_run
+    log, s = result.log, exp.plant_vehicle.sensors
+    arrived = np.isfinite(log["fix_measured_t_s"])
+    duration = log["t_s"][-1]
+    assert abs(np.count_nonzero(arrived) - s.position_fix_rate_hz * duration) <= 2
+    delay = log["t_s"][arrived] - log["fix_measured_t_s"][arrived]
+    assert np.all(delay >= s.position_fix_latency_s - 1e-12)
+    assert np.all(delay < s.position_fix_latency_s + 0.04)  # delivered at the first sample after arrival
+    assert fix_delay_samples(exp.plant_vehicle) == 2  # 50 ms at 40 ms
+    # the noise: normalised fix errors against the truth at the measurement time are N(0, 1) (chi-square, 3 dof)
+    k_meas = np.round(log["fix_measured_t_s"][arrived] / 0.04).astype(int)
+    err = np.column_stack(
+        [log[c][arrived] - log[t][k_meas] for c, t in (("fix_x_m", "x_m"), ("fix_y_m", "y_m"))]
+        + [log["fix_theta_rad"][arrived] - log["theta_rad"][k_meas]]
+    )
+    sig = np.array([s.position_fix_sigma_m, s.position_fix_sigma_m, math.radians(s.heading_fix_sigma_deg)])
+    stat = float(np.sum((err / sig) ** 2))
+    dof = err.size
+    assert chi2.ppf(0.001, dof) < stat < chi2.ppf(0.999, dof)
+
+
+def test_sensor_noise_follows_the_seed(vehicle):
+    a, b = Sensors(vehicle, seed=3), Sensors(vehicle, seed=3)
+    pose = np.array([1.0, 2.0, 0.3])
+    ra = [a.read(k, np.zeros(2, dtype=np.int64), pose, np.zeros(2)) for k in range(20)]
+    rb = [b.read(k, np.zeros(2, dtype=np.int64), pose, np.zeros(2)) for k in range(20)]
+    fa = [f.pose for r in ra for f in r.fixes]
+    assert fa and np.array_equal(fa, [f.pose for r in rb for f in r.fixes])
+    c = Sensors(vehicle, seed=4)
+    fc = [f.pose for k in range(20) for f in c.read(k, np.zeros(2, dtype=np.int64), pose, np.zeros(2)).fixes]
+    assert not np.array_equal(fa, fc[: len(fa)])
+
+
+def test_kalman_wheel_speed_beats_the_count_difference(ekf_run):
+    exp, result = ekf_run
+    errors = {}
+    for name in ("kalman", "count_difference"):
+        log = result.log if name == "kalman" else run_experiment(variant(exp, wheel_speed=name)).log
+        err = log["measured_omega_motor_left_rad_s"] - log["omega_motor_left_rad_s"]
+        errors[name] = float(np.sqrt(np.mean(err**2)))
+    # the count difference is the mean speed over the last sample: half a sample late, so during the figure-8's
+    # accelerations its error is of the order a·T_s/2; the filter predicts with eqs 60-61 to t_k
+    assert errors["kalman"] < 0.5 * errors["count_difference"], errors
+
+
+def test_ekf_tracks_the_figure8_and_odometry_drifts(ekf_run):
+    exp, result = ekf_run
+    m = closed_loop_metrics(result)
+    assert m["tracking_error_rms_m"] <= 0.005 and m["estimate_error_rms_m"] <= 0.005
+    odo = closed_loop_metrics(run_experiment(load_experiment(EXPERIMENTS / "figure8_odometry.toml")))
+    # a 0.5 % larger right wheel the odometry does not know: its heading drifts by 0.005·s/b, the position with it
+    assert odo["estimate_error_max_m"] > 10 * m["estimate_error_max_m"]
+
+
+def test_nees_over_seeded_runs_is_in_the_chi_square_interval_and_needs_the_latency_handling(ekf_run):
+    # 50 sensor realisations (encoder phases, fix noise) of one true run, each filter started from an initial
+    # error drawn from its prior P0; the average NEES at a sample is then chi-square(3·50)/50 (Bar-Shalom)
+    exp, result = ekf_run
+    log = result.log
+    lo, hi = chi2.ppf([0.025, 0.975], 3 * N_RUNS) / N_RUNS
+    rng = np.random.default_rng(12)
+    start = np.array([log["x_m"][0], log["y_m"][0], log["theta_rad"][0]])
+    logs = [resense_log(log, exp.plant_vehicle, seed=1000 + i) for i in range(N_RUNS)]
+    anees = {}
+    for name, settings in (("replay", EkfSettings()), ("ignored", EkfSettings(latency_compensation=False))):
+        p0 = np.array([settings.initial_position_sigma_m] * 2 + [settings.initial_heading_sigma_rad])
+        runs = [
+            filter_log(one, exp.controller_vehicle, settings, initial_pose=start + p0 * rng.standard_normal(3))["nees"]
+            for one in logs
+        ]
+        anees[name] = float(np.mean(runs))
+    assert lo <= anees["replay"] <= hi, (anees, lo, hi)
+    assert anees["ignored"] > 10 * hi, (anees, lo, hi)  # 80 ms late at 0.5 m/s: 4 cm against σ = 1 cm
+
+
+def test_offline_filter_reproduces_the_loop_and_the_smoother_improves_on_it(ekf_run, tmp_path):
+    exp, result = ekf_run
+    result.log.to_csv(tmp_path / "log.csv")
+    log = read_log(tmp_path / "log.csv")
+    filtered = filter_log(log, exp.controller_vehicle)
+    for c in ("est_x_m", "est_y_m", "est_theta_rad"):
+        np.testing.assert_allclose(filtered[c], result.log[c], atol=1e-9)
+    smoothed = smooth_log(log, exp.controller_vehicle)
+
+    def rms(est):
+        return float(np.sqrt(np.mean((est["est_x_m"] - log["x_m"]) ** 2 + (est["est_y_m"] - log["y_m"]) ** 2)))
+
+    assert rms(smoothed) < rms(filtered)
+    assert np.all(smoothed["est_sigma_x_m"] <= filtered["est_sigma_x_m"] + 1e-12)
+    # the radius error the plant has (right wheel 0.5 % larger) is what the ε states find
+    assert abs(smoothed["radius_error_right"][-1] - smoothed["radius_error_left"][-1] - 0.005) < 0.002
+
+
+def test_encoder_quantisation_does_not_make_the_wheel_loops_limit_cycle_at_rest():
+    exp = load_experiment(EXPERIMENTS / "line.toml")
+    for wheel_speed in ("kalman", "count_difference"):
+        run = variant(exp, pose="none", pose_settings=None, wheel_speed=wheel_speed, settle_s=4.0)
+        log = run_experiment(run).log
+        rest = log["t_s"] >= exp.reference.duration_s + 2.0  # setpoints zero for 2 s
+        for side in ("left", "right"):
+            assert np.count_nonzero(np.diff(log[f"da_code_{side}"][rest])) == 0, (wheel_speed, side)
+            assert np.all(log[f"omega_motor_{side}_rad_s"][rest] == 0.0)  # held by stiction
+
+
+def test_bad_sensor_and_estimator_keys_are_one_line_errors(tmp_path):
+    src = (EXPERIMENTS / "figure8_ekf.toml").read_text()
+    bad = tmp_path / "bad.toml"
+    bad.write_text(
+        src.replace('wheel_speed = "kalman"', 'wheel_speed = "kalmann"').replace("../", f"{EXPERIMENTS}/../")
+    )
+    with pytest.raises(ConfigError, match=r"controller.wheel_speed: must be one of 'exact'"):
+        load_experiment(bad)
+    bad.write_text(src.replace("sensor_seed = 1", "sensor_seed = -1").replace("../", f"{EXPERIMENTS}/../"))
+    with pytest.raises(ConfigError, match=r"plant.sensor_seed: must be >= 0"):
+        load_experiment(bad)
+    with pytest.raises(ConfigError, match=r"sensors.encoder_counts_per_rev: must be > 0"):
+        load_vehicle(None, ["sensors.encoder_counts_per_rev=0"])
+    with pytest.raises(ConfigError, match=r"sensors.position_fix_sigma_m"):
+        load_vehicle(None, ["sensors.position_fix_sigma_m=-0.01"])
