@@ -106,6 +106,13 @@ def _discrete(a: FloatArray, b: FloatArray, ts: float) -> tuple[FloatArray, Floa
     return e[:n, :n], e[:n, n]
 
 
+Plain = tuple[list[list[float]], list[float]]
+
+
+def _plain(system: tuple[FloatArray, FloatArray]) -> Plain:
+    return system[0].tolist(), system[1].tolist()
+
+
 class KalmanWheelSpeed:
     """A Kalman filter per motor on eqs 60-61 with a load-torque state (``wheel_speed = "kalman"``)."""
 
@@ -131,34 +138,41 @@ class KalmanWheelSpeed:
             _l, p, _e = control.dlqe(voltage[0], g, c, q, r)
             p = np.asarray(p, dtype=float)
             gains.append((p @ c.T).ravel() / float((c @ p @ c.T + r)[0, 0]))
-            self._sides.append((m, voltage, current))
+            self._sides.append((m, _plain(voltage), _plain(current)))
         self.gain = np.array(gains)
         """The filter gains M (left, right: 3 each) on the angle innovation, from the steady-state Riccati
         solution of ``dlqe``."""
-        self._x: FloatArray | None = None
-        self._u = np.zeros(2)
+        self._gain: list[list[float]] = self.gain.tolist()
+        self._x: list[list[float]] | None = None
+        self._u = [0.0, 0.0]
 
     def reset(self) -> None:
         self._x = None
-        self._u = np.zeros(2)
+        self._u = [0.0, 0.0]
 
     def update(self, encoder_counts: NDArray[np.int64], true_omega_rad_s: FloatArray) -> FloatArray:
-        y = (encoder_counts + 0.5) * self.count_rad
+        y = ((float(encoder_counts[0]) + 0.5) * self.count_rad, (float(encoder_counts[1]) + 0.5) * self.count_rad)
         if self._x is None:
-            self._x = np.array([[y[0], 0.0, 0.0], [y[1], 0.0, 0.0]])
+            self._x = [[y[0], 0.0, 0.0], [y[1], 0.0, 0.0]]
             return np.zeros(2)
-        x = self._x
-        for s, (m, (a_v, b_v), (a_i, b_i)) in enumerate(self._sides):
-            i = (self._u[s] - m.voltage_constant_v_s_rad * x[s, 1]) / m.resistance_ohm  # eq 1
+        speeds = []
+        for s, (m, voltage, current) in enumerate(self._sides):
+            x, u = self._x[s], self._u[s]
+            i = (u - m.voltage_constant_v_s_rad * x[1]) / m.resistance_ohm  # eq 1
             if abs(i) > self._i_max:
-                x[s] = a_i @ x[s] + b_i * math.copysign(self._i_max, i)
+                (a, b), u = current, math.copysign(self._i_max, i)
             else:
-                x[s] = a_v @ x[s] + b_v * self._u[s]
-            x[s] += self.gain[s] * (y[s] - x[s, 0])
-        return np.array(x[:, 1])
+                a, b = voltage
+            # predict with eqs 60-61 (plain floats: a 3×3 product in numpy costs more than the arithmetic)
+            p = [a[r][0] * x[0] + a[r][1] * x[1] + a[r][2] * x[2] + b[r] * u for r in range(3)]
+            innovation = y[s] - p[0]
+            g = self._gain[s]
+            self._x[s] = x = [p[r] + g[r] * innovation for r in range(3)]
+            speeds.append(x[1])
+        return np.array(speeds)
 
     def applied(self, da_command_v: FloatArray) -> None:
-        self._u = np.asarray(self._actuator.apply(da_command_v).motor_voltage_v, dtype=float)
+        self._u = [self._actuator.motor_voltage_v(float(v)) for v in da_command_v]
 
 
 WHEEL_SPEED_ESTIMATORS: dict[str, Callable[[VehicleParams], WheelSpeedEstimator]] = {
