@@ -168,3 +168,26 @@ def test_bad_sensor_and_estimator_keys_are_one_line_errors(tmp_path):
         load_vehicle(None, ["sensors.encoder_counts_per_rev=0"])
     with pytest.raises(ConfigError, match=r"sensors.position_fix_sigma_m"):
         load_vehicle(None, ["sensors.position_fix_sigma_m=-0.01"])
+
+
+def test_monte_carlo_samples_get_their_own_sensor_noise_and_check_reports_consistency(tmp_path, capsys):
+    from agvctl.checks.report import CheckReport, ExperimentReport, RunTask
+    from agvctl.checks.runner import run_task
+    from agvctl.cli.check_cmd import format_report
+
+    src = (EXPERIMENTS / "robustness" / "figure8_ekf_mc.toml").read_text()
+    src = src.replace("../../trajectories/figure8.toml", str(EXPERIMENTS.parent / "trajectories" / "line.toml"))
+    path = tmp_path / "line_ekf_mc.toml"
+    path.write_text(src.replace("samples = 50", "samples = 3"))
+    outcomes = [run_task(RunTask(str(path), sample)) for sample in (None, 0, 1)]
+    nees = [o.metrics["nees_mean"] for o in outcomes]
+    assert len(set(nees)) == 3  # the nominal run and each sample: another sensor realisation
+    assert run_task(RunTask(str(path), 1)).metrics["nees_mean"] == nees[2]  # and the same again for the same sample
+    report = ExperimentReport("line_ekf_mc", str(path), [], outcomes, 0.0)
+    c = report.consistency()
+    lo, hi = chi2.ppf([0.025, 0.975], 9) / 3
+    assert c is not None and c["nees_mean"]["interval_95"] == pytest.approx([lo, hi])
+    assert c["nees_mean"]["value"] == pytest.approx(np.mean(nees))
+    assert report.as_dict()["consistency"]["nis_mean"]["runs"] == 3
+    text = format_report(CheckReport([report], 0.0))
+    assert "NEES  mean" in text and "NIS   mean" in text
