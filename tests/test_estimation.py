@@ -191,3 +191,24 @@ def test_monte_carlo_samples_get_their_own_sensor_noise_and_check_reports_consis
     assert report.as_dict()["consistency"]["nis_mean"]["runs"] == 3
     text = format_report(CheckReport([report], 0.0))
     assert "NEES  mean" in text and "NIS   mean" in text
+
+
+def test_gyro_reads_the_mean_yaw_rate_and_the_ekf_fuses_it(ekf_run):
+    exp, _ = ekf_run
+    on = ["sensors.gyro_enabled=true"]
+    gyro_exp = dataclasses.replace(
+        exp,
+        controller_vehicle=exp.controller_vehicle.with_overrides(on),
+        plant_vehicle=exp.plant_vehicle.with_overrides(on),
+    )
+    result = run_experiment(gyro_exp)
+    log, s = result.log, gyro_exp.plant_vehicle.sensors
+    mean_rate = np.diff(log["theta_rad"]) / 0.04  # eq 40 over each sample
+    err = log["gyro_rate_rad_s"][1:] - mean_rate - s.gyro_bias_rad_s
+    assert np.isnan(log["gyro_rate_rad_s"][0])
+    var = s.gyro_sigma_rad_s**2 + s.gyro_quantum_rad_s**2 / 12  # white noise and the reading's rounding
+    stat, dof = float(np.sum(err**2) / var), err.size
+    assert chi2.ppf(0.001, dof) < stat < chi2.ppf(0.999, dof)
+    m = closed_loop_metrics(result)
+    assert m["estimate_error_rms_m"] <= 0.005 and m["tracking_error_rms_m"] <= 0.005
+    assert 1.0 < m["nees_mean"] < 6.0  # of the order of its 3 degrees of freedom (one run: no tight interval)

@@ -31,7 +31,15 @@ from agvctl.sim.ekf import EkfSettings, PoseEkf
 from agvctl.sim.log import SimLog
 from agvctl.sim.sensors import PositionFix, Sensors
 
-__all__ = ["ESTIMATE_COLUMNS", "filter_log", "read_log", "resense_log", "smooth_log"]
+__all__ = [
+    "ESTIMATE_COLUMNS",
+    "filter_log",
+    "log_encoder_counts",
+    "log_fixes",
+    "read_log",
+    "resense_log",
+    "smooth_log",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -92,8 +100,8 @@ _RESENSED = (
 )
 
 
-def _fixes(log: SimLog, ts: float) -> list[tuple[PositionFix, ...]]:
-    """The fixes arriving at each sample, from the ``fix_*`` columns."""
+def log_fixes(log: SimLog, ts: float) -> list[tuple[PositionFix, ...]]:
+    """The fixes arriving at each sample of a log (from its ``fix_*`` columns), T_s = ``ts`` in s."""
     out: list[tuple[PositionFix, ...]] = []
     for t_meas, x, y, th in zip(
         log["fix_measured_t_s"], log["fix_x_m"], log["fix_y_m"], log["fix_theta_rad"], strict=True
@@ -111,7 +119,8 @@ def _start(log: SimLog) -> FloatArray:
     return np.array([log["est_x_m"][0], log["est_y_m"][0], log["est_theta_rad"][0]])
 
 
-def _counts(log: SimLog) -> NDArray[np.int64]:
+def log_encoder_counts(log: SimLog) -> NDArray[np.int64]:
+    """The latched counts of a log (samples × 2: left, right)."""
     return np.column_stack([log["encoder_count_left"], log["encoder_count_right"]]).round().astype(np.int64)
 
 
@@ -137,7 +146,11 @@ def filter_log(
     ``initial_pose`` (x_m, y_m, theta_rad; default the log's first estimate, as the loop did)."""
     ekf = PoseEkf(vehicle, settings)
     ekf.reset(_start(log) if initial_pose is None else np.asarray(initial_pose, dtype=float))
-    counts, gyro, fixes = _counts(log), log["gyro_rate_rad_s"], _fixes(log, vehicle.control.sample_period_s)
+    counts, gyro, fixes = (
+        log_encoder_counts(log),
+        log["gyro_rate_rad_s"],
+        log_fixes(log, vehicle.control.sample_period_s),
+    )
     states, covs = np.empty((len(log), 5)), np.empty((len(log), 5, 5))
     for k in range(len(log)):
         ekf.step(k, counts[k], float(gyro[k]), fixes[k])
@@ -151,9 +164,9 @@ def smooth_log(log: SimLog, vehicle: VehicleParams, settings: EkfSettings | None
     ekf = PoseEkf(vehicle, settings)
     ekf.reset(_start(log))
     n, ts = len(log), vehicle.control.sample_period_s
-    counts, gyro = _counts(log), log["gyro_rate_rad_s"]
+    counts, gyro = log_encoder_counts(log), log["gyro_rate_rad_s"]
     by_sample: dict[int, list[PositionFix]] = {}
-    for arrived in _fixes(log, ts):
+    for arrived in log_fixes(log, ts):
         for fix in arrived:
             by_sample.setdefault(fix.measured_sample, []).append(fix)
     x, P = ekf.x.copy(), ekf.P.copy()

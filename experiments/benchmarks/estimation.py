@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from agvctl.sim.ekf import PoseEkf
-from agvctl.sim.estimation import _counts, _fixes
+from agvctl.sim.estimation import log_encoder_counts, log_fixes
 from agvctl.sim.experiment import Experiment, load_experiment, run_experiment
 from agvctl.sim.sensors import Sensors
 from agvctl.sim.wheel_speed import KalmanWheelSpeed
@@ -48,7 +48,7 @@ def main() -> int:
     exp = load_experiment(EXPERIMENT)
     log = run_experiment(exp).log  # also the warm-up: the compiled plant and OSQP set up once
     vehicle, ts = exp.controller_vehicle, exp.controller_vehicle.control.sample_period_s
-    counts, gyro, fixes = _counts(log), log["gyro_rate_rad_s"], _fixes(log, ts)
+    counts, gyro, fixes = log_encoder_counts(log), log["gyro_rate_rad_s"], log_fixes(log, ts)
     n = len(log)
 
     ekf_times: list[float] = []
