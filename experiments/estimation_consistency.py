@@ -11,6 +11,8 @@ rest.
 3. Motor-speed error against the truth at the sample instants: Kalman filter vs count difference.
 4. DA code changes per second at rest (the last 2 s of a 4 s settle after the line): the wheel loops alone
    (feed-forward pose controller, setpoints zero) and the whole cascade (MPC on the EKF, on the truth).
+5. Low speed: the wheel loops alone on a 5 mm/s line (1.8 rad/s at the motor): DA code changes per second, the
+   true wheel speed's mean and ripple, and whether a wheel ever stops (stick-slip).
 
 Run:  python experiments/estimation_consistency.py [--runs 50]
 """
@@ -25,9 +27,15 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import chi2
 
+from agvctl.controllers.base import FeedForwardPoseController
+from agvctl.controllers.pi import PIWheelController
+from agvctl.controllers.tuning import default_pi_gains
+from agvctl.params import VehicleParams
+from agvctl.planning import LineSegment, WheelLimits, plan_segments
 from agvctl.sim.ekf import EkfSettings
 from agvctl.sim.estimation import filter_log
 from agvctl.sim.experiment import Experiment, load_experiment, run_experiment
+from agvctl.sim.loop import run_closed_loop
 from agvctl.sim.metrics import closed_loop_metrics
 
 HERE = Path(__file__).resolve().parent
@@ -97,7 +105,33 @@ def main() -> int:
         seconds = log["t_s"][rest][-1] - log["t_s"][rest][0]
         setting = f"pose = {pose!r:6} localization = {localization!r:7} wheel_speed = {wheel_speed!r:18}"
         print(f"   {setting} {changes / seconds:6.1f} /s")
+    low_speed(load_experiment(HERE / "line.toml").controller_vehicle)
     return 0
+
+
+def low_speed(vehicle: VehicleParams, speed_m_s: float = 0.005) -> None:
+    limits = WheelLimits(wheel_speed_m_s=0.8, wheel_accel_m_s2=0.5, wheel_jerk_m_s3=3.0)
+    segment = LineSegment(length_m=10 * speed_m_s, speed_m_s=speed_m_s)
+    ref = plan_segments([segment], limits=limits, separation_m=vehicle.wheels.separation_m, sample_period_s=0.04)
+    gains, _tau = default_pi_gains(vehicle)
+    print(f"5. wheel loops alone at {speed_m_s * 1e3:g} mm/s (feed-forward pose controller; the cruise, left wheel)")
+    for wheel_speed in ("exact", "kalman", "count_difference"):
+        log = run_closed_loop(
+            plant_vehicle=vehicle,
+            controller_vehicle=vehicle,
+            reference=ref,
+            pose_controller=FeedForwardPoseController(),
+            wheel_controller=PIWheelController(vehicle, gains, coulomb_feedforward=True),
+            wheel_speed=wheel_speed,
+        ).log
+        t = log["t_s"]
+        cruise = (t > 2.0) & (t < ref.duration_s - 2.0)
+        changes = np.count_nonzero(np.diff(log["da_code_left"][cruise])) / (t[cruise][-1] - t[cruise][0])
+        w = log["wheel_speed_left_m_s"][cruise] * 1e3
+        print(
+            f"   {wheel_speed:17} DA code changes {changes:5.1f} /s   speed {w.mean():.2f} mm/s ± {w.std():.3f} "
+            f"(std)   stopped {np.count_nonzero(w == 0)} samples"
+        )
 
 
 if __name__ == "__main__":

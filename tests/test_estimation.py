@@ -212,3 +212,32 @@ def test_gyro_reads_the_mean_yaw_rate_and_the_ekf_fuses_it(ekf_run):
     m = closed_loop_metrics(result)
     assert m["estimate_error_rms_m"] <= 0.005 and m["tracking_error_rms_m"] <= 0.005
     assert 1.0 < m["nees_mean"] < 6.0  # of the order of its 3 degrees of freedom (one run: no tight interval)
+
+
+@pytest.mark.parametrize("wheel_speed", ["kalman", "count_difference"])
+def test_encoder_speeds_do_not_make_the_wheels_stick_slip_at_low_speed(vehicle, wheel_speed):
+    from agvctl.controllers.base import FeedForwardPoseController
+    from agvctl.controllers.pi import PIWheelController
+    from agvctl.controllers.tuning import default_pi_gains
+    from agvctl.planning import LineSegment, WheelLimits, plan_segments
+    from agvctl.sim.loop import run_closed_loop
+
+    speed = 0.005  # 5 mm/s: 1.8 rad/s at the motor, 23 counts per sample
+    limits = WheelLimits(wheel_speed_m_s=0.8, wheel_accel_m_s2=0.5, wheel_jerk_m_s3=3.0)
+    ref = plan_segments(
+        [LineSegment(length_m=0.05, speed_m_s=speed)], limits=limits, separation_m=0.54, sample_period_s=0.04
+    )
+    gains, _tau = default_pi_gains(vehicle)
+    log = run_closed_loop(
+        plant_vehicle=vehicle,
+        controller_vehicle=vehicle,
+        reference=ref,
+        pose_controller=FeedForwardPoseController(),
+        wheel_controller=PIWheelController(vehicle, gains, coulomb_feedforward=True),
+        wheel_speed=wheel_speed,
+    ).log
+    cruise = (log["t_s"] > 2.0) & (log["t_s"] < ref.duration_s - 2.0)
+    for side in ("left", "right"):
+        w = log[f"wheel_speed_{side}_m_s"][cruise]
+        assert np.all(w > 0)  # never stuck: stiction would hold a wheel whose loop limit-cycles through zero
+        assert abs(w.mean() - speed) < 0.01 * speed and w.std() < 0.05 * speed
