@@ -131,6 +131,8 @@ def test_offline_filter_reproduces_the_loop_and_the_smoother_improves_on_it(ekf_
     filtered = filter_log(log, exp.controller_vehicle)
     for c in ("est_x_m", "est_y_m", "est_theta_rad"):
         np.testing.assert_allclose(filtered[c], result.log[c], atol=1e-9)
+    # the loop's NEES (Cramer's rule in floats) and the offline one (numpy's solve) agree
+    np.testing.assert_allclose(filtered["nees"], result.log["nees"], rtol=1e-6, atol=1e-9)
     smoothed = smooth_log(log, exp.controller_vehicle)
 
     def rms(est):

@@ -94,16 +94,22 @@ def consistency(estimator: object, estimate: FloatArray, true_pose: FloatArray) 
     """``(σ_x m, σ_y m, σ_θ rad, NEES, NIS)`` of an estimator with a ``pose_covariance``, NaN for one without.
 
     NEES is eᵀP⁻¹e with e the estimate's error against the truth (heading wrapped), 3 degrees of freedom; NIS the
-    estimator's ``last_nis`` (NaN at samples without a fix).
+    estimator's ``last_nis`` (NaN at samples without a fix). In plain floats (Cramer's rule on the symmetric 3×3
+    P): it runs every sample, where numpy's per-call cost would exceed the arithmetic.
     """
     cov = getattr(estimator, "pose_covariance", None)
     if cov is None:
         return (math.nan,) * 5
-    e = np.asarray(estimate, dtype=float) - true_pose
-    e[2] = wrap_angle(float(e[2]))
-    nees = float(e @ np.linalg.solve(cov, e))
-    sigma = np.sqrt(np.diag(cov))
-    return (float(sigma[0]), float(sigma[1]), float(sigma[2]), nees, float(getattr(estimator, "last_nis", math.nan)))
+    (a, b, c), (_, d, e), (_, _, f) = np.asarray(cov, dtype=float).tolist()
+    x, y, t = (float(v) for v in np.asarray(estimate, dtype=float) - true_pose)
+    t = wrap_angle(t)
+    # adj(P) of P = [[a b c] [b d e] [c e f]], and det P
+    A, B, C = d * f - e * e, c * e - b * f, b * e - c * d
+    D, E, F = a * f - c * c, b * c - a * e, a * d - b * b
+    det = a * A + b * B + c * C
+    nees = (A * x * x + D * y * y + F * t * t + 2 * (B * x * y + C * x * t + E * y * t)) / det
+    nis = float(getattr(estimator, "last_nis", math.nan))
+    return (math.sqrt(a), math.sqrt(d), math.sqrt(f), nees, nis)
 
 
 def estimate_position_error_m(log: SimLog, ts: float = 0.0) -> NDArray[np.float64]:
