@@ -66,7 +66,7 @@ class PoseEkf:
         self.separation_m = w.separation_m
         ts = vehicle.control.sample_period_s
         self.sample_period_s = ts
-        self._count_var = self.metres_per_count**2 / 6.0  # two latched counts, each uniform over one count
+        self._count_var = (self.metres_per_count**2 / 6.0).tolist()  # two latched counts, each uniform over one
         self._use_gyro = sens.gyro_enabled
         self._gyro_bias = sens.gyro_bias_rad_s
         self._gyro_var = (sens.gyro_sigma_rad_s**2 + sens.gyro_quantum_rad_s**2 / 12.0) * ts**2
@@ -129,39 +129,34 @@ class PoseEkf:
 
     def transition(self, x: FloatArray, travel: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Eqs 39-43 over one sample from state ``x`` with ``travel`` = (d_l m, d_r m, gyro Δθ rad or NaN):
-        the next state, its Jacobian F (5×5) and the process noise Q (5×5)."""
-        d_l, d_r, gyro_dtheta = travel
-        e_l, e_r = x[3], x[4]
+        the next state, its Jacobian F (5×5) and the process noise Q (5×5). Scalars in plain floats, one array
+        built per result: numpy's per-call cost would exceed the arithmetic."""
+        d_l, d_r, gyro_dtheta = travel.tolist()
+        px, py, th, e_l, e_r = x.tolist()
         b = self.separation_m
         s_l, s_r = (1.0 + e_l) * d_l, (1.0 + e_r) * d_r
         ds = 0.5 * (s_l + s_r)  # eq 39
         gyro = self._use_gyro and not math.isnan(gyro_dtheta)
         dtheta = gyro_dtheta if gyro else (s_r - s_l) / b  # eq 40
-        mid = x[2] + 0.5 * dtheta
+        mid = th + 0.5 * dtheta
         c, s = math.cos(mid), math.sin(mid)
-        x_new = x.copy()
-        x_new[0] += ds * c  # eqs 41-43
-        x_new[1] += ds * s
-        x_new[2] += dtheta
+        x_new = np.array([px + ds * c, py + ds * s, th + dtheta, e_l, e_r])  # eqs 41-43
         # ∂(x, y, θ)/∂(s_l, s_r): how each wheel's travel moves the pose
         k_h = 0.0 if gyro else 1.0 / b
-        g = np.array(
-            [
-                [0.5 * c + 0.5 * ds * s * k_h, 0.5 * c - 0.5 * ds * s * k_h],
-                [0.5 * s - 0.5 * ds * c * k_h, 0.5 * s + 0.5 * ds * c * k_h],
-                [-k_h, k_h],
-            ]
-        )
+        gl = (0.5 * c + 0.5 * ds * s * k_h, 0.5 * s - 0.5 * ds * c * k_h, -k_h)
+        gr = (0.5 * c - 0.5 * ds * s * k_h, 0.5 * s + 0.5 * ds * c * k_h, k_h)
         F = np.eye(5)
         F[0, 2], F[1, 2] = -ds * s, ds * c
-        F[:3, 3] = g[:, 0] * d_l
-        F[:3, 4] = g[:, 1] * d_r
-        wheel_var = self._count_var + (self.settings.slip_sigma * np.array([d_l, d_r])) ** 2
+        F[0, 3], F[1, 3], F[2, 3] = gl[0] * d_l, gl[1] * d_l, gl[2] * d_l
+        F[0, 4], F[1, 4], F[2, 4] = gr[0] * d_r, gr[1] * d_r, gr[2] * d_r
+        slip = self.settings.slip_sigma
+        v_l = self._count_var[0] + (slip * d_l) ** 2
+        v_r = self._count_var[1] + (slip * d_r) ** 2
+        gg = (-0.5 * ds * s, 0.5 * ds * c, 1.0) if gyro else (0.0, 0.0, 0.0)
         Q = np.zeros((5, 5))
-        Q[:3, :3] = (g * wheel_var) @ g.T
-        if gyro:
-            gyro_g = np.array([-0.5 * ds * s, 0.5 * ds * c, 1.0])
-            Q[:3, :3] += self._gyro_var * np.outer(gyro_g, gyro_g)
+        for i in range(3):
+            for j in range(i, 3):
+                Q[i, j] = Q[j, i] = gl[i] * gl[j] * v_l + gr[i] * gr[j] * v_r + gg[i] * gg[j] * self._gyro_var
         Q[3, 3] = Q[4, 4] = self._walk_var
         return x_new, F, Q
 
