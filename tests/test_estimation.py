@@ -243,3 +243,27 @@ def test_encoder_speeds_do_not_make_the_wheels_stick_slip_at_low_speed(vehicle, 
         w = log[f"wheel_speed_{side}_m_s"][cruise]
         assert np.all(w > 0)  # never stuck: stiction would hold a wheel whose loop limit-cycles through zero
         assert abs(w.mean() - speed) < 0.01 * speed and w.std() < 0.05 * speed
+
+
+def test_a_late_fix_replayed_gives_the_estimate_of_one_that_came_on_time(vehicle):
+    from agvctl.sim.ekf import PoseEkf
+    from agvctl.sim.sensors import PositionFix
+
+    rng = np.random.default_rng(21)
+    counts = np.cumsum(rng.integers(900, 1400, size=(30, 2)), axis=0)  # a turning drive, about 0.5 m/s
+    fix = PositionFix(10, 0.4, np.array([0.21, 0.03, 0.05]))
+    on_time, late = PoseEkf(vehicle), PoseEkf(vehicle)
+    for ekf in (on_time, late):
+        ekf.reset(np.zeros(3))
+    for k in range(30):
+        a = on_time.step(k, counts[k], math.nan, (fix,) if k == 10 else ())
+        b = late.step(k, counts[k], math.nan, (fix,) if k == 12 else ())
+        if k >= 12:  # the replay makes the late filter the on-time one, state and covariance
+            np.testing.assert_allclose(b, a, rtol=0, atol=1e-12)
+            np.testing.assert_allclose(late.P, on_time.P, rtol=1e-9, atol=1e-18)
+    assert late.dropped_fixes == 0
+
+
+def test_more_fixes_than_samples_is_a_one_line_error():
+    with pytest.raises(ConfigError, match=r"sensors.position_fix_rate_hz: at most one fix per control sample"):
+        load_vehicle(None, ["sensors.position_fix_rate_hz=30"])

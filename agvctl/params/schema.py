@@ -264,6 +264,13 @@ class VehicleParams:
     sensors: SensorParams = dataclasses.field(default_factory=SensorParams)
 
     def validate(self, *, source: str, prefix: str) -> None:
+        per_sample_hz, rate_hz = 1.0 / self.control.sample_period_s, self.sensors.position_fix_rate_hz
+        if rate_hz > per_sample_hz * (1 + 1e-9):
+            raise ConfigError(
+                source,
+                "sensors.position_fix_rate_hz",
+                f"at most one fix per control sample: <= {per_sample_hz:g} Hz (got {rate_hz:g})",
+            )
         for side, m in (("left", self.motor.left), ("right", self.motor.right)):
             stall = self.amplifier.current_limit_a * m.torque_constant_n_m_a
             if stall <= m.stiction_n_m:

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
 from agvctl.params import VehicleParams
-from agvctl.sim.sensors import Measurements, PositionFix
+from agvctl.sim.sensors import Measurements, PositionFix, fix_delay_samples
 
 __all__ = ["EkfSettings", "PoseEkf"]
 
@@ -49,7 +49,8 @@ class EkfSettings:
     latency_compensation: bool = True
     """Apply each fix at the sample it was measured and replay the travels since (buffer and replay)."""
     history_s: float = 2.0
-    """How far back fixes are replayed; older ones are dropped (counted in :attr:`PoseEkf.dropped_fixes`)."""
+    """How far back fixes are replayed (at least the believed latency); older ones are dropped (counted in
+    :attr:`PoseEkf.dropped_fixes`)."""
 
 
 class PoseEkf:
@@ -72,7 +73,8 @@ class PoseEkf:
         self._gyro_var = (sens.gyro_sigma_rad_s**2 + sens.gyro_quantum_rad_s**2 / 12.0) * ts**2
         self._walk_var = s.radius_walk_sigma_per_sqrt_s**2 * ts
         self._fix_r = np.diag([sens.position_fix_sigma_m**2] * 2 + [math.radians(sens.heading_fix_sigma_deg) ** 2])
-        self._history_samples = max(1, int(round(s.history_s / ts)))
+        # at least the fixes' believed delay and two samples more, whatever history_s says
+        self._history_samples = max(int(round(s.history_s / ts)), fix_delay_samples(vehicle) + 2)
         self.x = np.zeros(5)
         self.P = np.zeros((5, 5))
         self.last_nis = math.nan
