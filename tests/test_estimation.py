@@ -267,3 +267,19 @@ def test_a_late_fix_replayed_gives_the_estimate_of_one_that_came_on_time(vehicle
 def test_more_fixes_than_samples_is_a_one_line_error():
     with pytest.raises(ConfigError, match=r"sensors.position_fix_rate_hz: at most one fix per control sample"):
         load_vehicle(None, ["sensors.position_fix_rate_hz=30"])
+
+
+def test_every_estimator_runs_on_a_logged_run_as_in_the_loop(ekf_run):
+    from agvctl.sim.estimation import estimate_log, wheel_speeds_log
+
+    exp, result = ekf_run
+    log = result.log
+    again = estimate_log(log, exp.controller_vehicle, "ekf")
+    for c in ("est_x_m", "est_y_m", "est_theta_rad"):
+        np.testing.assert_allclose(again[c], log[c], atol=1e-12)
+    speeds = wheel_speeds_log(log, exp.controller_vehicle, "kalman")
+    for side in ("left", "right"):
+        np.testing.assert_allclose(speeds[f"omega_motor_{side}_rad_s"], log[f"measured_omega_motor_{side}_rad_s"])
+    odo = load_experiment(EXPERIMENTS / "figure8_odometry.toml")
+    odo_log = run_experiment(odo).log
+    np.testing.assert_allclose(estimate_log(odo_log, odo.controller_vehicle)["est_x_m"], odo_log["est_x_m"])

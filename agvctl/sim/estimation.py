@@ -1,4 +1,4 @@
-"""Estimation on logged data: the EKF and an RTS smoother over a closed-loop ``log.csv``.
+"""Estimation on logged data: every estimator, the EKF and an RTS smoother over a closed-loop ``log.csv``.
 
 A closed-loop log records what the sensors read (``encoder_count_*``, ``gyro_rate_rad_s``, the fixes as they
 arrived with ``fix_measured_t_s``), so the estimators can be run again offline, with other settings or another
@@ -10,6 +10,8 @@ believed vehicle::
     log = read_log("out/figure8_ekf/log.csv")
     smoothed = smooth_log(log, load_vehicle())        # est_x_m, est_y_m, est_theta_rad, est_sigma_*, ...
 
+:func:`estimate_log` runs any pose estimator (a name of :data:`~agvctl.sim.estimators.ESTIMATORS`, or yours) and
+:func:`wheel_speeds_log` any wheel-speed estimator over the logged readings, fed as the loop fed them.
 :func:`filter_log` replays the causal EKF exactly as the loop ran it (fixes applied when they arrived, with or
 without latency compensation). :func:`smooth_log` knows the whole run: each fix is applied at the sample it was
 measured (no latency to handle offline), then a Rauch-Tung-Striebel backward pass gives every sample the
@@ -28,17 +30,21 @@ from numpy.typing import NDArray
 from agvctl.angles import wrap_angle
 from agvctl.params import VehicleParams
 from agvctl.sim.ekf import EkfSettings, PoseEkf
+from agvctl.sim.estimators import ESTIMATORS, PoseEstimator
 from agvctl.sim.log import SimLog
-from agvctl.sim.sensors import PositionFix, Sensors
+from agvctl.sim.sensors import Measurements, PositionFix, Sensors
+from agvctl.sim.wheel_speed import WHEEL_SPEED_ESTIMATORS, WheelSpeedEstimator
 
 __all__ = [
     "ESTIMATE_COLUMNS",
+    "estimate_log",
     "filter_log",
     "log_encoder_counts",
     "log_fixes",
     "read_log",
     "resense_log",
     "smooth_log",
+    "wheel_speeds_log",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -133,6 +139,44 @@ def _table(log: SimLog, states: FloatArray, covs: FloatArray) -> SimLog:
         nees = np.einsum("ki,ki->k", e, np.linalg.solve(covs[:, :3, :3], e[:, :, None])[:, :, 0])
     cols = [log["t_s"], *states[:, :3].T, *sig[:, :3].T, states[:, 3], states[:, 4], nees]
     return SimLog({name: np.asarray(c, dtype=float) for name, c in zip(ESTIMATE_COLUMNS, cols, strict=True)})
+
+
+def _pair(log: SimLog, name: str) -> FloatArray:
+    return np.column_stack([log[name.format("left")], log[name.format("right")]])
+
+
+def estimate_log(log: SimLog, vehicle: VehicleParams, localization: str | PoseEstimator = "odometry") -> SimLog:
+    """A pose estimator over a log (``t_s``, ``est_x_m``, ``est_y_m``, ``est_theta_rad``), started at the log's
+    first estimate and fed each row's readings as the loop fed them; ``vehicle`` is the believed one."""
+    estimator = ESTIMATORS[localization](vehicle) if isinstance(localization, str) else localization
+    estimator.reset(_start(log))
+    w, m = vehicle.wheels, vehicle.motor
+    rim_per_motor = np.array([w.radius_left_m / m.left.gear_ratio, w.radius_right_m / m.right.gear_ratio])
+    counts, fixes = log_encoder_counts(log), log_fixes(log, vehicle.control.sample_period_s)
+    poses = np.column_stack([log["x_m"], log["y_m"], log["theta_rad"]])
+    wheel = _pair(log, "measured_omega_motor_{}_rad_s") * rim_per_motor
+    t, gyro = log["t_s"], log["gyro_rate_rad_s"]
+    est = np.empty((len(log), 3))
+    for k in range(len(log)):
+        meas = Measurements(k, float(t[k]), poses[k], wheel[k], counts[k], float(gyro[k]), fixes[k])
+        est[k] = estimator.update(meas)
+    return SimLog({"t_s": np.array(t), "est_x_m": est[:, 0], "est_y_m": est[:, 1], "est_theta_rad": est[:, 2]})
+
+
+def wheel_speeds_log(log: SimLog, vehicle: VehicleParams, wheel_speed: str | WheelSpeedEstimator = "kalman") -> SimLog:
+    """A wheel-speed estimator over a log's counts and DA commands (``t_s``, ``omega_motor_{left,right}_rad_s``);
+    ``vehicle`` is the believed one."""
+    speeds = WHEEL_SPEED_ESTIMATORS[wheel_speed](vehicle) if isinstance(wheel_speed, str) else wheel_speed
+    speeds.reset()
+    counts, true_omega = log_encoder_counts(log), _pair(log, "omega_motor_{}_rad_s")
+    commands = _pair(log, "da_command_{}_v")
+    omega = np.empty((len(log), 2))
+    for k in range(len(log)):
+        omega[k] = speeds.update(counts[k], true_omega[k])
+        speeds.applied(commands[k])
+    return SimLog(
+        {"t_s": np.array(log["t_s"]), "omega_motor_left_rad_s": omega[:, 0], "omega_motor_right_rad_s": omega[:, 1]}
+    )
 
 
 def filter_log(
