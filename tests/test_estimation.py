@@ -283,3 +283,14 @@ def test_every_estimator_runs_on_a_logged_run_as_in_the_loop(ekf_run):
     odo = load_experiment(EXPERIMENTS / "figure8_odometry.toml")
     odo_log = run_experiment(odo).log
     np.testing.assert_allclose(estimate_log(odo_log, odo.controller_vehicle)["est_x_m"], odo_log["est_x_m"])
+
+
+def test_plant_set_makes_the_true_sensors_differ_from_the_belief(ekf_run):
+    exp, result = ekf_run
+    worse = exp.plant_vehicle.with_overrides(["sensors.position_fix_sigma_m=0.03"])
+    assert exp.controller_vehicle.sensors.position_fix_sigma_m == 0.01  # the EKF still believes 1 cm
+    noisy = closed_loop_metrics(run_experiment(dataclasses.replace(exp, plant_vehicle=worse)))
+    matched = closed_loop_metrics(result)
+    # position innovations 3x larger than believed: the NIS's two position terms grow about ninefold
+    assert noisy["nis_mean"] > 3 * matched["nis_mean"]
+    assert noisy["estimate_error_rms_m"] > matched["estimate_error_rms_m"]
