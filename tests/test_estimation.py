@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
+from agvctl.angles import wrap_angle
 from agvctl.errors import ConfigError
 from agvctl.params import load_vehicle
 from agvctl.sim.ekf import EkfSettings
@@ -62,7 +63,7 @@ def test_fixes_arrive_at_the_rate_and_latency_of_the_sensor_table(ekf_run):
     k_meas = np.round(log["fix_measured_t_s"][arrived] / 0.04).astype(int)
     err = np.column_stack(
         [log[c][arrived] - log[t][k_meas] for c, t in (("fix_x_m", "x_m"), ("fix_y_m", "y_m"))]
-        + [log["fix_theta_rad"][arrived] - log["theta_rad"][k_meas]]
+        + [wrap_angle(log["fix_theta_rad"][arrived] - log["theta_rad"][k_meas])]
     )
     sig = np.array([s.position_fix_sigma_m, s.position_fix_sigma_m, math.radians(s.heading_fix_sigma_deg)])
     stat = float(np.sum((err / sig) ** 2))

@@ -7,9 +7,9 @@
 * **Rate gyro** (optional): the mean yaw rate over the last sample (eq 40 integrated: Δθ/T_s) plus a constant bias
   and white noise, rounded to the reading's resolution.
 * **Position fixes** from a beacon/laser system: the pose at a sample instant with Gaussian noise (σ in x and y,
-  σ in heading), ``position_fix_rate_hz`` on average (each fix at the first sample on or after its nominal time),
-  delivered ``position_fix_latency_s`` later, at the first sample on or after its arrival, stamped with the time
-  it was measured.
+  σ in heading; the heading wrapped to [−π, π)), ``position_fix_rate_hz`` on average (each fix at the first
+  sample on or after its nominal time), delivered ``position_fix_latency_s`` later, at the first sample on or
+  after its arrival, stamped with the time it was measured.
 
 Noise streams are independent per sensor (``seed`` with a stream index), so enabling the gyro does not change
 the fixes' noise.
@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from agvctl.angles import wrap_angle
 from agvctl.params import VehicleParams
 
 __all__ = ["Measurements", "PositionFix", "Sensors", "fix_delay_samples"]
@@ -120,6 +121,7 @@ class Sensors:
         self._previous_theta = theta
         if self.fix_due(k):
             noisy = np.asarray(pose, dtype=float) + self._fix_sigma * self._fix_rng.standard_normal(3)
+            noisy[2] = wrap_angle(float(noisy[2]))  # a beacon system reports the heading in [−π, π)
             self._pending.append((k + self._delay, PositionFix(k, k * self.sample_period_s, noisy)))
         arrived = []
         while self._pending and self._pending[0][0] <= k:
