@@ -7,9 +7,11 @@ with the corrections listed in the README's model notes. Data flows one way::
                             plant: FullModel (CasADi, eqs 2-4, 39-59) | linear_model | decoupled_wheel_models
     trajectories/*.toml ──► planning.plan ──► Reference
     experiments/*.toml ──► sim.experiment.load_experiment ──► sim.experiment.run_experiment:
-        every sample: controllers (MPC pose ─► PI wheel) ─► actuator.Actuator (DA, amplifier)
+        every sample: sim.sensors (encoder counts, gyro, late position fixes) ─► sim.wheel_speed | sim.estimators
+                      (EKF) ─► controllers (MPC pose ─► PI wheel) ─► actuator.Actuator (DA, amplifier)
                       ─► sim.integrator.CompiledPlant (RK4, generated C) ─► SimLog
     SimLog ──► checks.runner.check_experiments (limits, JUnit) | plots | calibration (identify) ──► cli.main
+    SimLog ──► sim.estimation (the EKF and an RTS smoother offline)
 
 Start with :func:`agvctl.params.load_vehicle`, :func:`agvctl.sim.simulate_open_loop` (DA voltages in, a
 :class:`~agvctl.sim.SimLog` out) and :func:`agvctl.sim.experiment.run_experiment` on

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from agvctl.angles import wrap_angle
 from agvctl.checks.fuzz_report import FUZZ_METRICS, FuzzReport
 from agvctl.checks.report import CheckReport
 from agvctl.controllers.tuning import TuningResult, frequency_response, loop_polynomials
@@ -42,6 +43,8 @@ CLOSED_LOOP_PLOTS = (
     "wheel_accel.png",
     "solve_time.png",
 )
+"""Written by every closed-loop run; with an estimator that has a covariance (``localization = "ekf"``) also
+``estimate.png``: the estimate's error against the truth with its ±3σ bounds, and the NEES."""
 
 
 def _figure(**kwargs: Any) -> Any:
@@ -158,6 +161,8 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
     ax.set(xlabel="pose-controller step time [ms]", ylabel="samples")
     ax.legend(loc="best", fontsize=8)
     finish(fig, "solve_time.png")
+    if np.any(np.isfinite(log["est_sigma_x_m"])):
+        finish(_estimate_figure(log), "estimate.png")
     return written
 
 
@@ -174,6 +179,33 @@ def _path_error_figure(log: SimLog) -> Any:
     a2.set(xlabel="t [s]", ylabel="along-track lag [cm]\n(> 0: behind)")
     for a in (a1, a2):
         a.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def _estimate_figure(log: SimLog) -> Any:
+    """Estimate minus truth in x, y (mm) and θ (°) inside ±3σ, and the NEES against its 95 % chi-square bounds."""
+    from scipy.stats import chi2
+
+    t = log["t_s"]
+    fig, axes = _subplots(4, 1, figsize=(8, 8), sharex=True)
+    rows = (("x", "x_m", 1e3, "mm"), ("y", "y_m", 1e3, "mm"), ("theta", "theta_rad", 180 / math.pi, "°"))
+    for a, (name, col, scale, unit) in zip(axes, rows, strict=False):
+        err = log[f"est_{col}"] - log[col]
+        if name == "theta":
+            err = wrap_angle(err)
+        sigma = log[f"est_sigma_{col}" if name != "theta" else "est_sigma_theta_rad"]
+        a.plot(t, err * scale, "C0", lw=1, label="estimate − truth")
+        a.fill_between(t, -3 * sigma * scale, 3 * sigma * scale, color="C0", alpha=0.15, label="±3σ")
+        a.set(ylabel=f"{name} error [{unit}]")
+        a.grid(alpha=0.3)
+    axes[0].legend(loc="best", fontsize=8)
+    lo, hi = chi2.ppf([0.025, 0.975], 3)
+    axes[3].semilogy(t, np.maximum(log["nees"], 1e-3), "C2", lw=0.8, label="NEES")
+    for v in (lo, hi):
+        axes[3].axhline(v, color="r", ls=":", lw=1)
+    axes[3].set(xlabel="t [s]", ylabel="NEES (3 dof)")
+    axes[3].grid(alpha=0.3)
     return fig
 
 

@@ -37,3 +37,12 @@ def test_codes_directly(vehicle):
     out = Actuator(vehicle).from_codes([100, 5000])
     assert out.da_voltage_v[0] == pytest.approx(100 * ALPHA)
     assert out.da_code[1] == 2047 and out.da_clipped[1]
+
+
+def test_scalar_motor_voltage_is_the_chain_for_one_side(vehicle):
+    actuator = Actuator(vehicle)
+    requests = np.concatenate([np.linspace(-7.0, 7.0, 1001), [np.nan, 2.5 * actuator.volts_per_code]])
+    expected = actuator.apply(requests).motor_voltage_v
+    assert [actuator.motor_voltage_v(float(v)) for v in requests] == list(expected)
+    lowered = Actuator(vehicle.with_overrides(["amplifier.voltage_limit_v=3.0"]))
+    assert lowered.motor_voltage_v(4.0) == 3.0 and lowered.motor_voltage_v(-4.0) == -3.0

@@ -8,6 +8,7 @@ Monte Carlo sample) is decided by the worst run: the one with the largest value,
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -143,9 +144,26 @@ class ExperimentReport:
     def monte_carlo(self) -> bool:
         return any(o.task.sample is not None for o in self.outcomes)
 
+    def consistency(self) -> dict[str, Any] | None:
+        """The estimator's NEES and NIS (3 dof each) averaged over the runs, with the 95 % chi-square interval of
+        an average over that many runs at one instant: [χ²₀.₀₂₅(3n)/n, χ²₀.₉₇₅(3n)/n]. Averaging over time as well
+        only narrows the spread, so a mean outside the interval is inconsistent for certain. None for runs
+        without an estimator that has a covariance."""
+        from scipy.stats import chi2
+
+        stats: dict[str, Any] = {}
+        for name in ("nees_mean", "nis_mean"):
+            values = [o.metrics[name] for o in self.outcomes if math.isfinite(o.metrics.get(name, math.nan))]
+            if values:
+                n = len(values)
+                lo, hi = (float(v) for v in chi2.ppf([0.025, 0.975], 3 * n) / n)
+                mean = float(sum(values) / n)
+                stats[name] = {"value": mean, "runs": n, "interval_95": [lo, hi], "inside": lo <= mean <= hi}
+        return stats or None
+
     def as_dict(self) -> dict[str, Any]:
         metrics = [{"sample": o.task.sample, **json_safe(o.metrics)} for o in self.outcomes]
-        return {
+        out = {
             "experiment": self.name,
             "path": self.path,
             "passed": self.passed,
@@ -154,6 +172,10 @@ class ExperimentReport:
             "limits": [v.as_dict() for v in self.verdicts],
             "metrics": metrics if self.monte_carlo else metrics[0],
         }
+        consistency = self.consistency()
+        if consistency is not None:
+            out["consistency"] = consistency
+        return out
 
 
 @dataclass

@@ -115,6 +115,10 @@ def run_task(task: RunTask) -> RunOutcome:
     if task.overrides:
         plant = base.plant_vehicle.with_overrides(list(task.overrides), source=f"sample {task.sample}")
         prepared = dataclasses.replace(base, plant_vehicle=plant)
+    if task.sample is not None:  # each sample its own sensor noise: [plant] sensor_seed + 1 + the sample's index
+        spec = prepared.spec
+        plant_spec = dataclasses.replace(spec.plant, sensor_seed=spec.plant.sensor_seed + 1 + task.sample)
+        prepared = dataclasses.replace(prepared, spec=dataclasses.replace(spec, plant=plant_spec))
     t0 = time.perf_counter()
     result = run_experiment(prepared)
     metrics = closed_loop_metrics(result)

@@ -45,6 +45,13 @@ def format_report(report: CheckReport) -> str:
         lines.append(head)
         for v in exp.verdicts:
             lines.append(f"    {'ok  ' if v.passed else 'FAIL'}  {v.message}")
+        for name, c in (exp.consistency() or {}).items():
+            lo, hi = c["interval_95"]
+            verdict = "consistent" if c["inside"] else "INCONSISTENT"
+            lines.append(
+                f"    {name.split('_')[0].upper():4}  mean {c['value']:.3g} over {c['runs']} runs (3 dof; the 95 % "
+                f"chi-square interval of an average over {c['runs']} runs: [{lo:.3g}, {hi:.3g}]) — {verdict}"
+            )
     n_fail = sum(not e.passed for e in report.experiments)
     lines.append(
         f"{len(report.experiments) - n_fail} of {len(report.experiments)} experiments passed "

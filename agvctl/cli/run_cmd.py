@@ -64,6 +64,13 @@ def format_summary(summary: dict[str, Any]) -> str:
         f"  pose controller   {p50:.3f} ms median, {p99:.3f} ms p99, "
         f"{m['solver_failures']} failures, {m['deadline_misses']} deadline misses"
     )
+    if m.get("estimate_error_max_m"):  # an estimator other than the truth
+        est_rms, est_max = m["estimate_error_rms_m"] * 1e3, m["estimate_error_max_m"] * 1e3
+        line = f"  pose estimate     rms {est_rms:.2f} mm   max {est_max:.2f} mm   "
+        line += f"heading max {m['heading_estimate_error_max_deg']:.2f}°"
+        if m.get("nees_mean") is not None:
+            line += f"   NEES mean {m['nees_mean']:.2f} (3 dof)"
+        lines.append(line)
     wall, sim = summary["wall_time_s"], summary["simulated_s"]
     lines.append(f"  wall time         {wall:.2f} s for {sim:.1f} s simulated ({sim / max(wall, 1e-9):.0f}x real time)")
     for r in summary["limits"]:

@@ -285,15 +285,13 @@ class LtvMpcController(MpcStepper):
 
     # -- one step -----------------------------------------------------------------------------------------
 
-    def _solve(
-        self, k: int, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]
-    ) -> tuple[float, float] | None:
-        g = self._grid
-        assert g is not None and self._u_prev is not None
-        c, N, nx, T = self.config, self.config.horizon, self.nx, self.sample_period_s
-        iU, iS = self._iU, self._iS
+    def _initial_error(
+        self, g: HorizonReference, k: int, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]
+    ) -> FloatArray:
+        """x_0: the pose (and wheel-speed) error against the reference at the governed clock, which lies a
+        fraction of a sample past grid point k (0 while it keeps time)."""
         x0 = self._x0
-        f = self._fraction  # the governed clock between grid points k and k + 1 (0 while it keeps time)
+        f = self._fraction
         x_ref, y_ref, th_ref = g.x_m[k], g.y_m[k], g.theta_rad[k]
         ct, st = g.cos_theta[k], g.sin_theta[k]
         wheel_ref = g.wheel_m_s[k]
@@ -304,7 +302,7 @@ class LtvMpcController(MpcStepper):
             ct, st = math.cos(th_ref), math.sin(th_ref)
             wheel_ref = wheel_ref + f * (g.wheel_m_s[k + 1] - wheel_ref)
         dx, dy = float(pose[0]) - x_ref, float(pose[1]) - y_ref
-        if c.error_frame == "path":
+        if self.config.error_frame == "path":
             x0[0], x0[1] = ct * dx + st * dy, -st * dx + ct * dy
         else:
             x0[0], x0[1] = dx, dy
@@ -312,6 +310,35 @@ class LtvMpcController(MpcStepper):
         if self._lag:
             x0[3] = float(wheel_speed_m_s[0]) - wheel_ref[0]
             x0[4] = float(wheel_speed_m_s[1]) - wheel_ref[1]
+        return x0
+
+    def _couple_heading(self, g: HorizonReference, k: int, x0: FloatArray, first: FloatArray, data: FloatArray) -> None:
+        """Linearised about the reference, the position error moves with δU along the reference's heading: blind,
+        where the reference stands still (the start, a stop), to what driving with the present heading error e_θ,0
+        does. About the present error δU moves it along θ_ref + e_θ,0, a change of (cos e_θ,0 − 1, sin e_θ,0) in
+        the path frame (rotated by θ_ref in world axes), δU = (δv_l + δv_r)/2: first order in T_s, held over the
+        horizon. Adds it to A_1 … A_{N−1} in ``data`` (which holds −A) and to A_0 x_0 in ``first``."""
+        N, T = self.config.horizon, self.sample_period_s
+        e0 = float(x0[2])
+        along, across = 0.5 * T * (math.cos(e0) - 1.0), 0.5 * T * math.sin(e0)
+        if self.config.error_frame == "path":
+            cx, cy = np.full(N, along), np.full(N, across)
+        else:
+            ct_h, st_h = g.cos_theta[k : k + N], g.sin_theta[k : k + N]
+            cx, cy = ct_h * along - st_h * across, st_h * along + ct_h * across
+        assert self._pos_position_wheels is not None
+        data[self._pos_position_wheels] -= np.repeat(np.column_stack([cx[1:], cy[1:]]), 2, axis=1).ravel()
+        first[0] += cx[0] * (x0[3] + x0[4])
+        first[1] += cy[0] * (x0[3] + x0[4])
+
+    def _solve(
+        self, k: int, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]
+    ) -> tuple[float, float] | None:
+        g = self._grid
+        assert g is not None and self._u_prev is not None
+        c, N, nx = self.config, self.config.horizon, self.nx
+        iU, iS = self._iU, self._iS
+        x0 = self._initial_error(g, k, pose, wheel_speed_m_s)
         if not (math.isfinite(float(x0.sum())) and math.isfinite(float(self._u_prev.sum()))):
             return None  # a broken measurement: never let NaN into OSQP's warm start
 
@@ -324,23 +351,7 @@ class LtvMpcController(MpcStepper):
         lo, hi = self._l, self._u
         first = self._Ad[k] @ x0
         if self._lag:
-            # linearised about the reference, the position error moves with δU along the reference's heading: blind,
-            # where the reference stands still (the start, a stop), to what driving with the present heading error
-            # e_θ,0 does. About the present error δU moves it along θ_ref + e_θ,0, a change of
-            # (cos e_θ,0 − 1, sin e_θ,0) in the path frame (rotated by θ_ref in world axes), δU = (δv_l + δv_r)/2:
-            # first order in T_s, held over the horizon (negative in the constraint matrix, which holds −A)
-            e0 = float(x0[2])
-            along, across = 0.5 * T * (math.cos(e0) - 1.0), 0.5 * T * math.sin(e0)
-            if c.error_frame == "path":
-                cx, cy = np.full(N, along), np.full(N, across)
-            else:
-                ct_h, st_h = g.cos_theta[k : k + N], g.sin_theta[k : k + N]
-                cx, cy = ct_h * along - st_h * across, st_h * along + ct_h * across
-            assert self._pos_position_wheels is not None
-            values = np.repeat(np.column_stack([cx[1:], cy[1:]]), 2, axis=1).ravel()
-            data[self._pos_position_wheels] -= values
-            first[0] += cx[0] * (x0[3] + x0[4])
-            first[1] += cy[0] * (x0[3] + x0[4])
+            self._couple_heading(g, k, x0, first, data)
         lo[:nx] = first
         hi[:nx] = first
         rb, rr, rf = self._r_box, self._r_rate, self._r_first

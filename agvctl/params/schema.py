@@ -1,10 +1,10 @@
 """The vehicle file's schema (the report's appendix A): one frozen dataclass per table, and the loader.
 
 A vehicle file is TOML with the tables ``frame``, ``battery``, ``body``, ``wheels``, ``motor`` (with optional
-``motor.left`` / ``motor.right`` overrides), ``amplifier``, ``da``, ``friction_model`` and ``control``; see
-``agvctl/vehicles/iau_agv.toml``. :func:`load_vehicle` reads one (or the default), applies ``--set`` style
-overrides and returns a frozen :class:`VehicleParams`; its :attr:`VehicleParams.derived` are the constants of
-:mod:`agvctl.params.derived`.
+``motor.left`` / ``motor.right`` overrides), ``amplifier``, ``da``, ``friction_model``, ``control`` and
+``sensors``; see ``agvctl/vehicles/iau_agv.toml``. :func:`load_vehicle` reads one (or the default), applies
+``--set`` style overrides and returns a frozen :class:`VehicleParams`; its :attr:`VehicleParams.derived` are the
+constants of :mod:`agvctl.params.derived`.
 
 Units are SI throughout and are part of every key's name.
 """
@@ -42,6 +42,7 @@ __all__ = [
     "FrictionModelParams",
     "MotorPair",
     "MotorParams",
+    "SensorParams",
     "VehicleParams",
     "WheelParams",
     "default_vehicle_path",
@@ -223,6 +224,23 @@ class FrictionModelParams:
 
 
 @dataclass(frozen=True)
+class SensorParams:
+    """The vehicle's sensors (README, "Sensors and estimation"): incremental encoders on the motor shafts, an
+    optional rate gyro, and absolute position fixes from a beacon/laser system. Under ``[plant] set`` these are
+    the true sensors; in the vehicle file they are what the estimators believe."""
+
+    encoder_counts_per_rev: int = number(gt=0, default=2000, doc="counts per motor revolution after quadrature")
+    gyro_enabled: bool = False
+    gyro_sigma_rad_s: float = number(ge=0, default=0.002, doc="white noise of each sample's mean rate")
+    gyro_bias_rad_s: float = number(default=0.0, doc="constant bias of the reading")
+    gyro_quantum_rad_s: float = number(ge=0, default=0.0008, doc="resolution of the reading (0: none)")
+    position_fix_rate_hz: float = number(ge=0, default=4.0, doc="0: no fixes")
+    position_fix_sigma_m: float = number(gt=0, default=0.01)
+    heading_fix_sigma_deg: float = number(gt=0, default=0.5)
+    position_fix_latency_s: float = number(ge=0, le=10.0, default=0.05)
+
+
+@dataclass(frozen=True)
 class ControlParams:
     """Digital control: the sample period T_s."""
 
@@ -243,8 +261,16 @@ class VehicleParams:
     da: DAParams
     control: ControlParams
     friction_model: FrictionModelParams = dataclasses.field(default_factory=FrictionModelParams)
+    sensors: SensorParams = dataclasses.field(default_factory=SensorParams)
 
     def validate(self, *, source: str, prefix: str) -> None:
+        per_sample_hz, rate_hz = 1.0 / self.control.sample_period_s, self.sensors.position_fix_rate_hz
+        if rate_hz > per_sample_hz * (1 + 1e-9):
+            raise ConfigError(
+                source,
+                "sensors.position_fix_rate_hz",
+                f"at most one fix per control sample: <= {per_sample_hz:g} Hz (got {rate_hz:g})",
+            )
         for side, m in (("left", self.motor.left), ("right", self.motor.right)):
             stall = self.amplifier.current_limit_a * m.torque_constant_n_m_a
             if stall <= m.stiction_n_m:

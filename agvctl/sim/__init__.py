@@ -1,8 +1,8 @@
 """Simulation: the compiled integrator, the plant stepper, open-loop runs, batches and the log.
 
 Inside the package the layers point one way (an import-linter contract): ``experiment`` → ``spec`` →
-``controllers``/``limits``/``metrics`` → ``loop`` → ``estimators`` and ``stepper`` (with ``open_loop`` and
-``wheel_step``) → ``integrator`` and ``log``."""
+``controllers``/``limits``/``metrics``/``estimation`` (offline) → ``loop`` → ``estimators`` and ``wheel_speed``
+(with ``open_loop`` and ``wheel_step``) → ``ekf`` → ``sensors`` and ``stepper`` → ``integrator`` and ``log``."""
 
 from agvctl.sim.integrator import CompiledPlant, choose_substeps, compiled_plant, sample_splits
 from agvctl.sim.log import PLANT_LOG_COLUMNS, SimLog

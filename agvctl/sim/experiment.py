@@ -8,10 +8,12 @@ settle_s = 2.0                                  # extra time after the reference
 [plant]                                         # the simulated truth may differ from the controller's model
 set = { "wheels.radius_right_m" = 0.1005, "motor.coulomb_friction_n_m" = 0.08, "motor.stiction_n_m" = 0.09 }
 initial_pose = { x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }
+sensor_seed = 0                                 # the true sensors' noise seed (agvctl.sim.sensors)
 [controller]
 pose = "mpc"            # a name of agvctl.sim.controllers.POSE_CONTROLLERS: "mpc" | "nmpc" | "none"
 compute_delay = "none"  # or "one_sample"
-localization = "truth"  # agvctl.sim.estimators.ESTIMATORS: or "odometry" (encoders, the believed geometry)
+localization = "truth"  # agvctl.sim.estimators.ESTIMATORS: or "odometry" (encoder counts), "ekf" (+ fixes)
+wheel_speed = "exact"   # agvctl.sim.wheel_speed: or "count_difference", "kalman" (from the encoder counts)
 horizon = 20            # ...and the pose controller's settings (for the MPCs, controllers.mpc_common.MpcConfig)
 [limits]                # agvctl.sim.limits.LIMITS; checked by `agvctl check`, reported by `agvctl run`
 tracking_error_max_m = 0.03
@@ -134,5 +136,7 @@ def run_experiment(
         settle_s=e.spec.settle_s,
         compute_delay=c.compute_delay,
         localization=c.localization,
+        wheel_speed=c.wheel_speed,
+        sensor_seed=e.spec.plant.sensor_seed,
         progress=progress,
     )

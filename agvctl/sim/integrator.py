@@ -46,8 +46,11 @@ STATS_NAMES = (
     "current_peak_right_a",
     "wheel_accel_peak_left_m_s2",
     "wheel_accel_peak_right_m_s2",
+    "motor_angle_increment_left_rad",
+    "motor_angle_increment_right_rad",
 )
-"""Per-sample statistics over the substeps of the interval (fractions of substeps; peaks of absolute values)."""
+"""Per-sample statistics over the substeps of the interval (fractions of substeps; peaks of absolute values;
+the motor-shaft angle turned, ∫ω_mot dt by the RK4 quadrature of the same stages, which the encoders count)."""
 
 CHUNK_SAMPLES = 250
 """Samples per compiled accumulation call (10 s at 40 ms); longer runs loop over chunks."""
@@ -85,11 +88,12 @@ def sample_splits(vehicles: VehicleParams | Iterable[VehicleParams]) -> int:
 
 
 def _merge_stats(stats: NDArray[np.float64], splits: int) -> NDArray[np.float64]:
-    """Combine per-sub-sample STATS (…, n·splits, 6) into per-sample ones: fractions averaged, peaks maxed."""
+    """Combine per-sub-sample STATS (…, n·splits, 8) into per-sample ones: fractions averaged, peaks maxed,
+    angle increments summed."""
     if splits == 1:
         return stats
     s = stats.reshape(*stats.shape[:-2], -1, splits, stats.shape[-1])
-    return np.concatenate([s[..., :2].mean(axis=-2), s[..., 2:].max(axis=-2)], axis=-1)
+    return np.concatenate([s[..., :2].mean(axis=-2), s[..., 2:6].max(axis=-2), s[..., 6:].sum(axis=-2)], axis=-1)
 
 
 def _rk4_sample_step(model: FullModel, substeps: int) -> ca.Function:
@@ -105,6 +109,8 @@ def _rk4_sample_step(model: FullModel, substeps: int) -> ca.Function:
     limited = [ca.SX(0), ca.SX(0)]
     i_peak = [ca.SX(0), ca.SX(0)]
     a_peak = [ca.SX(0), ca.SX(0)]
+    angle = [ca.SX(0), ca.SX(0)]
+    i_omega = AUX_NAMES.index("omega_motor_left_rad_s")
     i_cur, i_lim, i_acc = (
         AUX_NAMES.index("current_left_a"),
         AUX_NAMES.index("current_limited_left"),
@@ -118,12 +124,17 @@ def _rk4_sample_step(model: FullModel, substeps: int) -> ca.Function:
             limited[s] = limited[s] + aux[i_lim + s]
             i_peak[s] = ca.fmax(i_peak[s], ca.fabs(aux[i_cur + s]))
             a_peak[s] = ca.fmax(a_peak[s], ca.fabs(aux[i_acc + s]))
-        k2 = f(xk + h / 2 * k1, u, p)[0]
-        k3 = f(xk + h / 2 * k2, u, p)[0]
-        k4 = f(xk + h * k3, u, p)[0]
+        k2, aux2 = f(xk + h / 2 * k1, u, p)
+        k3, aux3 = f(xk + h / 2 * k2, u, p)
+        k4, aux4 = f(xk + h * k3, u, p)
+        for s in range(2):  # the motor angle as an RK4 quadrature of ω_mot (eq 2) over the same stages
+            j = i_omega + s
+            angle[s] = angle[s] + h / 6 * (aux[j] + 2 * aux2[j] + 2 * aux3[j] + aux4[j])
         xk = xk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
     assert aux0 is not None
-    stats = ca.vertcat(limited[0] / substeps, limited[1] / substeps, i_peak[0], i_peak[1], a_peak[0], a_peak[1])
+    stats = ca.vertcat(
+        limited[0] / substeps, limited[1] / substeps, i_peak[0], i_peak[1], a_peak[0], a_peak[1], angle[0], angle[1]
+    )
     return ca.Function("agv_step", [x, u, p, dt], [xk, aux0, stats], ["x", "u", "p", "dt"], ["x_next", "aux", "stats"])
 
 
@@ -190,7 +201,7 @@ class CompiledPlant:
         """Integrate ``u`` (n×2, held per sample of length ``dt``) from ``x0``.
 
         Returns ``(X, AUX, STATS)``: X (n+1)×5 states at the sample times, AUX n×10 outputs at the start of each
-        sample, STATS n×6 interval statistics.
+        sample, STATS n×8 interval statistics.
         """
         n = u.shape[0]
         u = np.repeat(u, splits, axis=0)
@@ -218,7 +229,7 @@ class CompiledPlant:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Integrate many vehicles at once: ``x0`` B×5, ``u`` B×n×2, ``p`` B×n_p.
 
-        Returns ``(X, AUX, STATS)`` with shapes B×(n+1)×5, B×n×10, B×n×6.
+        Returns ``(X, AUX, STATS)`` with shapes B×(n+1)×5, B×n×10, B×n×8.
         """
         n_vehicles = u.shape[0]
         u = np.repeat(u, splits, axis=1)

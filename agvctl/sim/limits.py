@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from agvctl.config import convert_value, did_you_mean, join_key
 from agvctl.errors import ConfigError
+from agvctl.sim.estimators import estimate_heading_error_rad, estimate_position_error_m
 from agvctl.sim.log import SimLog
 
 __all__ = ["LIMITS", "Limit", "LimitsSpec"]
@@ -95,6 +96,15 @@ LIMITS: dict[str, Limit] = {
         "path_heading_error_max_deg",
         "°",
         lambda log, ts: np.degrees(np.abs(log["path_heading_error_rad"])),
+        "peak",
+        "positive",
+    ),
+    "estimate_error_rms_m": Limit("estimate_error_rms_m", " m", estimate_position_error_m, "rms", "positive"),
+    "estimate_error_max_m": Limit("estimate_error_max_m", " m", estimate_position_error_m, "peak", "positive"),
+    "heading_estimate_error_max_deg": Limit(
+        "heading_estimate_error_max_deg",
+        "°",
+        lambda log, ts: np.degrees(estimate_heading_error_rad(log, ts)),
         "peak",
         "positive",
     ),

@@ -2,9 +2,10 @@
 
 A plain loop over control ticks t_k = k·T_s (never t += dt). At each tick, following the sample-and-hold rule:
 
-1. measure: the motor speeds at t_k (the true ones, as encoders would; :class:`~agvctl.sim.stepper.PlantStepper`),
-   and estimate the pose (:mod:`agvctl.sim.estimators`: the true pose, or odometry integrated from the measured
-   wheel speeds with the *controller's* belief of r and b);
+1. measure: the sensors of the true vehicle (:mod:`agvctl.sim.sensors`: encoder counts latched at t_k, gyro,
+   position fixes arriving), the motor speeds (:mod:`agvctl.sim.wheel_speed`: the true ones, or estimated from the
+   counts) and estimate the pose (:mod:`agvctl.sim.estimators`: the true pose, odometry from the counts with the
+   *controller's* belief of r and b, or the EKF);
 2. the pose controller computes wheel-speed setpoints from the pose, the measured wheel speeds and the
    reference (with ``compute_delay = "one_sample"`` the setpoints computed at t_k act from t_k+1);
 3. the wheel-speed loops turn setpoint and measured motor speed into DA voltage commands;
@@ -30,14 +31,41 @@ from agvctl.controllers.base import GovernedPoseController, PoseController, Whee
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference, ReferenceSamples
 from agvctl.plant.full import PlantOptions
-from agvctl.sim.estimators import ESTIMATORS, PoseEstimator
+from agvctl.sim.estimators import ESTIMATORS, PoseEstimator, consistency
 from agvctl.sim.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.sim.path_metrics import PATH_LOG_COLUMNS, path_error_columns
+from agvctl.sim.sensors import Measurements, Sensors
 from agvctl.sim.stepper import PlantStepper
+from agvctl.sim.wheel_speed import WHEEL_SPEED_ESTIMATORS, WheelSpeedEstimator
 
-__all__ = ["CONTROL_LOG_COLUMNS", "ClosedLoopResult", "ComputeDelay", "run_closed_loop"]
+__all__ = ["CONTROL_LOG_COLUMNS", "SENSOR_NAN_COLUMNS", "ClosedLoopResult", "ComputeDelay", "run_closed_loop"]
 
 ComputeDelay = Literal["none", "one_sample"]
+
+_SENSOR_COLUMNS = (
+    "motor_angle_left_rad",
+    "motor_angle_right_rad",
+    "measured_omega_motor_left_rad_s",
+    "measured_omega_motor_right_rad_s",
+    "encoder_count_left",
+    "encoder_count_right",
+    "gyro_rate_rad_s",
+    "fix_x_m",
+    "fix_y_m",
+    "fix_theta_rad",
+    "fix_measured_t_s",
+    "est_sigma_x_m",
+    "est_sigma_y_m",
+    "est_sigma_theta_rad",
+    "nees",
+    "nis",
+)
+"""What the sensors read and the estimators made of it: the true shaft angles (the encoders' source), the motor
+speeds the wheel loops used, the latched counts, the gyro, the last fix arriving at the sample (NaN when none) with
+its measurement time, the estimate's σ and its NEES against the truth, and the NIS of a fix (NaN for estimators
+without a covariance)."""
+SENSOR_NAN_COLUMNS = _SENSOR_COLUMNS[6:]
+"""The columns that are NaN where there is no reading: no gyro, no fix arriving, no covariance, no fix's NIS."""
 
 CONTROL_LOG_COLUMNS = (
     "ref_x_m",
@@ -60,6 +88,7 @@ CONTROL_LOG_COLUMNS = (
     "heading_error_rad",
     "solve_time_s",
     "solver_status",
+    *_SENSOR_COLUMNS,
 )
 """Columns the closed loop adds to :data:`~agvctl.sim.log.PLANT_LOG_COLUMNS`. ``solver_status`` is 0 when the
 pose controller solved, 1 for the shifted previous solution, 2 for the reference feed-forward; ``wheel_speed_*``
@@ -78,6 +107,7 @@ _PER_SAMPLE = (
     "da_command_right_v",
     "solve_time_s",
     "solver_status",
+    *_SENSOR_COLUMNS,
 )
 """The control columns recorded every sample, in the order of the loop's record line."""
 
@@ -143,14 +173,18 @@ def run_closed_loop(
     settle_s: float = 0.0,
     compute_delay: ComputeDelay = "none",
     localization: str | PoseEstimator = "truth",
+    wheel_speed: str | WheelSpeedEstimator = "exact",
+    sensor_seed: int = 0,
     plant_options: PlantOptions | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> ClosedLoopResult:
     """Run the cascade on the full plant for the reference's duration plus ``settle_s``.
 
     ``initial_pose`` (x_m, y_m, theta_rad) defaults to the reference's start. ``localization`` names an estimator
-    of :data:`~agvctl.sim.estimators.ESTIMATORS` (built for the controller's vehicle) or is one. ``progress``, if
-    given, is called with the fraction done (0…1) about every second of simulated time.
+    of :data:`~agvctl.sim.estimators.ESTIMATORS` (built for the controller's vehicle) or is one; ``wheel_speed``
+    likewise names one of :data:`~agvctl.sim.wheel_speed.WHEEL_SPEED_ESTIMATORS` or is one. ``sensor_seed`` seeds
+    the true vehicle's sensor noise. ``progress``, if given, is called with the fraction done (0…1) about every
+    second of simulated time.
     """
     t_setup = time.perf_counter()
     ts = controller_vehicle.control.sample_period_s
@@ -165,6 +199,9 @@ def run_closed_loop(
     plant = PlantStepper(plant_vehicle, initial_state=[0.0, 0.0, *start], options=plant_options)
     estimator = ESTIMATORS[localization](controller_vehicle) if isinstance(localization, str) else localization
     estimator.reset(np.array(start, dtype=float))
+    sensors = Sensors(plant_vehicle, seed=sensor_seed)
+    speeds = WHEEL_SPEED_ESTIMATORS[wheel_speed](controller_vehicle) if isinstance(wheel_speed, str) else wheel_speed
+    speeds.reset()
     rim_per_motor = _rim_per_motor(controller_vehicle)  # the controller's belief
     delay = _Delay(compute_delay)
     pose_controller.reset(reference)
@@ -176,9 +213,12 @@ def run_closed_loop(
     setup = time.perf_counter() - t_setup
     t0 = time.perf_counter()
     for k in range(n + 1):
-        omega = plant.measure()  # 1. measure and estimate
+        angle = plant.motor_angle_rad  # 1. measure and estimate
+        counts = sensors.encoder_counts(angle)
+        omega = speeds.update(counts, plant.measure())
         wheel_meas = omega * rim_per_motor
-        est = estimator.update(plant.pose, wheel_meas)
+        meas = sensors.read(k, counts, plant.pose, wheel_meas)
+        est = estimator.update(meas)
         tc = time.perf_counter()  # 2. pose controller
         cmd = pose_controller.update(float(t[k]), est, wheel_meas)
         solve = time.perf_counter() - tc
@@ -194,11 +234,14 @@ def run_closed_loop(
         setpoint = delay(np.array([cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s]))
         sp_motor = setpoint / rim_per_motor
         da_cmd = wheel_controller.update(sp_motor, omega)  # 3. wheel-speed loops
+        speeds.applied(da_cmd)
         if k < n:  # 4. actuator and plant; the final row holds the state at the end, the last input applied
             plant.step(da_cmd)
         else:
             plant.finish(da_cmd)
-        control[k] = (*est, *setpoint, *sp_motor, *da_cmd, solve, status)
+        checks = consistency(estimator, est, meas.true_pose)
+        sensed = (*angle, *omega, *counts, *_sensor_row(meas), *checks)
+        control[k] = (*est, *setpoint, *sp_motor, *da_cmd, solve, status, *sensed)
         if progress is not None and k % progress_every == 0:
             progress(k / n)
         if k >= n:
@@ -216,6 +259,14 @@ def run_closed_loop(
         n_samples=n,
         sample_period_s=ts,
     )
+
+
+def _sensor_row(meas: Measurements) -> tuple[float, ...]:
+    """The gyro and the last fix arriving at this sample (its pose and measurement time; NaN when none)."""
+    if not meas.fixes:
+        return (meas.gyro_rate_rad_s, math.nan, math.nan, math.nan, math.nan)
+    fix = meas.fixes[-1]
+    return (meas.gyro_rate_rad_s, *fix.pose, fix.measured_t_s)
 
 
 def _closed_loop_log(

@@ -6,9 +6,11 @@ import math
 
 import numpy as np
 
+from agvctl.sim.estimators import estimate_heading_error_rad, estimate_position_error_m
+from agvctl.sim.log import SimLog
 from agvctl.sim.loop import ClosedLoopResult
 
-__all__ = ["closed_loop_metrics", "time_to_converge_s"]
+__all__ = ["closed_loop_metrics", "estimate_metrics", "time_to_converge_s"]
 
 
 def time_to_converge_s(t_s: np.ndarray, error_m: np.ndarray, threshold_m: float) -> float:
@@ -62,4 +64,21 @@ def closed_loop_metrics(result: ClosedLoopResult) -> dict[str, float]:
         "deadline_misses": int(np.sum(solve_ms > result.sample_period_s * 1e3)),
         "solver_failures": int(result.solver_failures),
         "time_to_2cm_s": time_to_converge_s(log["t_s"], err, 0.02),
+        **estimate_metrics(log),
     }
+
+
+def estimate_metrics(log: SimLog) -> dict[str, float]:
+    """The pose estimate against the truth (zero with ``localization = "truth"``); with an estimator that has a
+    covariance also its mean NEES (3 degrees of freedom) and mean NIS over the fixes."""
+    est = estimate_position_error_m(log)
+    out = {
+        "estimate_error_rms_m": float(np.sqrt(np.mean(est**2))),
+        "estimate_error_max_m": float(np.max(est)),
+        "heading_estimate_error_max_deg": float(np.degrees(np.max(estimate_heading_error_rad(log)))),
+    }
+    if np.any(np.isfinite(log["nees"])):
+        out["nees_mean"] = float(np.nanmean(log["nees"]))
+        nis = log["nis"][np.isfinite(log["nis"])]
+        out["nis_mean"] = float(np.mean(nis)) if nis.size else math.nan
+    return out

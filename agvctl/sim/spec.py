@@ -13,13 +13,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from agvctl.config import build, build_fields, did_you_mean, join_key, number, to_dict
+from agvctl.config import build, build_fields, convert_value, did_you_mean, join_key, number, to_dict
 from agvctl.errors import ConfigError
 from agvctl.planning.spec import StartPose
 from agvctl.sim.controllers import POSE_CONTROLLERS
 from agvctl.sim.estimators import ESTIMATORS
 from agvctl.sim.limits import LimitsSpec
 from agvctl.sim.loop import ComputeDelay
+from agvctl.sim.wheel_speed import WHEEL_SPEED_ESTIMATORS
 
 __all__ = ["ControllerSpec", "ExperimentSpec", "PlantSpec", "RobustnessSpec", "Spread"]
 
@@ -30,19 +31,22 @@ class PlantSpec:
 
     set: dict[str, Any] = dataclasses.field(default_factory=dict)
     initial_pose: StartPose | None = None
+    sensor_seed: int = number(ge=0, default=0)
+    """The seed of the true vehicle's sensor noise (encoder phases, gyro, fixes)."""
 
     @classmethod
     def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> PlantSpec:
+        keys = ["set", "initial_pose", "sensor_seed"]
         for k in data:
-            if k not in ("set", "initial_pose"):
-                raise ConfigError(
-                    source, join_key(prefix, k), "unknown key" + did_you_mean(k, ["set", "initial_pose"], [prefix])
-                )
+            if k not in keys:
+                raise ConfigError(source, join_key(prefix, k), "unknown key" + did_you_mean(k, keys, [prefix]))
         sets = data.get("set", {})
         if not isinstance(sets, Mapping):
             raise ConfigError(source, join_key(prefix, "set"), "expected a table of dotted vehicle keys")
         pose = data.get("initial_pose")
+        seed = convert_value(int, data.get("sensor_seed", 0), source, join_key(prefix, "sensor_seed"), {"ge": 0})
         return cls(
+            sensor_seed=seed,
             set=dict(sets),
             initial_pose=None
             if pose is None
@@ -70,6 +74,8 @@ class ControllerSpec:
     compute_delay: ComputeDelay = "none"
     localization: str = "truth"
     """A name of :data:`~agvctl.sim.estimators.ESTIMATORS`."""
+    wheel_speed: str = "exact"
+    """How the loops measure the motor speeds: a name of :data:`~agvctl.sim.wheel_speed.WHEEL_SPEED_ESTIMATORS`."""
     pi_gains: str | None = None
     """A gains file written by ``agvctl tune --out`` (relative to the experiment); default: tuned on the fly."""
     coulomb_feedforward: bool = False
@@ -94,6 +100,7 @@ class ControllerSpec:
         )
         _choice(base.pose, POSE_CONTROLLERS, source, join_key(prefix, "pose"))
         _choice(base.localization, ESTIMATORS, source, join_key(prefix, "localization"))
+        _choice(base.wheel_speed, WHEEL_SPEED_ESTIMATORS, source, join_key(prefix, "wheel_speed"))
         rest = {k: v for k, v in data.items() if k not in own}
         kind = POSE_CONTROLLERS[base.pose]
         if kind.settings is None:

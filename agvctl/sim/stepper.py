@@ -63,6 +63,7 @@ _PICK = np.array([_source_of(name) for name in PLANT_LOG_COLUMNS])
 """Where each log column comes from: by name, once."""
 
 _AUX = {name: i for i, name in enumerate(AUX_NAMES)}
+_ANGLE = [STATS_NAMES.index(f"motor_angle_increment_{s}_rad") for s in _SIDES]
 _INSTANT_STATS = {
     **{f"current_limited_fraction_{s}": (f"current_limited_{s}", False) for s in _SIDES},
     **{f"current_peak_{s}_a": (f"current_{s}_a", True) for s in _SIDES},
@@ -72,10 +73,13 @@ _INSTANT_STATS = {
 
 
 def instant_stats(aux: FloatArray) -> FloatArray:
-    """The statistics of :data:`~agvctl.sim.integrator.STATS_NAMES` at one instant (…×10 auxiliaries in, …×6
-    out): the final row of a log, where no interval follows."""
+    """The statistics of :data:`~agvctl.sim.integrator.STATS_NAMES` at one instant (…×10 auxiliaries in, …×8
+    out): the final row of a log, where no interval follows (no angle turned)."""
     cols = []
     for name in STATS_NAMES:
+        if name not in _INSTANT_STATS:  # an increment over an interval of zero length
+            cols.append(np.zeros(aux.shape[:-1]))
+            continue
         source, absolute = _INSTANT_STATS[name]
         value = aux[..., _AUX[source]]
         cols.append(np.abs(value) if absolute else value)
@@ -86,7 +90,7 @@ def plant_log_rows(
     t_s: ArrayLike, actuated: ActuatorOutput, aux: FloatArray, stats: FloatArray, state: FloatArray
 ) -> FloatArray:
     """Rows of :data:`~agvctl.sim.log.PLANT_LOG_COLUMNS` (m × columns) from m samples' times, actuator outputs
-    (m × 2 each), auxiliaries at the start (m × 10), interval statistics (m × 6) and states (m × 5)."""
+    (m × 2 each), auxiliaries at the start (m × 10), interval statistics (m × 8) and states (m × 5)."""
     limited = stats[:, [STATS_NAMES.index(f"current_limited_fraction_{s}") for s in _SIDES]] > 0
     parts = (
         np.reshape(t_s, (-1, 1)),
@@ -134,6 +138,8 @@ class PlantStepper:
         """The plant state at the current sample time."""
         self.k = 0
         """The index of the current sample (t_k = k·T_s)."""
+        self.motor_angle_rad: FloatArray = np.zeros(2)
+        """The motor shafts' angles (left, right) turned since the start, in rad: what the encoders count."""
         self._rows: list[FloatArray] = []
         self._last: ActuatorOutput | None = None
 
@@ -156,6 +162,7 @@ class PlantStepper:
         x_next, aux, stats = self.plant.step(self.state, u, self._p, self.sample_period_s, self._splits)
         self._record(out, aux, stats)
         self.state = x_next
+        self.motor_angle_rad = self.motor_angle_rad + stats[_ANGLE]
         self.k += 1
         return out
 
@@ -182,6 +189,7 @@ class PlantStepper:
         self._rows.append(plant_log_rows(t, out, A, S, X[:-1]))
         self._last = self._actuator.apply(np.asarray(da_commands_v, dtype=float)[-1])
         self.state = X[-1]
+        self.motor_angle_rad = self.motor_angle_rad + S[:, _ANGLE].sum(axis=0)
         self.k += n
 
     def _record(self, out: ActuatorOutput, aux: FloatArray, stats: FloatArray) -> None:
