@@ -40,6 +40,7 @@ from agvctl.errors import ConfigError
 from agvctl.params import load_vehicle
 from agvctl.sim.experiment import load_experiment, run_experiment
 from agvctl.sim.log import SimLog
+from agvctl.sim.loop import SENSOR_NAN_COLUMNS
 from agvctl.sim.metrics import closed_loop_metrics
 
 __all__ = ["FuzzRun", "fuzz", "fuzz_tasks", "run_fuzz_task"]
@@ -54,8 +55,9 @@ def _one_line(text: str, limit: int = 300) -> str:
 
 
 def _non_finite(log: SimLog, metrics: dict[str, float]) -> str | None:
-    """Why the run is numerically broken (non-finite log columns or metrics), or None."""
-    bad = [name for name in log if not np.all(np.isfinite(log[name]))]
+    """Why the run is numerically broken (non-finite log columns or metrics), or None. The sensor columns are NaN
+    where there is no reading (no gyro, no fix arriving this sample) and do not count."""
+    bad = [name for name in log if name not in SENSOR_NAN_COLUMNS and not np.all(np.isfinite(log[name]))]
     if bad:
         broken = ~np.all(np.isfinite(np.column_stack([log[name] for name in bad])), axis=1)
         at = float(log["t_s"][int(np.argmax(broken))])
