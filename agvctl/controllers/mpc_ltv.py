@@ -197,10 +197,14 @@ class LtvMpcController(MpcStepper):
         # error shows in the position error (see _solve), ordered by k, row, column
         nn = nx * nx
         self._pos_position_wheels = (
-            self._pos_A[[(k - 1) * nn + i * nx + j for k in range(1, N) for i in (0, 1) for j in (3, 4)]]
+            np.column_stack(
+                [self._pos_A[[(k - 1) * nn + i * nx + j for k in range(1, N) for j in (3, 4)]] for i in (0, 1)]
+            )
             if self._lag
             else None
         )
+        """Positions in the constraint matrix's data of A_k's (along or x, across or y) × (δv_l, δv_r) entries,
+        k = 1 … N − 1: column 0 the first position row, column 1 the second."""
         self._pos_B = position[np.asarray(b_entries, dtype=np.int64)]
 
         # cost ½ zᵀPz + qᵀz
@@ -320,16 +324,23 @@ class LtvMpcController(MpcStepper):
         horizon. Adds it to A_1 … A_{N−1} in ``data`` (which holds −A) and to A_0 x_0 in ``first``."""
         N, T = self.config.horizon, self.sample_period_s
         e0 = float(x0[2])
+        if abs(e0) < 1e-4:  # below 0.006°: a change under 1e-6 of T_s per m/s, nothing to see
+            return
         along, across = 0.5 * T * (math.cos(e0) - 1.0), 0.5 * T * math.sin(e0)
+        rows = self._pos_position_wheels
+        assert rows is not None
         if self.config.error_frame == "path":
-            cx, cy = np.full(N, along), np.full(N, across)
+            data[rows[:, 0]] -= along
+            data[rows[:, 1]] -= across
+            cx0, cy0 = along, across
         else:
             ct_h, st_h = g.cos_theta[k : k + N], g.sin_theta[k : k + N]
             cx, cy = ct_h * along - st_h * across, st_h * along + ct_h * across
-        assert self._pos_position_wheels is not None
-        data[self._pos_position_wheels] -= np.repeat(np.column_stack([cx[1:], cy[1:]]), 2, axis=1).ravel()
-        first[0] += cx[0] * (x0[3] + x0[4])
-        first[1] += cy[0] * (x0[3] + x0[4])
+            data[rows[:, 0]] -= np.repeat(cx[1:], 2)
+            data[rows[:, 1]] -= np.repeat(cy[1:], 2)
+            cx0, cy0 = float(cx[0]), float(cy[0])
+        first[0] += cx0 * (x0[3] + x0[4])
+        first[1] += cy0 * (x0[3] + x0[4])
 
     def _solve(
         self, k: int, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]
