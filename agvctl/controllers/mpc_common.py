@@ -71,6 +71,10 @@ class MpcConfig:
 
     horizon: int = number(ge=1, default=20, doc="N, prediction and control horizon in samples")
     weight_position: float = number(ge=0, default=1.0e3, doc="on each predicted position error, 1/m²")
+    along_track_share: float = number(ge=0, le=1, default=0.7, doc="along-path share of weight_position")
+    """In the path frame, the along-path error is weighted ``along_track_share`` × ``weight_position`` and the
+    cross-path error ``weight_position``: below 1, being on the path counts more than keeping time (the
+    reference governor bounds the lag). The world frame weighs both axes alike."""
     weight_heading: float = number(ge=0, default=30.0, doc="on each predicted heading error, 1/rad²")
     weight_terminal_scale: float = number(ge=0, default=1.0, doc="multiplies the pose weights at k = N")
     weight_input: float = number(ge=0, default=0.1, doc="on setpoint minus feed-forward, 1/(m/s)²")

@@ -209,7 +209,8 @@ class LtvMpcController(MpcStepper):
 
         # cost ½ zᵀPz + qᵀz
         q_diag = np.zeros(nx)
-        q_diag[:3] = (c.weight_position, c.weight_position, c.weight_heading)
+        along = c.weight_position * (c.along_track_share if c.error_frame == "path" else 1.0)
+        q_diag[:3] = (along, c.weight_position, c.weight_heading)
         p_state = np.tile(q_diag, N)
         p_state[-nx:] *= c.weight_terminal_scale
         diff = sp.eye(2 * N, format="csc") - sp.eye(2 * N, k=-2, format="csc")  # rows: δs_k − δs_{k−1}
