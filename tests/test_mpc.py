@@ -72,9 +72,11 @@ def test_converges_from_lateral_offset_and_tracks_figure8(vehicle: VehicleParams
 
 
 def test_frames_are_the_same_model(vehicle: VehicleParams, line: Reference) -> None:
-    """Path-frame and world-frame errors are rotations of each other and the cost is rotation invariant."""
+    """Path-frame and world-frame errors are rotations of each other and the cost is rotation invariant (with the
+    along-path error weighed as the cross-path one: a share below 1 exists in the path frame only)."""
     runs = [
-        closed_loop(LtvMpcController(vehicle, MpcConfig(error_frame=f, tolerance=1e-6)), line, vehicle,
+        closed_loop(LtvMpcController(vehicle, MpcConfig(error_frame=f, tolerance=1e-6, along_track_share=1.0)),
+                    line, vehicle,
                     start=(0.0, 0.05, 0.1), duration_s=3.0)[2]
         for f in ("path", "world")
     ]  # fmt: skip

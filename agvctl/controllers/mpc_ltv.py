@@ -136,6 +136,19 @@ class LtvMpcController(MpcStepper):
 
     # -- problem structure --------------------------------------------------------------------------------
 
+    def _cost_matrix(self) -> sp.csc_matrix:
+        """P of the cost ½ zᵀPz + qᵀz (upper triangle): the state weights (along-path share in the path frame,
+        terminal scale at k = N), the input and input-rate weights."""
+        c, N, nx = self.config, self.config.horizon, self.nx
+        q_diag = np.zeros(nx)
+        along = c.weight_position * (c.along_track_share if c.error_frame == "path" else 1.0)
+        q_diag[:3] = (along, c.weight_position, c.weight_heading)
+        p_state = np.tile(q_diag, N)
+        p_state[-nx:] *= c.weight_terminal_scale
+        diff = sp.eye(2 * N, format="csc") - sp.eye(2 * N, k=-2, format="csc")  # rows: δs_k − δs_{k−1}
+        p_input = 2.0 * c.weight_input * sp.eye(2 * N) + 2.0 * c.weight_input_rate * (diff.T @ diff)
+        return sp.triu(sp.block_diag([sp.diags(2.0 * p_state), p_input], format="csc"), format="csc")
+
     def _build_problem(self) -> None:
         c, N, nx = self.config, self.config.horizon, self.nx
         self._iU = iU = N * nx
@@ -207,15 +220,7 @@ class LtvMpcController(MpcStepper):
         k = 1 … N − 1: column 0 the first position row, column 1 the second."""
         self._pos_B = position[np.asarray(b_entries, dtype=np.int64)]
 
-        # cost ½ zᵀPz + qᵀz
-        q_diag = np.zeros(nx)
-        along = c.weight_position * (c.along_track_share if c.error_frame == "path" else 1.0)
-        q_diag[:3] = (along, c.weight_position, c.weight_heading)
-        p_state = np.tile(q_diag, N)
-        p_state[-nx:] *= c.weight_terminal_scale
-        diff = sp.eye(2 * N, format="csc") - sp.eye(2 * N, k=-2, format="csc")  # rows: δs_k − δs_{k−1}
-        p_input = 2.0 * c.weight_input * sp.eye(2 * N) + 2.0 * c.weight_input_rate * (diff.T @ diff)
-        P = sp.triu(sp.block_diag([sp.diags(2.0 * p_state), p_input], format="csc"), format="csc")
+        P = self._cost_matrix()
         self._q = np.zeros(n_z)
         self._l = np.zeros(n_rows)
         self._u = np.zeros(n_rows)
