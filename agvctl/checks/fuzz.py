@@ -20,7 +20,6 @@ The report and its statistics are :class:`~agvctl.checks.fuzz_report.FuzzReport`
 from __future__ import annotations
 
 import math
-import os
 import tempfile
 import time
 import traceback
@@ -35,8 +34,7 @@ from agvctl.checks.fuzz_gen import generate_scenario, scenario_files
 from agvctl.checks.fuzz_report import FuzzOutcome, FuzzReport, FuzzTask
 from agvctl.checks.fuzz_spec import FuzzSpec
 from agvctl.checks.limits import LimitResult, evaluate_limits
-from agvctl.checks.runner import ExecutorKind, execute, open_executor
-from agvctl.errors import ConfigError
+from agvctl.checks.runner import ExecutorKind, execute, open_executor, resolved_jobs
 from agvctl.params import load_vehicle
 from agvctl.sim.experiment import load_experiment, run_experiment
 from agvctl.sim.log import SimLog
@@ -164,11 +162,7 @@ def fuzz(
     ``if __name__ == "__main__":`` (local workers are spawned processes, which import the calling script again).
     """
     t0 = time.perf_counter()
-    jobs = jobs if jobs is not None else (os.cpu_count() or 1)
-    if jobs < 1:
-        raise ConfigError("--jobs", "", f"must be >= 1 (got {jobs})")
-    if executor not in ("local", "dask"):
-        raise ConfigError("--executor", "", f"must be local or dask (got {executor})")
+    jobs = resolved_jobs(jobs, executor)
     work = fuzz_tasks(spec, scenarios)
     with open_executor(executor, jobs, scheduler, len(work.tasks)) as pool:
         outcomes = execute(pool, run_fuzz_task, work.tasks, progress)

@@ -30,7 +30,15 @@ from agvctl.errors import ConfigError
 from agvctl.sim.experiment import Experiment, load_experiment, run_experiment
 from agvctl.sim.metrics import closed_loop_metrics
 
-__all__ = ["ExecutorKind", "check_experiments", "execute", "monte_carlo_samples", "open_executor", "run_task"]
+__all__ = [
+    "ExecutorKind",
+    "check_experiments",
+    "execute",
+    "monte_carlo_samples",
+    "open_executor",
+    "resolved_jobs",
+    "run_task",
+]
 
 ExecutorKind = Literal["local", "dask"]
 T = TypeVar("T")
@@ -131,6 +139,17 @@ def run_task(task: RunTask) -> RunOutcome:
 _THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
 
 
+def resolved_jobs(jobs: int | None, executor: str) -> int:
+    """The number of local workers (default: every core), with ``jobs`` and ``executor`` checked: a one-line
+    :class:`ConfigError` naming the option otherwise."""
+    n = jobs if jobs is not None else (os.cpu_count() or 1)
+    if n < 1:
+        raise ConfigError("--jobs", "", f"must be >= 1 (got {n})")
+    if executor not in ("local", "dask"):
+        raise ConfigError("--executor", "", f"must be local or dask (got {executor})")
+    return n
+
+
 @contextlib.contextmanager
 def open_executor(kind: ExecutorKind, jobs: int, scheduler: str | None, n_tasks: int) -> Iterator[Executor]:
     """The executor the runs go to, shut down (its workers and any cluster of ours stopped) on leaving.
@@ -213,11 +232,7 @@ def check_experiments(
     calling script again: from a script, call this under ``if __name__ == "__main__":``.
     """
     t0 = time.perf_counter()
-    jobs = jobs if jobs is not None else (os.cpu_count() or 1)
-    if jobs < 1:
-        raise ConfigError("--jobs", "", f"must be >= 1 (got {jobs})")
-    if executor not in ("local", "dask"):
-        raise ConfigError("--executor", "", f"must be local or dask (got {executor})")
+    jobs = resolved_jobs(jobs, executor)
     experiments: list[Experiment] = []
     tasks_of: list[list[RunTask]] = []
     for path in paths:
