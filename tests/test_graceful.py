@@ -172,3 +172,29 @@ def test_docking_removes_a_lateral_error_at_rest_at_the_end():
     assert abs(pose[1]) < 0.008 and abs(pose[0] - 1.0) < 0.01
     assert max(abs(h) for h in heading) < math.radians(30)
     assert ctrl.reference_time_s >= reference.duration_s
+
+
+def test_never_backs_up_to_a_start_point_it_is_already_past():
+    """Starting 2 cm ahead of (and 3 cm beside) the start of a forward line, the vehicle waits for the reference
+    instead of reversing to it: no backward speed while the reference covers its first 5 cm, and no growth of the
+    lateral error (backing up with the heading pointing at the line would move it away)."""
+    from agvctl.controllers.mpc_ltv import LtvMpcController
+    from agvctl.planning import LineSegment, PathSpec
+
+    vehicle = load_vehicle()
+    reference = plan(PathSpec(segments=[LineSegment(length_m=1.0)]), vehicle)
+    ctrl = LtvMpcController(vehicle, MpcConfig(wheel_loop_time_constant_s=0.031))
+    ctrl.reset(reference)
+    T, b = vehicle.control.sample_period_s, vehicle.wheels.separation_m
+    pose, wheel = np.array([0.02, 0.03, math.radians(-2.0)]), np.zeros(2)
+    lateral = []
+    for k in range(40):
+        cmd = ctrl.update(k * T, pose, wheel)
+        wheel = np.array([cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s])
+        if reference.sample([k * T]).path_length_m[0] < 0.05:
+            assert wheel[0] + wheel[1] >= -1e-12
+        U, omega = 0.5 * (wheel[0] + wheel[1]), (wheel[1] - wheel[0]) / b  # eqs 39-40
+        mid = pose[2] + 0.5 * omega * T
+        pose = pose + T * np.array([U * math.cos(mid), U * math.sin(mid), omega])  # eqs 41-43
+        lateral.append(pose[1])
+    assert max(lateral) <= 0.03 + 1e-9

@@ -155,6 +155,8 @@ class HorizonReference:
         self.x_m, self.y_m, self.theta_rad = g.x_m, g.y_m, g.theta_rad
         self.cos_theta, self.sin_theta = np.cos(g.theta_rad), np.sin(g.theta_rad)
         self.speed_m_s, self.yaw_rate_rad_s = g.speed_m_s, g.yaw_rate_rad_s
+        self.travel_m = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(g.x_m), np.diff(g.y_m)))))
+        """Distance the reference point has moved by each grid point (m)."""
         self.wheel_m_s = np.column_stack([g.wheel_speed_left_m_s, g.wheel_speed_right_m_s])
         self.mid_theta_rad, self.mid_speed_m_s = m.theta_rad, m.speed_m_s
         self.mid_yaw_rate_rad_s = m.yaw_rate_rad_s
@@ -344,6 +346,14 @@ class MpcStepper:
         hi = np.array([max(v_l + up_l * f, -v_max), max(v_r + up_r * f, -v_max)])
         return lo, hi
 
+    def _starting_forward(self, g: HorizonReference, k: int) -> bool:
+        """Whether the run is at the start of its path (the reference has moved less than 5 cm) and the path
+        begins forwards (no backward speed over the horizon, some forward speed)."""
+        if self._time_offset_s > 0.0 or g.travel_m[k] >= 0.05:
+            return False
+        ahead = g.speed_m_s[k : k + self.config.horizon + 1]
+        return bool(np.min(ahead) >= -1e-9 and np.max(ahead) > 1e-6)
+
     def _lag_m(self, g: HorizonReference, clock: float, pose: NDArray[np.float64]) -> float:
         """How far the vehicle at ``pose`` is behind the reference at ``clock`` (samples): along the path, or in a
         turn the heading lag times b/2; negative when ahead."""
@@ -422,6 +432,11 @@ class MpcStepper:
                 status = "fallback_feedforward"
         else:
             left, right = setpoint
+        if self._starting_forward(g, k) and left + right < 0.0:
+            # at the start of a forward path, never back up to a start point the vehicle is already past: the
+            # reference comes to it (the turn is kept, the backward speed dropped)
+            shift = -0.5 * (left + right)
+            left, right = left + shift, right + shift
         if finite:
             left = min(max(left, float(lo[0])), float(hi[0]))
             right = min(max(right, float(lo[1])), float(hi[1]))
