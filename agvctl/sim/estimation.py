@@ -32,7 +32,7 @@ from agvctl.params import VehicleParams
 from agvctl.sim.ekf import EkfSettings, PoseEkf
 from agvctl.sim.estimators import ESTIMATORS, PoseEstimator
 from agvctl.sim.log import SimLog
-from agvctl.sim.sensors import Measurements, PositionFix, Sensors
+from agvctl.sim.sensors import SENSOR_READING_COLUMNS, Measurements, PositionFix, Sensors
 from agvctl.sim.wheel_speed import WHEEL_SPEED_ESTIMATORS, WheelSpeedEstimator
 
 __all__ = [
@@ -81,7 +81,7 @@ def resense_log(log: SimLog, vehicle: VehicleParams, *, seed: int) -> SimLog:
     angles = np.column_stack([log["motor_angle_left_rad"], log["motor_angle_right_rad"]])
     poses = np.column_stack([log["x_m"], log["y_m"], log["theta_rad"]])
     cols = dict(log.columns)
-    new = {name: np.full(len(log), math.nan) for name in _RESENSED}
+    new = {name: np.full(len(log), math.nan) for name in SENSOR_READING_COLUMNS}
     for k in range(len(log)):
         counts = sensors.encoder_counts(angles[k])
         meas = sensors.read(k, counts, poses[k], np.zeros(2))
@@ -93,17 +93,6 @@ def resense_log(log: SimLog, vehicle: VehicleParams, *, seed: int) -> SimLog:
             new["fix_measured_t_s"][k] = fix.measured_t_s
     cols.update(new)
     return SimLog(cols)
-
-
-_RESENSED = (
-    "encoder_count_left",
-    "encoder_count_right",
-    "gyro_rate_rad_s",
-    "fix_x_m",
-    "fix_y_m",
-    "fix_theta_rad",
-    "fix_measured_t_s",
-)
 
 
 def log_fixes(log: SimLog, ts: float) -> list[tuple[PositionFix, ...]]:

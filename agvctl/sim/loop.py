@@ -34,7 +34,7 @@ from agvctl.plant.full import PlantOptions
 from agvctl.sim.estimators import ESTIMATORS, PoseEstimator, consistency
 from agvctl.sim.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.sim.path_metrics import PATH_LOG_COLUMNS, path_error_columns
-from agvctl.sim.sensors import Measurements, Sensors
+from agvctl.sim.sensors import SENSOR_READING_COLUMNS, Measurements, Sensors
 from agvctl.sim.stepper import PlantStepper
 from agvctl.sim.wheel_speed import WHEEL_SPEED_ESTIMATORS, WheelSpeedEstimator
 
@@ -47,13 +47,7 @@ _SENSOR_COLUMNS = (
     "motor_angle_right_rad",
     "measured_omega_motor_left_rad_s",
     "measured_omega_motor_right_rad_s",
-    "encoder_count_left",
-    "encoder_count_right",
-    "gyro_rate_rad_s",
-    "fix_x_m",
-    "fix_y_m",
-    "fix_theta_rad",
-    "fix_measured_t_s",
+    *SENSOR_READING_COLUMNS,
     "est_sigma_x_m",
     "est_sigma_y_m",
     "est_sigma_theta_rad",

@@ -27,7 +27,25 @@ from numpy.typing import NDArray
 from agvctl.angles import wrap_angle
 from agvctl.params import VehicleParams
 
-__all__ = ["Measurements", "PositionFix", "Sensors", "fix_delay_samples"]
+__all__ = [
+    "Measurements",
+    "PositionFix",
+    "SENSOR_READING_COLUMNS",
+    "Sensors",
+    "fix_delay_samples",
+]
+
+SENSOR_READING_COLUMNS = (
+    "encoder_count_left",
+    "encoder_count_right",
+    "gyro_rate_rad_s",
+    "fix_x_m",
+    "fix_y_m",
+    "fix_theta_rad",
+    "fix_measured_t_s",
+)
+"""The log columns of what the sensors read at each sample: latched encoder counts, the gyro (NaN without one) and
+the last position fix arriving (NaN when none) with its measurement time."""
 
 FloatArray = NDArray[np.float64]
 
