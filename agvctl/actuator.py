@@ -180,6 +180,7 @@ class WheelReach:
         self._k_e, self._resistance, self._f_m = field("k_e"), field("resistance"), field("f_m")
         self._tau_c, self._tau_s = field("tau_c"), field("tau_s")
         self._u_fs, self._i_max = full_scale_voltage_v(vehicle), vehicle.amplifier.current_limit_a
+        self._pair_sides = sides
 
     def _up(self, v: NDArray[np.float64]) -> NDArray[np.float64]:
         omega = v / self._r_over_n
@@ -192,19 +193,16 @@ class WheelReach:
         """(up_left, up_right, down_left, down_right) of :meth:`accel_m_s2` for one pair of rim speeds, in plain
         floats (a controller's per-sample call: no array overhead)."""
         out = [0.0, 0.0, 0.0, 0.0]
+        u_fs, i_max = self._u_fs, self._i_max
         for j, v in enumerate((left_m_s, right_m_s)):
-            r_n, k_e, res, i_max = (
-                float(self._r_over_n[j]),
-                float(self._k_e[j]),
-                float(self._resistance[j]),
-                self._i_max,
-            )
+            side = self._pair_sides[j]
+            r_n = side.r_over_n
             for sign, slot in ((1.0, j), (-1.0, j + 2)):
                 omega = sign * v / r_n
-                current = min(max((self._u_fs - k_e * omega) / res, 0.0), i_max)
-                friction = self._tau_c[j] if omega > 0 else (-self._tau_c[j] if omega < 0 else self._tau_s[j])
-                accel = (self._k_t[j] * current - self._f_m[j] * omega - friction) / self._j_tot[j] * r_n
-                out[slot] = max(float(accel), 0.0)
+                current = min(max((u_fs - side.k_e * omega) / side.resistance, 0.0), i_max)
+                friction = side.tau_c if omega > 0 else (-side.tau_c if omega < 0 else side.tau_s)
+                accel = (side.k_t * current - side.f_m * omega - friction) / side.j_tot * r_n
+                out[slot] = max(accel, 0.0)
         return out[0], out[1], out[2], out[3]
 
     def accel_m_s2(self, wheel_speed_m_s: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

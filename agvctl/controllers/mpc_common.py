@@ -414,7 +414,9 @@ class MpcStepper:
         if self._u_prev is None:
             self._u_prev = measured.copy()
         elif finite:  # anti-windup: the previous command stays reachable from the wheels
-            np.clip(self._u_prev, lo - a_step, hi + a_step, out=self._u_prev)
+            u = self._u_prev
+            u[0] = min(max(float(u[0]), float(lo[0]) - a_step), float(hi[0]) + a_step)
+            u[1] = min(max(float(u[1]), float(lo[1]) - a_step), float(hi[1]) + a_step)
         status: SolveStatus = "solved"
         try:
             setpoint = self._solve(k, pose, measured)
