@@ -198,3 +198,22 @@ def test_never_backs_up_to_a_start_point_it_is_already_past():
         pose = pose + T * np.array([U * math.cos(mid), U * math.sin(mid), omega])  # eqs 41-43
         lateral.append(pose[1])
     assert max(lateral) <= 0.03 + 1e-9
+
+
+def test_docking_takes_an_error_along_the_last_drive_only_after_final_turns():
+    """Stopped short of the end along the last drive, a vehicle that still faces along it can drive there itself;
+    one that has turned in place since cannot without turning back, so docking takes that error too."""
+    from agvctl.controllers.docking import Docking
+    from agvctl.planning import LineSegment, PathSpec, TurnSegment
+
+    vehicle = load_vehicle()
+    short = np.array([0.97, 0.0, 0.0])  # 3 cm short of the end of a 1 m line along x
+    straight = plan(PathSpec(segments=[LineSegment(length_m=1.0)]), vehicle)
+    docking = Docking(vehicle)
+    docking.reset(straight)
+    assert docking.along_error_m(short) == pytest.approx(-0.03)
+    assert not docking.needed(short)
+    turned = plan(PathSpec(segments=[LineSegment(length_m=1.0), TurnSegment(angle_deg=120.0)]), vehicle)
+    docking.reset(turned)
+    assert docking.needed(np.array([0.97, 0.0, math.radians(120.0)]))
+    assert not docking.needed(np.array([1.005, 0.0, math.radians(120.0)]))  # within the tolerance

@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 from agvctl.controllers.mpc_common import MpcConfig, limit_command
-from agvctl.controllers.mpc_ltv import LtvMpcController, _PublicSteps
+from agvctl.controllers.mpc_ltv import LtvMpcController
 from agvctl.controllers.mpc_nonlinear import NonlinearMpcController
+from agvctl.controllers.osqp_steps import PublicSteps
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 from agvctl.planning import plan_file
@@ -76,8 +77,8 @@ def test_compiled_solver_steps_match_the_public_interface(vehicle: VehicleParams
     interface every command is the same."""
     fast = LtvMpcController(vehicle)
     public = LtvMpcController(vehicle)
-    public._steps = _PublicSteps(public._solver)
-    assert not isinstance(fast._steps, _PublicSteps)  # osqp 1.x: the fast path is the one in use
+    public._steps = PublicSteps(public._solver)
+    assert not isinstance(fast._steps, PublicSteps)  # osqp 1.x: the fast path is the one in use
     runs = [closed_loop(c, line, vehicle, start=(0.0, 0.05, 0.1), duration_s=3.0)[2] for c in (fast, public)]
     np.testing.assert_array_equal(runs[0], runs[1])
 

@@ -1,16 +1,16 @@
 """Docking: the final approach when a tracking controller stops beside the end of its path.
 
 At the end the reference is at rest, and a vehicle beside it cannot move sideways (eqs 41-43: ẏ = U sin θ in the
-path's frame needs U ≠ 0); a controller linearised about the reference at rest sees no way to remove a lateral
-error there, so it stays. A driver backs up and comes in again. :class:`Docking` decides when and plans that
-manoeuvre as an ordinary reference: once the vehicle has (nearly) stopped at the end with an error across the
-path's last drive above ``tolerance_m``, a straight line back along that drive's final heading and the same line
-forwards again, slowly (``speed_m_s``, ``accel_m_s2``), ending at the path's end pose (where the path ends with
-turns in place, they are undone first and turned again after); the controller tracks it like any reference and
-removes the lateral error while moving. The distance grows with the error (a heading change of about 2·e/L
-suffices) and shrinks where the path ends on a curve, so that backing straight up stays within
-``max_deviation_m`` of the path's arc (L ≤ √(2δ/|κ|)), and never reaches back beyond the path's last motion.
-It is tried at most ``attempts`` times, and never on a path that only turns in place.
+path's frame needs U ≠ 0); a controller linearised about the reference at rest sees no way to remove a lateral error
+there, so it stays. A driver backs up and comes in again. :class:`Docking` decides when and plans that manoeuvre as
+an ordinary reference: once the vehicle has (nearly) stopped at the end with an error across the path's last drive
+above ``tolerance_m`` (or along it, where the path ends with turns in place), a straight line back along that
+drive's final heading and the same line forwards again, slowly (``speed_m_s``, ``accel_m_s2``), ending at the path's
+end pose (where the path ends with turns in place, they are undone first and turned again after); the controller
+tracks it like any reference and removes the error while moving. The distance grows with the error (a heading change
+of about 2·e/L suffices) and shrinks where the path ends on a curve, so that backing straight up stays within
+``max_deviation_m`` of the path's arc (L ≤ √(2δ/|κ|)), and never reaches back beyond the path's last motion. It is
+tried at most ``attempts`` times, and never on a path that only turns in place.
 """
 
 from __future__ import annotations
@@ -74,9 +74,20 @@ class Docking:
         x, y, theta = self._end[0], self._end[1], self._drive_heading_rad
         return float(-math.sin(theta) * (pose[0] - x) + math.cos(theta) * (pose[1] - y))
 
+    def along_error_m(self, pose: NDArray[np.float64]) -> float:
+        """The pose's offset along the heading of the path's last drive from its end (m, positive beyond it)."""
+        x, y, theta = self._end[0], self._end[1], self._drive_heading_rad
+        return float(math.cos(theta) * (pose[0] - x) + math.sin(theta) * (pose[1] - y))
+
     def needed(self, pose: NDArray[np.float64]) -> bool:
-        """Whether a vehicle at rest at ``pose`` should dock (attempts left, a lateral error beyond tolerance)."""
-        return self._left > 0 and abs(self.lateral_error_m(pose)) > self.config.tolerance_m
+        """Whether a vehicle at rest at ``pose`` should dock: attempts left, and an error beyond tolerance across
+        the last drive, or along it where the path ends with turns in place (then the vehicle no longer faces
+        along the drive and cannot remove that error by moving along its heading)."""
+        if self._left <= 0:
+            return False
+        tol = self.config.tolerance_m
+        turned = abs(float(self._end[2]) - self._drive_heading_rad) > 1e-6
+        return abs(self.lateral_error_m(pose)) > tol or (turned and abs(self.along_error_m(pose)) > tol)
 
     def plan(self, pose: NDArray[np.float64]) -> Reference | None:
         """The manoeuvre for a vehicle at ``pose`` (and count the attempt), or None when it cannot help."""

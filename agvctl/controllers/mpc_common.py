@@ -39,6 +39,7 @@ from agvctl.angles import wrap_angle
 from agvctl.config import number
 from agvctl.controllers.base import PoseCommand, SolveStatus
 from agvctl.controllers.docking import Docking
+from agvctl.controllers.setpoints import SetpointFallback, limit_command
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 
@@ -174,30 +175,6 @@ class HorizonReference:
         return min(max(k, 0), self.last_start)
 
 
-class SetpointFallback:
-    """Remembers the last solved setpoint sequence, for the fallbacks when a solve fails: the shifted previous
-    solution while it still covers the current sample, then the reference's feed-forward."""
-
-    def __init__(self, horizon: int) -> None:
-        self.sequence_m_s = np.zeros((horizon, 2))
-        self.start = -1
-        """Grid index of the sequence's first sample; −1 when there is none."""
-
-    def clear(self) -> None:
-        self.start = -1
-
-    def store(self, start: int, sequence_m_s: FloatArray) -> None:
-        self.sequence_m_s[:] = sequence_m_s
-        self.start = start
-
-    def shifted(self, start: int) -> tuple[float, float] | None:
-        """The stored setpoint for grid index ``start``, if the stored sequence covers it."""
-        j = start - self.start
-        if self.start < 0 or j < 0 or j >= len(self.sequence_m_s):
-            return None
-        return float(self.sequence_m_s[j, 0]), float(self.sequence_m_s[j, 1])
-
-
 def lead_factor_s(config: MpcConfig, sample_period_s: float) -> float:
     """D/a (s): how far a setpoint may lead its wheel per m/s² the wheel can reach — T_s/(1 − e^(−T_s/τ)) for the
     wheel-loop lag (its exact discretisation moves v by (1 − e^(−T_s/τ))(s − v) in one sample), T_s for the
@@ -214,16 +191,6 @@ def resolved_limits(config: MpcConfig, vehicle: VehicleParams) -> tuple[float, f
     v_max = config.max_wheel_speed_m_s if config.max_wheel_speed_m_s is not None else d.max_speed_m_s
     a_lim = config.max_wheel_accel_m_s2 if config.max_wheel_accel_m_s2 is not None else d.accel_limit_m_s2
     return float(v_max), float(a_lim)
-
-
-def limit_command(setpoint_m_s: float, previous_m_s: float, max_speed_m_s: float, max_step_m_s: float) -> float:
-    """``setpoint_m_s`` brought exactly within the hard limits: |s| ≤ v_max and |s − s_prev| ≤ a_lim·T_s, with
-    s_prev first clipped to ±v_max (so the two always intersect). The solvers meet the limits only to their
-    tolerance, and the fallbacks not at all; every command that leaves a controller goes through this."""
-    prev = min(max(float(previous_m_s), -max_speed_m_s), max_speed_m_s)
-    lo = max(prev - max_step_m_s, -max_speed_m_s)
-    hi = min(prev + max_step_m_s, max_speed_m_s)
-    return float(min(max(setpoint_m_s, lo), hi))
 
 
 class MpcStepper:
@@ -356,7 +323,9 @@ class MpcStepper:
 
     def _lag_m(self, g: HorizonReference, clock: float, pose: NDArray[np.float64]) -> float:
         """How far the vehicle at ``pose`` is behind the reference at ``clock`` (samples): along the path, or in a
-        turn the heading lag times b/2; negative when ahead."""
+        turn in place the heading lag times b/2 or, if larger, the distance from the turning point (a weak wheel
+        that cannot keep up with the spin pushes the vehicle off the point: the reference waits for it to get
+        back); negative when ahead."""
         k = min(int(clock), g.n_points - 2)
         f = clock - k
         x = g.x_m[k] + f * (g.x_m[k + 1] - g.x_m[k])
@@ -367,6 +336,7 @@ class MpcStepper:
         heading_lag = 0.0
         if abs(yaw) * 0.5 * self.separation_m > 4.0 * abs(g.speed_m_s[k]) + 1e-6:  # turning (almost) in place
             heading_lag = -math.copysign(1.0, yaw) * wrap_angle(float(pose[2]) - th) * 0.5 * self.separation_m
+            return float(max(heading_lag, math.hypot(float(pose[0]) - x, float(pose[1]) - y)))
         return float(max(-along, heading_lag))
 
     def _advance_clock(self, g: HorizonReference, t_s: float, pose: NDArray[np.float64]) -> int:

@@ -25,16 +25,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any, Protocol, cast
+from typing import Any
 
 import numpy as np
 import osqp
-import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from agvctl.actuator import WheelReach
 from agvctl.angles import wrap_angle
 from agvctl.controllers.docking import Docking
+from agvctl.controllers.matrix_exponential import expm_batch
 from agvctl.controllers.mpc_common import (
     HorizonReference,
     MpcConfig,
@@ -45,6 +45,8 @@ from agvctl.controllers.mpc_common import (
     resolved_limits,
     wheel_loop_time_constant_s,
 )
+from agvctl.controllers.mpc_ltv_qp import QpLayout, constraint_pattern, cost_matrix
+from agvctl.controllers.osqp_steps import solver_steps
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 
@@ -71,76 +73,6 @@ OSQP_SETTINGS: dict[str, Any] = {
 ``osqp_settings`` overrides them. A fixed adaptive-rho interval keeps runs deterministic (OSQP's default
 adapts on measured time). ρ = 1 (default 0.1) halved the iterations of the hardest steps, recovering from a
 0.1 m offset with the rate limits active (measured: at most 120 instead of 205 iterations)."""
-
-
-class _SolverSteps(Protocol):
-    """What a step needs of a set-up OSQP solver: osqp's compiled solver object (``osqp.ext_builtin.OSQPSolver``)
-    has these, as does :class:`_PublicSteps` over the public interface."""
-
-    info: Any
-    solution: Any
-
-    def update_data_vec(self, *, q: FloatArray, l: FloatArray, u: FloatArray) -> None: ...  # noqa: E741
-
-    def update_data_mat(self, *, P_x: None, P_i: None, A_x: FloatArray, A_i: None) -> None: ...  # noqa: N803
-
-    def solve(self) -> None: ...
-
-    def warm_start(self, x: FloatArray, y: FloatArray) -> None: ...
-
-
-class _PublicSteps:
-    """:class:`_SolverSteps` through osqp's public ``OSQP`` methods."""
-
-    def __init__(self, solver: osqp.OSQP) -> None:
-        self._solver = solver
-        self.info: Any = None
-        self.solution: Any = None
-
-    def update_data_vec(self, *, q: FloatArray, l: FloatArray, u: FloatArray) -> None:  # noqa: E741
-        self._solver.update(q=q, l=l, u=u)
-
-    def update_data_mat(self, *, P_x: None, P_i: None, A_x: FloatArray, A_i: None) -> None:  # noqa: N803
-        self._solver.update(Ax=A_x)
-
-    def solve(self) -> None:
-        self.solution = self.info = None
-        result = self._solver.solve(raise_error=False)
-        self.solution, self.info = result, result.info
-
-    def warm_start(self, x: FloatArray, y: FloatArray) -> None:
-        self._solver.warm_start(x=x, y=y)
-
-
-def _solver_steps(solver: osqp.OSQP) -> _SolverSteps:
-    """The compiled solver inside ``solver`` when this osqp has it (1.x keeps it as ``_solver``), else the public
-    interface. The public ``update``/``solve`` wrap the same calls in argument checks and a result namespace built
-    field by field: about 15 µs a step here, 5 % of the MPC's (measured with osqp 1.1). Our bounds are already
-    within ±OSQP_INFTY, the one thing the wrapper's ``update`` adjusts."""
-    compiled = getattr(solver, "_solver", None)
-    needed = ("update_data_vec", "update_data_mat", "solve", "warm_start", "info", "solution")
-    if compiled is not None and all(hasattr(compiled, name) for name in needed):
-        return cast(_SolverSteps, compiled)
-    return _PublicSteps(solver)
-
-
-def expm_batch(a: FloatArray) -> FloatArray:
-    """e^A of each matrix of a stack (n, m, m): scaling and squaring with a Taylor series of order 14 on
-    ‖A/2^s‖₁ ≤ 1/2 (truncation below 0.5¹⁵/15! ≈ 2e-17). One vectorised pass; scipy.linalg.expm on a stack took
-    seconds for the ~500 intervals of a 20 s reference (measured here: 5.1 s for 517 7×7 matrices, 1.4 ms
-    this way, agreeing to 1e-14), which dominated setting a run up."""
-    m = a.shape[-1]
-    norm = float(np.max(np.sum(np.abs(a), axis=-1), initial=0.0))
-    s = max(0, math.ceil(math.log2(norm / 0.5))) if norm > 0.5 else 0
-    x = a / 2.0**s
-    e = np.broadcast_to(np.eye(m), a.shape) + x
-    term = x
-    for k in range(2, 15):
-        term = term @ x / k
-        e = e + term
-    for _ in range(s):
-        e = e @ e
-    return np.asarray(e, dtype=np.float64)
 
 
 class LtvMpcController(MpcStepper):
@@ -193,78 +125,18 @@ class LtvMpcController(MpcStepper):
 
     # -- problem structure --------------------------------------------------------------------------------
 
-    def _cost_matrix(self) -> sp.csc_matrix:
-        """P of the cost ½ zᵀPz + qᵀz (upper triangle): the state weights (along-path share in the path frame,
-        terminal scale at k = N), the input and input-rate weights."""
-        c, N, nx = self.config, self.config.horizon, self.nx
-        q_diag = np.zeros(nx)
-        along = c.weight_position * (c.along_track_share if c.error_frame == "path" else 1.0)
-        q_diag[:3] = (along, c.weight_position, c.weight_heading)
-        p_state = np.tile(q_diag, N)
-        p_state[-nx:] *= c.weight_terminal_scale
-        diff = sp.eye(2 * N, format="csc") - sp.eye(2 * N, k=-2, format="csc")  # rows: δs_k − δs_{k−1}
-        p_input = 2.0 * c.weight_input * sp.eye(2 * N) + 2.0 * c.weight_input_rate * (diff.T @ diff)
-        return sp.triu(sp.block_diag([sp.diags(2.0 * p_state), p_input], format="csc"), format="csc")
-
     def _build_problem(self) -> None:
         c, N, nx = self.config, self.config.horizon, self.nx
-        self._iU = iU = N * nx
-        self._iS = iS = iU + 2 * N
-        n_z = iS
-        self._r_box = r_box = N * nx
-        self._r_rate = r_rate = r_box + 2 * N
-        self._r_first = r_first = r_rate + 2 * (N - 1)
-        self._r_reach = r_reach = r_first + 2
-        n_rows = r_reach + (2 * (N - 1) if self._lag else 0)
+        layout = QpLayout(horizon=N, n_states=nx, wheel_loop=self._lag)
+        self._iU, self._iS = layout.i_setpoints, layout.n_variables
+        self._r_box, self._r_rate, self._r_first = layout.r_box, layout.r_rate, layout.r_first
+        self._r_reach = layout.r_reach
+        n_z, n_rows = layout.n_variables, layout.n_rows
 
-        rows: list[int] = []
-        cols: list[int] = []
-        vals: list[float] = []
-
-        def add(r: int, col: int, v: float) -> int:
-            rows.append(r)
-            cols.append(col)
-            vals.append(v)
-            return len(rows) - 1
-
-        # dynamics x_{k+1} − A_k x_k − B_k δs_k = 0; x_0 is data, so A_0 x_0 goes into the bounds
-        a_entries: list[int] = []
-        b_entries: list[int] = []
-        for k in range(N):
-            for i in range(nx):
-                add(k * nx + i, k * nx + i, 1.0)
-            if k >= 1:
-                for i in range(nx):
-                    for j in range(nx):
-                        a_entries.append(add(k * nx + i, (k - 1) * nx + j, 0.0))
-            for i in range(nx):
-                for j in range(2):
-                    b_entries.append(add(k * nx + i, iU + 2 * k + j, 1.0))
-        for k in range(2 * N):  # speed box on δs
-            add(r_box + k, iU + k, 1.0)
-        for k in range(1, N):  # rate δs_k − δs_{k−1}
-            for j in range(2):
-                add(r_rate + 2 * (k - 1) + j, iU + 2 * k + j, 1.0)
-                add(r_rate + 2 * (k - 1) + j, iU + 2 * (k - 1) + j, -1.0)
-        for j in range(2):  # first move from the previous command s_{−1}
-            add(r_first + j, iU + j, 1.0)
-        if self._lag:  # reachable lead of the setpoint over the wheel: s_k − v_k (v_0 is data, in the bounds)
-            for k in range(1, N):
-                for j in range(2):
-                    add(r_reach + 2 * (k - 1) + j, iU + 2 * k + j, 1.0)
-                    add(r_reach + 2 * (k - 1) + j, (k - 1) * nx + 3 + j, -1.0)
-
-        ids = np.arange(1, len(rows) + 1, dtype=np.float64)
-        A = sp.csc_matrix((ids, (rows, cols)), shape=(n_rows, n_z))
-        A.sort_indices()
-        order = A.data.astype(np.int64) - 1  # CSC position p holds entry order[p]
-        position = np.empty_like(order)
-        position[order] = np.arange(len(order))
-        A.data = np.asarray(vals, dtype=np.float64)[order]
+        A, self._pos_A, self._pos_B = constraint_pattern(layout)
         self._A_data = A.data.copy()
         self._A_loaded = b""  # the bytes of the values OSQP holds (none yet)
         self._heading_lin = 0.0
-        self._pos_A = position[np.asarray(a_entries, dtype=np.int64)]
         # the entries (position rows, wheel-speed columns) of A_1 … A_{N−1}: where driving with the present heading
         # error shows in the position error (see _solve), ordered by k, row, column
         nn = nx * nx
@@ -277,9 +149,13 @@ class LtvMpcController(MpcStepper):
         )
         """Positions in the constraint matrix's data of A_k's (along or x, across or y) × (δv_l, δv_r) entries,
         k = 1 … N − 1: column 0 the first position row, column 1 the second."""
-        self._pos_B = position[np.asarray(b_entries, dtype=np.int64)]
 
-        P = self._cost_matrix()
+        P = cost_matrix(c, layout)
+        self._P_data = P.data.copy()
+        # the along-path weights of x_1 … x_N: alone in their columns (the state weights are diagonal)
+        self._pos_P_along = P.indptr[np.arange(N) * nx].astype(np.int64)
+        assert np.array_equal(P.indices[self._pos_P_along], np.arange(N) * nx)
+        self._P_loaded = P.data.tobytes()
         self._q = np.zeros(n_z)
         self._l = np.zeros(n_rows)
         self._u = np.zeros(n_rows)
@@ -306,7 +182,7 @@ class LtvMpcController(MpcStepper):
             },
         )
         # at rest the problem above is the zero problem: A's varying entries are set at reset
-        self._steps = _solver_steps(self._solver)
+        self._steps = solver_steps(self._solver)
 
     def _precompute(self, g: HorizonReference) -> None:
         """The discrete A_j, B_j of every interval of the reference, and the bound/cost data as flat arrays so
@@ -337,6 +213,15 @@ class LtvMpcController(MpcStepper):
         self._Ad = np.ascontiguousarray(E[:, :nx, :nx])
         self._neg_Ad_flat = np.ascontiguousarray(-self._Ad).reshape(n * nx * nx)
         self._neg_Bd_flat = np.ascontiguousarray(-E[:, :nx, nx:]).reshape(n * nx * 2)
+
+        # the along-path weight at each grid point: isotropic where the reference turns in place (or stands),
+        # where "along the path" is only the direction a spinning frame points in (see _solve)
+        share = c.along_track_share if c.error_frame == "path" else 1.0
+        spinning = np.abs(g.yaw_rate_rad_s) * 0.5 * b > 4.0 * np.abs(g.speed_m_s) + 1e-6
+        weight = np.where(spinning, 1.0, share) * 2.0 * c.weight_position
+        self._along_weight = weight
+        self._along_scale = np.ones(c.horizon)
+        self._along_scale[-1] = c.weight_terminal_scale
 
         ff = g.feedforward_m_s
         v_max, a_step = self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 * T
@@ -453,22 +338,7 @@ class LtvMpcController(MpcStepper):
         lo[rf : rf + 2] = start - a_step
         hi[rf : rf + 2] = start + a_step
         if self._lag:
-            # the first sample's lead from the measured speed; later ones from the reference's speeds, never
-            # tighter than the first (so that holding the first setpoint stays feasible as the wheel converges)
-            rc = self._r_reach
-            window_lo, window_hi = self._window
-            np.maximum(lo[rb : rb + 2], window_lo - ff0, out=lo[rb : rb + 2])  # the first sample: in its box
-            np.minimum(hi[rb : rb + 2], window_hi - ff0, out=hi[rb : rb + 2])
-            ahead = slice(2 * (k + 1), 2 * (k + N))
-            if max(abs(float(wheel_speed_m_s[0])), abs(float(wheel_speed_m_s[1]))) <= v_max:
-                base = self._reach_base[ahead]
-                lead_down = np.maximum(self._reach_down[ahead].reshape(-1, 2), self._lead_down_m_s).ravel()
-                lead_up = np.maximum(self._reach_up[ahead].reshape(-1, 2), self._lead_up_m_s).ravel()
-                lo[rc : rc + 2 * (N - 1)] = base - lead_down
-                hi[rc : rc + 2 * (N - 1)] = base + lead_up
-            else:  # a wheel beyond the speed box (a reset at speed): only the first sample is bounded
-                lo[rc : rc + 2 * (N - 1)] = -_INF
-                hi[rc : rc + 2 * (N - 1)] = _INF
+            self._reach_bounds(k, ff0, wheel_speed_m_s)
 
         # rate cost w_Δ‖D δs + r‖², r_0 = −start, r_k = d_{k+k'}: linear term 2 w_Δ Dᵀ r
         r = self._rate_c
@@ -482,10 +352,7 @@ class LtvMpcController(MpcStepper):
 
         solver = self._steps
         solver.update_data_vec(q=q, l=lo, u=hi)
-        loaded = data.tobytes()
-        if loaded != self._A_loaded:  # else OSQP's factorisation still holds
-            solver.update_data_mat(P_x=None, P_i=None, A_x=data, A_i=None)
-            self._A_loaded = loaded
+        self._load_matrices(k)
         solver.solve()
         z = solver.solution.x
         if solver.info.status_val not in _ACCEPTED or not math.isfinite(float(z.sum())):
@@ -496,3 +363,39 @@ class LtvMpcController(MpcStepper):
         np.maximum(seq, -v_max, out=seq)
         self._fallback.store(k, seq)
         return float(seq[0, 0]), float(seq[0, 1])
+
+    def _reach_bounds(self, k: int, ff0: FloatArray, wheel_speed_m_s: NDArray[np.float64]) -> None:
+        """The setpoints' reachable leads over their wheels (the wheel-loop model's rows): the first sample's from the
+        measured speed (within its speed box), later ones from the reference's speeds, never tighter than the first
+        (so that holding the first setpoint stays feasible as the wheel converges)."""
+        N, lo, hi = self.config.horizon, self._l, self._u
+        rb, rc = self._r_box, self._r_reach
+        window_lo, window_hi = self._window
+        np.maximum(lo[rb : rb + 2], window_lo - ff0, out=lo[rb : rb + 2])
+        np.minimum(hi[rb : rb + 2], window_hi - ff0, out=hi[rb : rb + 2])
+        ahead = slice(2 * (k + 1), 2 * (k + N))
+        if max(abs(float(wheel_speed_m_s[0])), abs(float(wheel_speed_m_s[1]))) <= self.max_wheel_speed_m_s:
+            base = self._reach_base[ahead]
+            lead_down = np.maximum(self._reach_down[ahead].reshape(-1, 2), self._lead_down_m_s).ravel()
+            lead_up = np.maximum(self._reach_up[ahead].reshape(-1, 2), self._lead_up_m_s).ravel()
+            lo[rc : rc + 2 * (N - 1)] = base - lead_down
+            hi[rc : rc + 2 * (N - 1)] = base + lead_up
+        else:  # a wheel beyond the speed box (a reset at speed): only the first sample is bounded
+            lo[rc : rc + 2 * (N - 1)] = -_INF
+            hi[rc : rc + 2 * (N - 1)] = _INF
+
+    def _load_matrices(self, k: int) -> None:
+        """Give OSQP this step's P (the along-path weights of the window) and A (set in ``_A_data`` by the step),
+        only where they changed: an unchanged pair keeps OSQP's factorisation, about a third of a step."""
+        N, p_data = self.config.horizon, self._P_data
+        p_data[self._pos_P_along] = self._along_weight[k + 1 : k + N + 1] * self._along_scale
+        loaded_p, loaded_a = p_data.tobytes(), self._A_data.tobytes()
+        if loaded_p == self._P_loaded and loaded_a == self._A_loaded:
+            return
+        self._steps.update_data_mat(
+            P_x=p_data if loaded_p != self._P_loaded else None,
+            P_i=None,
+            A_x=self._A_data if loaded_a != self._A_loaded else None,
+            A_i=None,
+        )
+        self._P_loaded, self._A_loaded = loaded_p, loaded_a
