@@ -68,7 +68,10 @@ _PICK_ONE = operator.itemgetter(*_PICK.tolist())
 _LIMITED = [STATS_NAMES.index(f"current_limited_fraction_{s}") for s in _SIDES]
 
 _AUX = {name: i for i, name in enumerate(AUX_NAMES)}
-_ANGLE = [STATS_NAMES.index(f"motor_angle_increment_{s}_rad") for s in _SIDES]
+_ANGLE_LEFT = STATS_NAMES.index("motor_angle_increment_left_rad")
+assert STATS_NAMES[_ANGLE_LEFT + 1] == "motor_angle_increment_right_rad"
+_ANGLE = slice(_ANGLE_LEFT, _ANGLE_LEFT + 2)
+"""The motor angles turned over an interval (left, right): adjacent statistics."""
 _INSTANT_STATS = {
     **{f"current_limited_fraction_{s}": (f"current_limited_{s}", False) for s in _SIDES},
     **{f"current_peak_{s}_a": (f"current_{s}_a", True) for s in _SIDES},
