@@ -15,6 +15,7 @@ Nothing reaches the plant except through :meth:`Actuator.apply` (or :meth:`Actua
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -92,8 +93,36 @@ class Actuator:
 
     def apply(self, voltage_v: ArrayLike) -> ActuatorOutput:
         """Send requested DA voltages through the DA converter and the amplifier."""
-        code, clipped = self.da_code(voltage_v)
+        requested = np.asarray(voltage_v, dtype=float)
+        if requested.shape == (2,):  # one sample's pair (left, right): plain floats, the same values
+            return self._apply_pair(*requested.tolist())
+        code, clipped = self.da_code(requested)
         return self.from_codes(code, clipped)
+
+    def _side(self, voltage_v: float) -> tuple[int, float, float, bool, bool]:
+        """:meth:`apply` for one requested voltage in plain floats (a closed loop's per-sample call, where numpy's
+        per-call cost would dominate): the DA code, its voltage, the motor voltage, and whether the DA clipped and
+        the amplifier limited."""
+        steps = (voltage_v - self.mid_v) / self.volts_per_code
+        if not math.isfinite(steps):  # as np.nan_to_num: NaN asks for code 0, ±inf for the largest float
+            steps = 0.0 if math.isnan(steps) else math.copysign(sys.float_info.max, steps)
+        raw = round(steps)  # to the nearest code, ties to even (np.rint)
+        code = min(max(raw, self.code_min), self.code_max)
+        v_da = self.mid_v + code * self.volts_per_code
+        amplified = self.gain * v_da
+        u = min(max(amplified, -self.voltage_limit_v), self.voltage_limit_v)
+        return code, v_da, u, code != raw, abs(amplified) > self.voltage_limit_v
+
+    def _apply_pair(self, left_v: float, right_v: float) -> ActuatorOutput:
+        """:meth:`apply` for one pair of requested voltages, computed side by side in plain floats."""
+        left, right = self._side(left_v), self._side(right_v)
+        return ActuatorOutput(
+            da_code=np.array([left[0], right[0]], dtype=np.int64),
+            da_voltage_v=np.array([left[1], right[1]]),
+            motor_voltage_v=np.array([left[2], right[2]]),
+            da_clipped=np.array([left[3], right[3]]),
+            voltage_limited=np.array([left[4], right[4]]),
+        )
 
     def motor_voltage_v(self, voltage_v: float) -> float:
         """The motor voltage for one requested DA voltage: :meth:`apply` for a single side, in plain floats (a

@@ -46,3 +46,19 @@ def test_scalar_motor_voltage_is_the_chain_for_one_side(vehicle):
     assert [actuator.motor_voltage_v(float(v)) for v in requests] == list(expected)
     lowered = Actuator(vehicle.with_overrides(["amplifier.voltage_limit_v=3.0"]))
     assert lowered.motor_voltage_v(4.0) == 3.0 and lowered.motor_voltage_v(-4.0) == -3.0
+
+
+def test_a_pair_of_commands_gives_what_the_array_chain_gives(vehicle):
+    # apply() computes one sample's (left, right) pair in plain floats: every output equal to the array chain's
+    for act in (Actuator(vehicle), Actuator(vehicle.with_overrides(["amplifier.voltage_limit_v=6.0"]))):
+        steps = np.array([0.5, 1.5, -0.5, -2.5, 2047.5, -2048.5, 2048.0])
+        requests = np.concatenate(
+            [np.linspace(-7.0, 7.0, 2001), steps * act.volts_per_code, [np.nan, np.inf, -np.inf, 1e300, -1e300, 0.0]]
+        )
+        expected = act.from_codes(*act.da_code(requests))
+        pairs = requests.reshape(-1, 2)
+        for i, pair in enumerate(pairs):
+            out = act.apply(pair)
+            for name in ("da_code", "da_voltage_v", "motor_voltage_v", "da_clipped", "voltage_limited"):
+                got, want = getattr(out, name), getattr(expected, name)[2 * i : 2 * i + 2]
+                assert got.dtype == want.dtype and got.tobytes() == want.tobytes(), (name, pair)

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from agvctl.controllers.base import FeedForwardPoseController
 from agvctl.controllers.ltv_lqr import LtvLqrConfig, LtvLqrController, unicycle_error_model, unicycle_lqr_gain
 from agvctl.controllers.pi import PIWheelController
 from agvctl.controllers.ramsete import RamseteConfig, RamseteController, ramsete_law
@@ -169,3 +170,20 @@ def test_converges_from_an_offset_start(
     for side in ("left", "right"):
         assert np.all(np.isfinite(log[f"setpoint_wheel_speed_{side}_m_s"]))
         assert np.max(np.abs(log[f"setpoint_wheel_speed_{side}_m_s"])) <= vehicle.derived.max_speed_m_s + 1e-12
+
+
+# --- the reference feed-forward (pose = "none") ------------------------------------------------------------
+def test_feedforward_gives_exactly_the_references_wheel_speeds(vehicle: VehicleParams) -> None:
+    ref = _reference(vehicle, ArcSegment(radius_m=1.0, angle_deg=90.0, speed_m_s=0.5))
+    ff = FeedForwardPoseController()
+    ff.reset(ref)
+    ts = ref.sample_period_s
+    grid = list(ref.grid_times_s)
+    times = [*grid, -0.01, 0.5 * ts, 1.234, ref.duration_s, grid[-1] + ts, grid[-1] + 3.7]  # on and off the grid
+    for t in times:
+        cmd = ff.update(t, np.zeros(3), np.zeros(2))
+        s = ref.sample(np.array([t]))
+        assert (cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s) == (
+            float(s.wheel_speed_left_m_s[0]),
+            float(s.wheel_speed_right_m_s[0]),
+        ), t

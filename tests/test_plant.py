@@ -9,6 +9,7 @@ from agvctl.actuator import Actuator
 from agvctl.params import load_vehicle
 from agvctl.plant.full import AUX_NAMES, FullModel, PlantOptions, parameter_vector, state_from_motor_speeds
 from agvctl.sim import simulate_batch, simulate_open_loop
+from agvctl.sim.stepper import PlantStepper
 
 TS = 0.04
 K_T, K_E, R, N, r = 0.027, 0.027, 0.38, 36.0, 0.10  # appendix A (k_t = k_e in SI units, ERRATA)
@@ -177,3 +178,21 @@ def test_plant_options_remove_effects(vehicle):
     model = FullModel(PlantOptions(friction=False))
     xdot, _aux = model.rhs(np.zeros(5), [0.1, 0.1], parameter_vector(vehicle))
     assert float(xdot[0]) > 0
+
+
+def test_stepping_sample_by_sample_records_what_the_compiled_chunks_record(vehicle):
+    # PlantStepper.step records one row at a time in plain numbers, PlantStepper.run whole chunks in arrays: the
+    # same commands (sticking, break-away, reversals, saturation) give the same log, bit for bit
+    commands = np.concatenate(
+        [held((0.8, 2.0, 1.0)), np.random.default_rng(0).uniform(-7.0, 7.0, (40, 2)), held((1.0, 0.0, 0.0))]
+    )
+    stepped, chunked = (PlantStepper(vehicle, initial_state=[0.0, 0.0, 0.1, 0.2, 0.3]) for _ in range(2))
+    for command in commands:
+        stepped.step(command)
+    stepped.finish()
+    chunked.run(commands)
+    chunked.finish()
+    a, b = stepped.log(), chunked.log()
+    assert list(a) == list(b) and len(a) == len(commands) + 1
+    for name in a:
+        assert a[name].tobytes() == b[name].tobytes(), name

@@ -288,9 +288,9 @@ class PIWheelController:
         self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]
     ) -> NDArray[np.float64]:
         """The motor voltages (left, right) in V for one sample (advances the integrators)."""
-        sp = np.asarray(setpoint_rad_s, dtype=float)
-        meas = np.asarray(measured_rad_s, dtype=float)
-        return np.array([loop.update(float(sp[i]), float(meas[i])) for i, loop in enumerate(self.loops)])
+        sp = np.asarray(setpoint_rad_s, dtype=float).tolist()
+        meas = np.asarray(measured_rad_s, dtype=float).tolist()
+        return np.array([loop.update(sp[i], meas[i]) for i, loop in enumerate(self.loops)])
 
     def update(self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]) -> NDArray[np.float64]:
         """DA voltage commands (left, right) in V for one sample: motor voltage / k_pow."""

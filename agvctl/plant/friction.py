@@ -25,6 +25,8 @@ _SYMBOLIC = (ca.SX, ca.MX, ca.DM)
 def _clip(x: Num, limit: Num) -> Num:
     if isinstance(x, _SYMBOLIC) or isinstance(limit, _SYMBOLIC):
         return ca.fmin(ca.fmax(x, -limit), limit)
+    if isinstance(x, float) and isinstance(limit, float):  # plain floats: the same value, without numpy's call
+        return min(max(x, -limit), limit)
     return np.clip(x, -limit, limit)  # numbers and numpy arrays: the same values, without CasADi's conversions
 
 

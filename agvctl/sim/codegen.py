@@ -16,6 +16,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -53,11 +54,37 @@ class _VmCall:
         return tuple(np.asarray(o, dtype=float) for o in self.fn.call(list(inputs)))
 
 
+class _Buffers:
+    """One thread's argument buffers for a compiled function: inputs, outputs and work arrays allocated once, with
+    their addresses taken once (getting a numpy array's address costs more than a small call)."""
+
+    def __init__(
+        self,
+        in_shapes: Sequence[tuple[int, int]],
+        out_shapes: Sequence[tuple[int, int]],
+        sizes: tuple[int, int, int, int],
+    ) -> None:
+        n_arg, n_res, n_iw, n_w = sizes
+        # CasADi stores column-major: an (rows, cols) matrix is a C-contiguous (cols, rows) array
+        self.inputs = [np.empty(rows * cols) for rows, cols in in_shapes]
+        self.outputs = [np.empty((cols, rows)) for rows, cols in out_shapes]
+        self.iw = np.empty(max(1, n_iw), dtype=np.int64)
+        self.w = np.empty(max(1, n_w))
+        self.input_addresses: list[ctypes.c_void_p | int | None] = [a.ctypes.data for a in self.inputs]
+        self.output_addresses: list[ctypes.c_void_p | int | None] = [o.ctypes.data for o in self.outputs]
+        # the generated code may use the slots past the inputs and outputs as scratch for nested calls
+        self.arg = (ctypes.c_void_p * max(1, n_arg))()
+        self.res = (ctypes.c_void_p * max(1, n_res))()
+        self.iw_ptr = self.iw.ctypes.data_as(ctypes.c_void_p)
+        self.w_ptr = self.w.ctypes.data_as(ctypes.c_void_p)
+
+
 class _CCall:
-    """Call a function of CasADi-generated C code through ctypes, on numpy buffers without copies.
+    """Call a function of CasADi-generated C code through ctypes, on numpy buffers.
 
     CasADi's own Python wrapper converts every output to a ``DM`` and back, which costs more than the
-    integration for large batches; here inputs are passed as pointers and outputs written in place.
+    integration for large batches; here inputs are copied into buffers allocated once per thread (the call
+    releases the GIL, so threads may call at once), outputs written there and returned as copies.
     """
 
     def __init__(self, lib: ctypes.CDLL, fn: ca.Function) -> None:
@@ -69,32 +96,35 @@ class _CCall:
         if work(*[ctypes.byref(v) for v in sizes]) != 0:
             raise RuntimeError(f"{name}_work failed")
         self._n_arg, self._n_res, self._n_iw, self._n_w = (int(v.value) for v in sizes)
+        if self._n_arg < fn.n_in() or self._n_res < fn.n_out():
+            raise RuntimeError(f"{name}: fewer argument slots than inputs or outputs")
         getattr(lib, f"{name}_incref")()
         self._in_shapes = [(fn.size1_in(i), fn.size2_in(i)) for i in range(fn.n_in())]
         self._out_shapes = [(fn.size1_out(i), fn.size2_out(i)) for i in range(fn.n_out())]
+        self._local = threading.local()
         self.name = name
 
+    def _buffers(self) -> _Buffers:
+        buffers: _Buffers | None = getattr(self._local, "buffers", None)
+        if buffers is None:
+            sizes = (self._n_arg, self._n_res, self._n_iw, self._n_w)
+            buffers = _Buffers(self._in_shapes, self._out_shapes, sizes)
+            self._local.buffers = buffers
+        return buffers
+
     def __call__(self, *inputs: Any) -> tuple[NDArray[np.float64], ...]:
-        arg = (ctypes.c_void_p * max(1, self._n_arg))()
-        res = (ctypes.c_void_p * max(1, self._n_res))()
-        keep = []
-        for i, (value, (rows, cols)) in enumerate(zip(inputs, self._in_shapes, strict=True)):
-            # CasADi stores column-major: an (rows, cols) matrix is a C-contiguous (cols, rows) array
+        buffers = self._buffers()
+        for i, (value, (rows, cols), buffer) in enumerate(zip(inputs, self._in_shapes, buffers.inputs, strict=True)):
             a = np.asarray(value, dtype=float)
             if a.shape != (rows, cols) and a.size != rows * cols:
                 raise ValueError(f"{self.name}: input {i} has shape {a.shape}, expected ({rows}, {cols})")
-            a = np.ascontiguousarray(a.T if a.ndim == 2 else a.reshape(cols, rows))
-            keep.append(a)
-            arg[i] = a.ctypes.data
-        outs = [np.empty((cols, rows)) for rows, cols in self._out_shapes]
-        for j, o in enumerate(outs):
-            res[j] = o.ctypes.data
-        iw = np.empty(max(1, self._n_iw), dtype=np.int64)
-        w = np.empty(max(1, self._n_w))
-        status = self._fn(arg, res, iw.ctypes.data_as(ctypes.c_void_p), w.ctypes.data_as(ctypes.c_void_p), 0)
+            buffer[:] = (a.T if a.ndim == 2 else a).reshape(-1)  # column-major: a matrix's columns one by one
+        buffers.arg[: len(inputs)] = buffers.input_addresses
+        buffers.res[: len(buffers.outputs)] = buffers.output_addresses
+        status = self._fn(buffers.arg, buffers.res, buffers.iw_ptr, buffers.w_ptr, 0)
         if status != 0:
             raise RuntimeError(f"{self.name} returned {status}")
-        return tuple(o.T for o in outs)
+        return tuple(o.copy().T for o in buffers.outputs)
 
 
 def _compile(functions: Sequence[ca.Function], name: str) -> list[NumericFunction]:

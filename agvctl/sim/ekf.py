@@ -111,8 +111,8 @@ class PoseEkf:
         if self._counts is None:
             travel = np.array([0.0, 0.0, math.nan])
         else:
-            d = (encoder_counts - self._counts) * self.metres_per_count
-            travel = np.array([d[0], d[1], (gyro_rate_rad_s - self._gyro_bias) * self.sample_period_s])
+            d_l, d_r = ((encoder_counts - self._counts) * self.metres_per_count).tolist()
+            travel = np.array([d_l, d_r, (gyro_rate_rad_s - self._gyro_bias) * self.sample_period_s])
             self.x, self.P = self._predict(self.x, self.P, travel)
         self._counts = encoder_counts
         self._history.append((k, travel, self.x, self.P))

@@ -101,7 +101,7 @@ def consistency(estimator: object, estimate: FloatArray, true_pose: FloatArray) 
     if cov is None:
         return (math.nan,) * 5
     (a, b, c), (_, d, e), (_, _, f) = np.asarray(cov, dtype=float).tolist()
-    x, y, t = (float(v) for v in np.asarray(estimate, dtype=float) - true_pose)
+    x, y, t = (np.asarray(estimate, dtype=float) - true_pose).tolist()
     t = wrap_angle(t)
     # adj(P) of P = [[a b c] [b d e] [c e f]], and det P
     A, B, C = d * f - e * e, c * e - b * f, b * e - c * d

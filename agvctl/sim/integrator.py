@@ -185,6 +185,8 @@ class CompiledPlant:
         """Advance one sample of length ``dt``: returns ``(x_next, aux at the start, stats over the interval)``."""
         x_next, aux, stats = self._fns.step(x, u, p, dt / splits)
         aux0 = aux.ravel()
+        if splits == 1:
+            return x_next.ravel(), aux0, stats.ravel()
         all_stats = [stats.ravel()]
         for _ in range(splits - 1):
             x_next, _aux, stats = self._fns.step(x_next, u, p, dt / splits)

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from agvctl.angles import wrap_angle
 from agvctl.controllers.base import GovernedPoseController, PoseController, WheelSpeedController
@@ -200,7 +200,7 @@ def run_closed_loop(
     delay = _Delay(compute_delay)
     pose_controller.reset(reference)
     wheel_controller.reset()
-    control = np.zeros((n + 1, len(_PER_SAMPLE)))
+    control: list[list[float]] = []  # the rows of _PER_SAMPLE, one per sample, as plain numbers
     failures = 0
     end_reached_k: int | None = None  # the sample at which a governed reference reached its end
     progress_every = max(1, int(round(1.0 / ts)))
@@ -234,8 +234,8 @@ def run_closed_loop(
         else:
             plant.finish(da_cmd)
         checks = consistency(estimator, est, meas.true_pose)
-        sensed = (*angle, *omega, *counts, *_sensor_row(meas), *checks)
-        control[k] = (*est, *setpoint, *sp_motor, *da_cmd, solve, status, *sensed)
+        sensed = [*_plain(angle), *_plain(omega), *_plain(counts), *_sensor_row(meas), *checks]
+        control.append([*_plain(est), *_plain(setpoint), *_plain(sp_motor), *_plain(da_cmd), solve, status, *sensed])
         if progress is not None and k % progress_every == 0:
             progress(k / n)
         if k >= n:
@@ -245,7 +245,7 @@ def run_closed_loop(
         progress(1.0)
     ref = reference.sample(t[: n + 1])
     return ClosedLoopResult(
-        log=_closed_loop_log(plant.log(), control[: n + 1], ref, _rim_per_motor(plant_vehicle)),
+        log=_closed_loop_log(plant.log(), np.array(control, dtype=np.float64), ref, _rim_per_motor(plant_vehicle)),
         reference=reference,
         wall_time_s=wall,
         setup_time_s=setup,
@@ -253,6 +253,12 @@ def run_closed_loop(
         n_samples=n,
         sample_period_s=ts,
     )
+
+
+def _plain(values: ArrayLike) -> list[float]:
+    """Values as plain Python floats, for a row of the log."""
+    plain: list[float] = np.asarray(values, dtype=np.float64).tolist()
+    return plain
 
 
 def _sensor_row(meas: Measurements) -> tuple[float, ...]:

@@ -23,6 +23,8 @@ length (a calibration experiment that runs until a wheel turns) just keeps calli
 
 from __future__ import annotations
 
+import operator
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -61,9 +63,15 @@ def _source_of(column: str) -> int:
 
 _PICK = np.array([_source_of(name) for name in PLANT_LOG_COLUMNS])
 """Where each log column comes from: by name, once."""
+_PICK_ONE = operator.itemgetter(*_PICK.tolist())
+"""The same for one sample's quantities in a list: the row as a tuple."""
+_LIMITED = [STATS_NAMES.index(f"current_limited_fraction_{s}") for s in _SIDES]
 
 _AUX = {name: i for i, name in enumerate(AUX_NAMES)}
-_ANGLE = [STATS_NAMES.index(f"motor_angle_increment_{s}_rad") for s in _SIDES]
+_ANGLE_LEFT = STATS_NAMES.index("motor_angle_increment_left_rad")
+assert STATS_NAMES[_ANGLE_LEFT + 1] == "motor_angle_increment_right_rad"
+_ANGLE = slice(_ANGLE_LEFT, _ANGLE_LEFT + 2)
+"""The motor angles turned over an interval (left, right): adjacent statistics."""
 _INSTANT_STATS = {
     **{f"current_limited_fraction_{s}": (f"current_limited_{s}", False) for s in _SIDES},
     **{f"current_peak_{s}_a": (f"current_{s}_a", True) for s in _SIDES},
@@ -91,7 +99,7 @@ def plant_log_rows(
 ) -> FloatArray:
     """Rows of :data:`~agvctl.sim.log.PLANT_LOG_COLUMNS` (m × columns) from m samples' times, actuator outputs
     (m × 2 each), auxiliaries at the start (m × 10), interval statistics (m × 8) and states (m × 5)."""
-    limited = stats[:, [STATS_NAMES.index(f"current_limited_fraction_{s}") for s in _SIDES]] > 0
+    limited = stats[:, _LIMITED] > 0
     parts = (
         np.reshape(t_s, (-1, 1)),
         actuated.da_code,
@@ -105,6 +113,28 @@ def plant_log_rows(
     )
     rows = np.concatenate([np.asarray(p, dtype=np.float64).reshape(len(stats), -1) for p in parts], axis=1)
     return np.asarray(rows[:, _PICK], dtype=np.float64)
+
+
+def _plant_log_row(
+    t_s: float, actuated: ActuatorOutput, aux: FloatArray, stats: FloatArray, state: FloatArray
+) -> tuple[float, ...]:
+    """One row of :func:`plant_log_rows` for one sample (actuator outputs of one pair, vectors of auxiliaries,
+    statistics and state), in plain Python numbers: a per-sample record, where numpy's per-call cost would
+    dominate. The same quantities in the same order as :func:`plant_log_rows` stacks them (:data:`_SOURCES`)."""
+    limited = [float(stats[j] > 0) for j in _LIMITED]
+    sources = [
+        t_s,
+        *actuated.da_code.ravel().tolist(),
+        *actuated.da_voltage_v.ravel().tolist(),
+        *actuated.da_clipped.ravel().tolist(),
+        *actuated.motor_voltage_v.ravel().tolist(),
+        *aux.tolist(),
+        *stats.tolist(),
+        *limited,
+        *state.tolist(),
+    ]
+    row: tuple[float, ...] = _PICK_ONE(sources)
+    return row
 
 
 class PlantStepper:
@@ -131,8 +161,8 @@ class PlantStepper:
         self._actuator = Actuator(vehicle)
         self._friction = (options or PlantOptions()).friction
         d = vehicle.derived
-        self._stiction_n_m = np.array([vehicle.motor.left.stiction_n_m, vehicle.motor.right.stiction_n_m])
-        self._friction_gain_p = np.array([d.left.friction_gain_p, d.right.friction_gain_p])
+        self._stiction_n_m = (vehicle.motor.left.stiction_n_m, vehicle.motor.right.stiction_n_m)
+        self._friction_gain_p = (d.left.friction_gain_p, d.right.friction_gain_p)
         x0 = np.zeros(len(STATE_NAMES)) if initial_state is None else np.asarray(initial_state, dtype=float)
         self.state: FloatArray = np.array(x0, dtype=float)
         """The plant state at the current sample time."""
@@ -141,6 +171,8 @@ class PlantStepper:
         self.motor_angle_rad: FloatArray = np.zeros(2)
         """The motor shafts' angles (left, right) turned since the start, in rad: what the encoders count."""
         self._rows: list[FloatArray] = []
+        """Blocks of recorded rows; the rows of single samples gather in :attr:`_sample_rows` first."""
+        self._sample_rows: list[tuple[float, ...]] = []
         self._last: ActuatorOutput | None = None
 
     @property
@@ -153,13 +185,15 @@ class PlantStepper:
         pre = self.state[:2]
         if not self._friction:
             return np.array(pre)
-        return np.asarray(motor_speed(pre, self._stiction_n_m, self._friction_gain_p), dtype=float)
+        tau_s, gain_p = self._stiction_n_m, self._friction_gain_p
+        return np.array([motor_speed(w, tau_s[i], gain_p[i]) for i, w in enumerate(pre.tolist())])
 
     def step(self, da_command_v: ArrayLike) -> ActuatorOutput:
         """Actuate ``da_command_v`` (left, right, V), record row k and integrate to t_k+1."""
         out = self._actuator.apply(da_command_v)
-        u = np.asarray(out.motor_voltage_v, dtype=float)
-        x_next, aux, stats = self.plant.step(self.state, u, self._p, self.sample_period_s, self._splits)
+        x_next, aux, stats = self.plant.step(
+            self.state, out.motor_voltage_v, self._p, self.sample_period_s, self._splits
+        )
         self._record(out, aux, stats)
         self.state = x_next
         self.motor_angle_rad = self.motor_angle_rad + stats[_ANGLE]
@@ -186,6 +220,7 @@ class PlantStepper:
         X, A, S = self.plant.run(self.state, u, self._p, self.sample_period_s, self._splits)
         n = u.shape[0]
         t = (self.k + np.arange(n)) * self.sample_period_s
+        self._flush()
         self._rows.append(plant_log_rows(t, out, A, S, X[:-1]))
         self._last = self._actuator.apply(np.asarray(da_commands_v, dtype=float)[-1])
         self.state = X[-1]
@@ -193,11 +228,17 @@ class PlantStepper:
         self.k += n
 
     def _record(self, out: ActuatorOutput, aux: FloatArray, stats: FloatArray) -> None:
-        t = np.array([self.k * self.sample_period_s])
-        self._rows.append(plant_log_rows(t, out, aux[None, :], stats[None, :], self.state[None, :]))
+        self._sample_rows.append(_plant_log_row(self.k * self.sample_period_s, out, aux, stats, self.state))
         self._last = out
+
+    def _flush(self) -> None:
+        """The single samples' rows gathered so far as one block of :attr:`_rows`."""
+        if self._sample_rows:
+            self._rows.append(np.array(self._sample_rows, dtype=np.float64))
+            self._sample_rows = []
 
     def log(self) -> SimLog:
         """The rows recorded so far, as a :class:`~agvctl.sim.log.SimLog`."""
+        self._flush()
         rows = np.vstack(self._rows) if self._rows else np.zeros((0, len(PLANT_LOG_COLUMNS)))
         return SimLog({name: rows[:, j] for j, name in enumerate(PLANT_LOG_COLUMNS)})

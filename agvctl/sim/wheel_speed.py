@@ -172,7 +172,7 @@ class KalmanWheelSpeed:
         return np.array(speeds)
 
     def applied(self, da_command_v: FloatArray) -> None:
-        self._u = [self._actuator.motor_voltage_v(float(v)) for v in da_command_v]
+        self._u = [self._actuator.motor_voltage_v(v) for v in np.asarray(da_command_v, dtype=float).tolist()]
 
 
 WHEEL_SPEED_ESTIMATORS: dict[str, Callable[[VehicleParams], WheelSpeedEstimator]] = {
