@@ -325,7 +325,9 @@ class MpcStepper:
         """How far the vehicle at ``pose`` is behind the reference at ``clock`` (samples): along the path, or in a
         turn in place the heading lag times b/2 or, if larger, the distance from the turning point (a weak wheel
         that cannot keep up with the spin pushes the vehicle off the point: the reference waits for it to get
-        back); negative when ahead."""
+        back); negative when ahead. Ahead in the turn the reference comes to it, at no more than its own pace while
+        the vehicle is off the point (never held there: the MPC, predicting the reference turning on, would wait for
+        it while it waited for the vehicle)."""
         k = min(int(clock), g.n_points - 2)
         f = clock - k
         x = g.x_m[k] + f * (g.x_m[k + 1] - g.x_m[k])
@@ -336,7 +338,11 @@ class MpcStepper:
         heading_lag = 0.0
         if abs(yaw) * 0.5 * self.separation_m > 4.0 * abs(g.speed_m_s[k]) + 1e-6:  # turning (almost) in place
             heading_lag = -math.copysign(1.0, yaw) * wrap_angle(float(pose[2]) - th) * 0.5 * self.separation_m
-            return float(max(heading_lag, math.hypot(float(pose[0]) - x, float(pose[1]) - y)))
+            off_point = math.hypot(float(pose[0]) - x, float(pose[1]) - y)
+            if heading_lag < 0.0:  # ahead in the turn: the reference comes to it (at its own pace if off the point)
+                start = self.config.governor_lag_start_m
+                return float(heading_lag if off_point <= start else start)
+            return float(max(heading_lag, off_point))
         return float(max(-along, heading_lag))
 
     def _advance_clock(self, g: HorizonReference, t_s: float, pose: NDArray[np.float64]) -> int:
