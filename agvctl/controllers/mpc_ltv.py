@@ -156,9 +156,10 @@ class LtvMpcController(MpcStepper):
 
         P = cost_matrix(c, layout)
         self._P_data = P.data.copy()
-        # the along-path weights of x_1 … x_N: alone in their columns (the state weights are diagonal)
-        self._pos_P_along = P.indptr[np.arange(N) * nx].astype(np.int64)
-        assert np.array_equal(P.indices[self._pos_P_along], np.arange(N) * nx)
+        # the position weights of x_1 … x_N (along then across, by k): alone in their columns (diagonal state weights)
+        columns = (np.arange(N)[:, None] * nx + np.arange(2)[None, :]).ravel()
+        self._pos_P_position = P.indptr[columns].astype(np.int64)
+        assert np.array_equal(P.indices[self._pos_P_position], columns)
         self._P_loaded = P.data.tobytes()
         self._q = np.zeros(n_z)
         self._l = np.zeros(n_rows)
@@ -218,14 +219,17 @@ class LtvMpcController(MpcStepper):
         self._neg_Ad_flat = np.ascontiguousarray(-self._Ad).reshape(n * nx * nx)
         self._neg_Bd_flat = np.ascontiguousarray(-E[:, :nx, nx:]).reshape(n * nx * 2)
 
-        # the along-path weight at each grid point: isotropic where the reference turns in place (or stands),
-        # where "along the path" is only the direction a spinning frame points in (see _solve)
+        # the position weights (along, across) at each grid point: where the reference turns in place (or stands),
+        # alike in every direction ("along the path" is only where a spinning frame points) and scaled by
+        # turn_in_place_position_scale (the path is the turning point: any translation is off it)
         share = c.along_track_share if c.error_frame == "path" else 1.0
         spinning = np.abs(g.yaw_rate_rad_s) * 0.5 * b > 4.0 * np.abs(g.speed_m_s) + 1e-6
-        weight = np.where(spinning, 1.0, share) * 2.0 * c.weight_position
-        self._along_weight = weight
-        self._along_scale = np.ones(c.horizon)
-        self._along_scale[-1] = c.weight_terminal_scale
+        weights = np.empty((g.n_points, 2))
+        weights[:, 0] = np.where(spinning, c.turn_in_place_position_scale, share)
+        weights[:, 1] = np.where(spinning, c.turn_in_place_position_scale, 1.0)
+        self._position_weights = weights * 2.0 * c.weight_position
+        self._horizon_scale = np.ones((c.horizon, 1))
+        self._horizon_scale[-1] = c.weight_terminal_scale
 
         ff = g.feedforward_m_s
         v_max, a_step = self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 * T
@@ -389,10 +393,10 @@ class LtvMpcController(MpcStepper):
             hi[rc : rc + 2 * (N - 1)] = _INF
 
     def _load_matrices(self, k: int) -> None:
-        """Give OSQP this step's P (the along-path weights of the window) and A (set in ``_A_data`` by the step),
+        """Give OSQP this step's P (the position weights of the window) and A (set in ``_A_data`` by the step),
         only where they changed: an unchanged pair keeps OSQP's factorisation, about a third of a step."""
         N, p_data = self.config.horizon, self._P_data
-        p_data[self._pos_P_along] = self._along_weight[k + 1 : k + N + 1] * self._along_scale
+        p_data[self._pos_P_position] = (self._position_weights[k + 1 : k + N + 1] * self._horizon_scale).ravel()
         loaded_p, loaded_a = p_data.tobytes(), self._A_data.tobytes()
         if loaded_p == self._P_loaded and loaded_a == self._A_loaded:
             return

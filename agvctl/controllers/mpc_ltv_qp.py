@@ -62,14 +62,15 @@ class QpLayout:
 
 def cost_matrix(config: MpcConfig, layout: QpLayout) -> sp.csc_matrix:
     """P of the cost ½ zᵀPz + qᵀz (upper triangle): the state weights (terminal scale at k = N), the input and
-    input-rate weights. The along-path (or x) weights are placeholders, kept in the pattern: each step sets
-    them from the reference (the LTV MPC's ``_precompute``)."""
+    input-rate weights. The position weights are placeholders, kept in the pattern: each step sets them from the
+    reference (the LTV MPC's ``_precompute``)."""
     c, N, nx = config, layout.horizon, layout.n_states
     q_diag = np.zeros(nx)
-    q_diag[1:3] = (c.weight_position, c.weight_heading)
+    q_diag[2] = c.weight_heading
     p_state = np.tile(q_diag, N)
     p_state[-nx:] *= c.weight_terminal_scale
     p_state[::nx] = 1.0
+    p_state[1::nx] = 1.0
     diff = sp.eye(2 * N, format="csc") - sp.eye(2 * N, k=-2, format="csc")  # rows: δs_k − δs_{k−1}
     p_input = 2.0 * c.weight_input * sp.eye(2 * N) + 2.0 * c.weight_input_rate * (diff.T @ diff)
     return sp.triu(sp.block_diag([sp.diags(2.0 * p_state), p_input], format="csc"), format="csc")
