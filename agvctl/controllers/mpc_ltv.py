@@ -219,7 +219,7 @@ class LtvMpcController(MpcStepper):
         self._neg_Ad_flat = np.ascontiguousarray(-self._Ad).reshape(n * nx * nx)
         self._neg_Bd_flat = np.ascontiguousarray(-E[:, :nx, nx:]).reshape(n * nx * 2)
 
-        # the position weights (along, across) at each grid point: where the reference turns in place (or stands),
+        # the position weights (along, across) at each grid point: where the reference turns in place,
         # alike in every direction ("along the path" is only where a spinning frame points) and scaled by
         # turn_in_place_position_scale (the path is the turning point: any translation is off it)
         share = c.along_track_share if c.error_frame == "path" else 1.0
