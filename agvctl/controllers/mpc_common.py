@@ -29,7 +29,7 @@ import dataclasses
 import math
 import time
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal, overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,6 +53,7 @@ __all__ = [
     "limit_command",
     "resolved_config",
     "resolved_limits",
+    "turning_in_place",
     "wheel_loop_time_constant_s",
 ]
 
@@ -178,6 +179,21 @@ class HorizonReference:
         """The grid index of the sample starting at ``t_s`` (rounded), clamped to ``[0, last_start]``."""
         k = round(t_s / self.sample_period_s)
         return min(max(k, 0), self.last_start)
+
+
+@overload
+def turning_in_place(yaw_rate_rad_s: float, speed_m_s: float, separation_m: float) -> bool: ...
+
+
+@overload
+def turning_in_place(yaw_rate_rad_s: FloatArray, speed_m_s: FloatArray, separation_m: float) -> NDArray[np.bool_]: ...
+
+
+def turning_in_place(yaw_rate_rad_s: Any, speed_m_s: Any, separation_m: float) -> Any:
+    """Whether the reference turns (almost) in place: its wheels' turning speed |ω|·b/2 above four times its speed
+    (elementwise for arrays). There the path is a point, "along" it is only where a spinning frame points, and the
+    governor measures the heading lag."""
+    return abs(yaw_rate_rad_s) * 0.5 * separation_m > 4.0 * abs(speed_m_s) + 1e-6
 
 
 def lead_factor_s(config: MpcConfig, sample_period_s: float) -> float:
@@ -341,7 +357,7 @@ class MpcStepper:
         along = math.cos(th) * (float(pose[0]) - x) + math.sin(th) * (float(pose[1]) - y)
         yaw = g.yaw_rate_rad_s[k]
         heading_lag = 0.0
-        if abs(yaw) * 0.5 * self.separation_m > 4.0 * abs(g.speed_m_s[k]) + 1e-6:  # turning (almost) in place
+        if turning_in_place(yaw, g.speed_m_s[k], self.separation_m):
             heading_lag = -math.copysign(1.0, yaw) * wrap_angle(float(pose[2]) - th) * 0.5 * self.separation_m
             off_point = math.hypot(float(pose[0]) - x, float(pose[1]) - y)
             if heading_lag < 0.0:  # ahead in the turn: the reference comes to it (at its own pace if off the point)

@@ -43,6 +43,7 @@ from agvctl.controllers.mpc_common import (
     lead_factor_s,
     resolved_config,
     resolved_limits,
+    turning_in_place,
     wheel_loop_time_constant_s,
 )
 from agvctl.controllers.mpc_ltv_qp import QpLayout, constraint_pattern, cost_matrix
@@ -223,7 +224,7 @@ class LtvMpcController(MpcStepper):
         # alike in every direction ("along the path" is only where a spinning frame points) and scaled by
         # turn_in_place_position_scale (the path is the turning point: any translation is off it)
         share = c.along_track_share if c.error_frame == "path" else 1.0
-        spinning = np.abs(g.yaw_rate_rad_s) * 0.5 * b > 4.0 * np.abs(g.speed_m_s) + 1e-6
+        spinning = turning_in_place(g.yaw_rate_rad_s, g.speed_m_s, b)
         weights = np.empty((g.n_points, 2))
         weights[:, 0] = np.where(spinning, c.turn_in_place_position_scale, share)
         weights[:, 1] = np.where(spinning, c.turn_in_place_position_scale, 1.0)

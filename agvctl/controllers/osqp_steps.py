@@ -50,7 +50,6 @@ class PublicSteps:
         self._solver.update(**{name: v for name, v in (("Px", P_x), ("Ax", A_x)) if v is not None})
 
     def solve(self) -> None:
-        self.solution = self.info = None
         result = self._solver.solve(raise_error=False)
         self.solution, self.info = result, result.info
 
