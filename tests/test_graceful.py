@@ -103,7 +103,10 @@ def test_setpoints_never_run_away_from_the_wheels(tmp_path):
     """Every setpoint is within the bounded lead of the measured wheel speed of its sample: what that wheel can
     reach (eq 33 at I_max and the full-scale voltage) times the controller's lead factor — even on the weak plant
     whose wheels sit at the current limit."""
-    heavy = '[plant]\nset = { "body.mass_kg" = 110.5, "motor.left.coulomb_friction_n_m" = 0.06 }'
+    heavy = (
+        '[plant]\nset = { "body.mass_kg" = 110.5, "motor.left.coulomb_friction_n_m" = 0.0975, '
+        '"motor.left.stiction_n_m" = 0.0975 }'
+    )
     exp, result, _, _ = _path_figures(_experiment(tmp_path, plant=heavy))
     log = result.log
     config = exp.spec.controller.pose_settings
