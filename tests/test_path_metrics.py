@@ -205,3 +205,22 @@ def test_turning_one_way_and_back_covers_every_heading_between() -> None:
     theta = np.radians([140.0, 150.0, 170.0])  # past both ends (0° and 30°) but within the excursion to 150°
     e = path_errors(t, np.ones(3), np.zeros(3), theta, ref)
     np.testing.assert_allclose(e.heading_error_rad, np.radians([0.0, 0.0, 20.0]), atol=1e-6)
+
+
+def test_a_nearer_branch_does_not_crowd_out_the_vehicles_own() -> None:
+    """Driving back from a 176° turn, 3 mm beside the way there and 18 mm from the way back it drives on, lagging
+    10 cm behind the clock: the way back is the vehicle's branch (a run read 165° of heading error here when only the
+    8 nearest vertices, all on the way there, and the segments around the clock were candidates)."""
+    ref = _plan(LineSegment(length_m=1.0), TurnSegment(angle_deg=176.0), LineSegment(length_m=1.0))
+    times = np.linspace(0.0, ref.duration_s, 20001)
+    s = ref.sample(times)
+    back = math.radians(176.0)
+    x_back = 0.3  # along the way back
+    clock = float(times[np.argmin(np.abs(s.path_length_m - (1.1 + x_back)))])
+    x, y = 1.0 + x_back * math.cos(back), 0.003
+    to_back = abs(-(x - 1.0) * math.sin(back) + y * math.cos(back))
+    assert 0.015 < to_back < 0.02
+    e = path_errors([clock], [x], [y], [back], ref)
+    np.testing.assert_allclose(e.cross_track_m, [0.003], atol=1e-6)  # the true distance: to the way there
+    assert abs(e.heading_error_rad[0]) < 1e-6  # on the way back, heading along it
+    assert abs(e.path_length_m[0] - (1.0 + x_back)) < 0.02
