@@ -14,8 +14,8 @@ with the corrections listed in the README's model notes. Data flows one way::
     SimLog ──► sim.estimation (the EKF and an RTS smoother offline)
 
 Start with :func:`agvctl.params.load_vehicle`, :func:`agvctl.sim.simulate_open_loop` (DA voltages in, a
-:class:`~agvctl.sim.SimLog` out) and :func:`agvctl.sim.experiment.run_experiment` on
-:func:`agvctl.sim.experiment.load_experiment` (a closed-loop run from an experiment file).
+:class:`~agvctl.sim.SimLog` out) and :func:`agvctl.scenario.experiment.run_experiment` on
+:func:`agvctl.scenario.experiment.load_experiment` (a closed-loop run from an experiment file).
 """
 
 from agvctl.errors import AgvctlError, ConfigError, PlanningError

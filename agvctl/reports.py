@@ -9,7 +9,7 @@ from typing import Any
 from agvctl.config import dump_toml, to_dict
 from agvctl.fileio import write_text
 from agvctl.plots import save_closed_loop_plots
-from agvctl.sim.experiment import Experiment
+from agvctl.scenario.experiment import Experiment
 from agvctl.sim.loop import ClosedLoopResult
 
 __all__ = ["write_run_outputs"]

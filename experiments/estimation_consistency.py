@@ -7,7 +7,7 @@ rest.
    phases, fix noise), the EKF started at the true pose as the loop does. The average NEES over the runs at a
    sample is chi-square(3·runs)/runs for a consistent filter; its 95 % interval is printed with the mean over the
    run (t >= 2 s, after the first fixes) and the share of samples inside it. The same with the fixes applied on
-   arrival as if just measured (latency ignored), offline on the same logs (``agvctl.sim.estimation.filter_log``).
+   arrival as if just measured (latency ignored), offline on the same logs (``agvctl.estimation.offline.filter_log``).
 3. Motor-speed error against the truth at the sample instants: Kalman filter vs count difference.
 4. DA code changes per second at rest (the last 2 s of a 4 s settle after the line): the wheel loops alone
    (feed-forward pose controller, setpoints zero) and the whole cascade (MPC on the EKF, on the truth).
@@ -27,16 +27,16 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import chi2
 
-from agvctl.controllers.base import FeedForwardPoseController
-from agvctl.controllers.pi import PIWheelController
-from agvctl.controllers.tuning import default_pi_gains
+from agvctl.controllers.baselines.feedforward import FeedForwardPoseController
+from agvctl.controllers.pi.tuning import default_pi_gains
+from agvctl.controllers.pi.wheel_loop import PIWheelController
+from agvctl.estimation.ekf import EkfSettings
+from agvctl.estimation.offline import filter_log
+from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.params import VehicleParams
 from agvctl.planning import LineSegment, WheelLimits, plan_segments
-from agvctl.sim.ekf import EkfSettings
-from agvctl.sim.estimation import filter_log
-from agvctl.sim.experiment import Experiment, load_experiment, run_experiment
+from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
 from agvctl.sim.loop import run_closed_loop
-from agvctl.sim.metrics import closed_loop_metrics
 
 HERE = Path(__file__).resolve().parent
 

@@ -7,17 +7,17 @@ import math
 import numpy as np
 import pytest
 
-from agvctl.controllers.base import FeedForwardPoseController
-from agvctl.controllers.ltv_lqr import LtvLqrConfig, LtvLqrController, unicycle_error_model, unicycle_lqr_gain
-from agvctl.controllers.pi import PIWheelController
-from agvctl.controllers.ramsete import RamseteConfig, RamseteController, ramsete_law
-from agvctl.controllers.unicycle import UnicycleTracker, desaturated_wheel_speeds, robot_frame_error
+from agvctl.controllers.baselines.feedforward import FeedForwardPoseController
+from agvctl.controllers.baselines.ltv_lqr import LtvLqrConfig, LtvLqrController, unicycle_error_model, unicycle_lqr_gain
+from agvctl.controllers.baselines.ramsete import RamseteConfig, RamseteController, ramsete_law
+from agvctl.controllers.baselines.unicycle import UnicycleTracker, desaturated_wheel_speeds, robot_frame_error
+from agvctl.controllers.pi.wheel_loop import PIWheelController
+from agvctl.controllers.registry import default_pi_gains
+from agvctl.evaluation.path_metrics import path_errors
 from agvctl.params import VehicleParams
 from agvctl.planning import ArcSegment, LineSegment, WheelLimits, plan_segments
 from agvctl.planning.reference import Reference
-from agvctl.sim.controllers import default_pi_gains
 from agvctl.sim.loop import run_closed_loop
-from agvctl.sim.path_metrics import path_errors
 
 
 def _reference(vehicle: VehicleParams, segment: LineSegment | ArcSegment) -> Reference:

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from agvctl.checks.limits import LimitResult
 from agvctl.checks.report import RunOutcome, RunTask, worst_run_verdicts
 from agvctl.cli import main
+from agvctl.evaluation.limits import LimitResult
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "tests" / "data"

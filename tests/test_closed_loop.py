@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from agvctl.checks.summary import run_summary
-from agvctl.sim.experiment import Experiment, load_experiment, run_experiment
+from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
 from agvctl.sim.loop import SENSOR_NAN_COLUMNS
-from agvctl.sim.metrics import closed_loop_metrics
 
 EXPERIMENTS = Path(__file__).resolve().parent.parent / "experiments"
 SHIPPED = sorted(EXPERIMENTS.glob("*.toml"))
@@ -214,8 +214,8 @@ def test_readme_custom_pose_controller_runs():
 
 
 def test_readme_lists_every_registered_pose_controller_and_estimator():
-    from agvctl.sim.controllers import POSE_CONTROLLERS
-    from agvctl.sim.estimators import ESTIMATORS
+    from agvctl.controllers.registry import POSE_CONTROLLERS
+    from agvctl.estimation.registry import ESTIMATORS
 
     readme = (EXPERIMENTS.parent / "README.md").read_text(encoding="utf-8")
     for name in (*POSE_CONTROLLERS, *ESTIMATORS):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from agvctl.plant.full import PlantOptions, parameter_vector, state_from_motor_speeds
-from agvctl.sim.integrator import CompiledPlant, compiled_plant
+from agvctl.plant.integrator import CompiledPlant, compiled_plant
 
 
 def _sliding_and_sticking(vehicle):

@@ -11,12 +11,12 @@ from scipy.stats import chi2
 
 from agvctl.angles import wrap_angle
 from agvctl.errors import ConfigError
+from agvctl.estimation.ekf import EkfSettings
+from agvctl.estimation.offline import filter_log, read_log, resense_log, smooth_log
+from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.params import load_vehicle
-from agvctl.sim.ekf import EkfSettings
-from agvctl.sim.estimation import filter_log, read_log, resense_log, smooth_log
-from agvctl.sim.experiment import load_experiment, run_experiment
-from agvctl.sim.metrics import closed_loop_metrics
-from agvctl.sim.sensors import Sensors, fix_delay_samples
+from agvctl.scenario.experiment import load_experiment, run_experiment
+from agvctl.sensing import Sensors, fix_delay_samples
 
 EXPERIMENTS = Path(__file__).resolve().parent.parent / "experiments"
 N_RUNS = 50
@@ -219,9 +219,9 @@ def test_gyro_reads_the_mean_yaw_rate_and_the_ekf_fuses_it(ekf_run):
 
 @pytest.mark.parametrize("wheel_speed", ["kalman", "count_difference"])
 def test_encoder_speeds_do_not_make_the_wheels_stick_slip_at_low_speed(vehicle, wheel_speed):
-    from agvctl.controllers.base import FeedForwardPoseController
-    from agvctl.controllers.pi import PIWheelController
-    from agvctl.controllers.tuning import default_pi_gains
+    from agvctl.controllers.baselines.feedforward import FeedForwardPoseController
+    from agvctl.controllers.pi.tuning import default_pi_gains
+    from agvctl.controllers.pi.wheel_loop import PIWheelController
     from agvctl.planning import LineSegment, WheelLimits, plan_segments
     from agvctl.sim.loop import run_closed_loop
 
@@ -247,8 +247,8 @@ def test_encoder_speeds_do_not_make_the_wheels_stick_slip_at_low_speed(vehicle, 
 
 
 def test_a_late_fix_replayed_gives_the_estimate_of_one_that_came_on_time(vehicle):
-    from agvctl.sim.ekf import PoseEkf
-    from agvctl.sim.sensors import PositionFix
+    from agvctl.estimation.ekf import PoseEkf
+    from agvctl.sensing import PositionFix
 
     rng = np.random.default_rng(21)
     counts = np.cumsum(rng.integers(900, 1400, size=(30, 2)), axis=0)  # a turning drive, about 0.5 m/s
@@ -271,7 +271,7 @@ def test_more_fixes_than_samples_is_a_one_line_error():
 
 
 def test_every_estimator_runs_on_a_logged_run_as_in_the_loop(ekf_run):
-    from agvctl.sim.estimation import estimate_log, wheel_speeds_log
+    from agvctl.estimation.offline import estimate_log, wheel_speeds_log
 
     exp, result = ekf_run
     log = result.log

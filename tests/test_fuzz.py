@@ -13,17 +13,17 @@ from typing import Any
 import numpy as np
 import pytest
 
-from agvctl.checks.fuzz import fuzz, fuzz_tasks, run_fuzz_task
-from agvctl.checks.fuzz_gen import generate_scenario, scenario_files
-from agvctl.checks.fuzz_report import FuzzOutcome, FuzzReport, FuzzTask
-from agvctl.checks.fuzz_spec import DEFAULT_ENVELOPE, FuzzSpec, load_fuzz_config, nominal_value
-from agvctl.checks.limits import evaluate_limits
 from agvctl.checks.report import TIMING_METRICS
 from agvctl.cli import main
+from agvctl.evaluation.limits import evaluate_limits
+from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.fuzz.generate import generate_scenario, scenario_files
+from agvctl.fuzz.report import FuzzOutcome, FuzzReport, FuzzTask
+from agvctl.fuzz.run import fuzz, fuzz_tasks, run_fuzz_task
+from agvctl.fuzz.spec import DEFAULT_ENVELOPE, FuzzSpec, load_fuzz_config, nominal_value
 from agvctl.params import VehicleParams
 from agvctl.planning import load_path
-from agvctl.sim.experiment import load_experiment, run_experiment
-from agvctl.sim.metrics import closed_loop_metrics
+from agvctl.scenario.experiment import load_experiment, run_experiment
 
 ROOT = Path(__file__).resolve().parent.parent
 FUZZ = ROOT / "experiments" / "fuzz"

@@ -14,14 +14,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agvctl.actuator import HeadroomWarning, WheelReach
 from agvctl.checks.runner import check_experiments
 from agvctl.cli import main
-from agvctl.controllers.mpc_common import MpcConfig, lead_factor_s
+from agvctl.controllers.mpc.common import MpcConfig, lead_factor_s
+from agvctl.evaluation.path_metrics import path_errors
+from agvctl.feasibility import HeadroomWarning, WheelReach
 from agvctl.params import load_vehicle
 from agvctl.planning import load_path, plan
-from agvctl.sim.experiment import load_experiment, run_experiment
-from agvctl.sim.path_metrics import path_errors
+from agvctl.scenario.experiment import load_experiment, run_experiment
 
 DATA = Path(__file__).resolve().parent / "data" / "graceful"
 
@@ -148,7 +148,7 @@ def test_docking_removes_a_lateral_error_at_rest_at_the_end():
     """Pushed 2 cm sideways at rest at the end of a line, the vehicle (ideal wheels: each follows its setpoint
     within the sample) backs up along the line and comes in again, ending within the docking tolerance — a
     controller linearised about the reference at rest could not remove it (ẏ = U sin θ, eqs 41-43)."""
-    from agvctl.controllers.mpc_ltv import LtvMpcController
+    from agvctl.controllers.mpc.ltv import LtvMpcController
     from agvctl.planning import LineSegment, PathSpec
 
     vehicle = load_vehicle()
@@ -182,7 +182,7 @@ def test_never_backs_up_to_a_start_point_it_is_already_past():
     instead of reversing to it: no backward speed while the reference covers its first 5 cm (and, as it turns
     towards the line, a forward speed of a tenth of the turn's, which unequal wheels cannot reverse), and no growth of
     the lateral error (backing up with the heading pointing at the line would move it away)."""
-    from agvctl.controllers.mpc_ltv import LtvMpcController
+    from agvctl.controllers.mpc.ltv import LtvMpcController
     from agvctl.planning import LineSegment, PathSpec
 
     vehicle = load_vehicle()
@@ -207,7 +207,7 @@ def test_never_backs_up_to_a_start_point_it_is_already_past():
 def test_docking_takes_an_error_along_the_last_drive_only_after_final_turns():
     """Stopped short of the end along the last drive, a vehicle that still faces along it can drive there itself;
     one that has turned in place since cannot without turning back, so docking takes that error too."""
-    from agvctl.controllers.docking import Docking
+    from agvctl.controllers.mpc.docking import Docking
     from agvctl.planning import LineSegment, PathSpec, TurnSegment
 
     vehicle = load_vehicle()

@@ -31,11 +31,11 @@ from hypothesis import strategies as st
 from agvctl.calibration import read_friction_log, read_umbmark_log
 from agvctl.cli import main
 from agvctl.config import parse_override
-from agvctl.controllers.pi import load_gains
+from agvctl.controllers.pi.wheel_loop import load_gains
 from agvctl.errors import AgvctlError
 from agvctl.params import default_vehicle_path, load_vehicle
 from agvctl.planning import load_path, plan
-from agvctl.sim.experiment import load_experiment
+from agvctl.scenario.experiment import load_experiment
 from agvctl.sim.open_loop import load_input_profile
 
 EXAMPLES = 1000

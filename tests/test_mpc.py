@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agvctl.controllers.mpc_common import MpcConfig, limit_command
-from agvctl.controllers.mpc_ltv import LtvMpcController
-from agvctl.controllers.mpc_nonlinear import NonlinearMpcController
-from agvctl.controllers.osqp_steps import PublicSteps
+from agvctl.controllers.mpc.common import MpcConfig, limit_command
+from agvctl.controllers.mpc.ltv import LtvMpcController
+from agvctl.controllers.mpc.nonlinear import NonlinearMpcController
+from agvctl.controllers.mpc.osqp_steps import PublicSteps
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 from agvctl.planning import plan_file
@@ -183,7 +183,7 @@ def test_nmpc_forced_failure_falls_back(vehicle: VehicleParams, line: Reference)
 
 
 def test_config_from_controller_table() -> None:
-    from agvctl.sim.spec import ControllerSpec
+    from agvctl.scenario.spec import ControllerSpec
 
     def from_table(table: dict[str, object]) -> ControllerSpec:
         return ControllerSpec.from_file(table, source="exp.toml", prefix="controller")

@@ -11,10 +11,10 @@ import pytest
 
 from agvctl.checks.summary import run_summary
 from agvctl.cli import main
+from agvctl.evaluation.path_metrics import ReferencePath, path_errors
 from agvctl.planning import ArcSegment, LineSegment, TurnSegment, WheelLimits, plan_segments
 from agvctl.planning.reference import Reference
-from agvctl.sim.experiment import load_experiment, run_experiment
-from agvctl.sim.path_metrics import ReferencePath, path_errors
+from agvctl.scenario.experiment import load_experiment, run_experiment
 
 LIMITS = WheelLimits(wheel_speed_m_s=0.6, wheel_accel_m_s2=0.4, wheel_jerk_m_s3=2.0)
 SPACING_M = 0.005

@@ -5,7 +5,7 @@ import sys
 import matplotlib
 import numpy as np
 
-from agvctl.controllers.tuning import design_pi
+from agvctl.controllers.pi.tuning import design_pi
 from agvctl.plots import render_tuning_plots, save_open_loop_plot
 from agvctl.sim import simulate_open_loop, wheel_step_response
 

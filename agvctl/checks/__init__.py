@@ -1,5 +1,5 @@
 """Checks: an experiment's limits evaluated on its run, for `agvctl run` and the `agvctl check` CI gate."""
 
-from agvctl.checks.limits import LimitResult, all_passed, evaluate_limits
+from agvctl.evaluation.limits import LimitResult, all_passed, evaluate_limits
 
 __all__ = ["LimitResult", "all_passed", "evaluate_limits"]

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from agvctl.checks.limits import LimitResult, format_limit_message
+from agvctl.evaluation.limits import LimitResult, format_limit_message
 from agvctl.fileio import json_safe
 
 __all__ = [

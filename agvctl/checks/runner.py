@@ -23,12 +23,12 @@ from typing import Any, Literal, TypeVar
 
 import numpy as np
 
-from agvctl.checks.limits import evaluate_limits
 from agvctl.checks.report import CheckReport, ExperimentReport, Overrides, RunOutcome, RunTask, worst_run_verdicts
 from agvctl.config import to_dict
 from agvctl.errors import ConfigError
-from agvctl.sim.experiment import Experiment, load_experiment, run_experiment
-from agvctl.sim.metrics import closed_loop_metrics
+from agvctl.evaluation.limits import evaluate_limits
+from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
 
 __all__ = [
     "ExecutorKind",

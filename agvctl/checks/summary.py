@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from agvctl.checks.limits import all_passed, evaluate_limits
+from agvctl.evaluation.limits import all_passed, evaluate_limits
+from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.fileio import json_safe
-from agvctl.sim.experiment import Experiment
+from agvctl.scenario.experiment import Experiment
 from agvctl.sim.loop import ClosedLoopResult
-from agvctl.sim.metrics import closed_loop_metrics
 
 __all__ = ["SUMMARY_METRICS", "run_summary"]
 

@@ -16,9 +16,9 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 from agvctl import __version__
-from agvctl.actuator import HeadroomWarning
 from agvctl.cli.options import add_vehicle_options
 from agvctl.errors import AgvctlError, ConfigError
+from agvctl.feasibility import HeadroomWarning
 
 __all__ = ["add_vehicle_options", "main"]
 

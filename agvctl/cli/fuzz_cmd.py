@@ -15,15 +15,15 @@ import time
 from pathlib import Path
 from typing import Any
 
-from agvctl.checks.fuzz import fuzz
-from agvctl.checks.fuzz_report import FUZZ_METRICS, FuzzOutcome, FuzzReport
-from agvctl.checks.fuzz_spec import load_fuzz_config, override_fuzz_config
 from agvctl.cli.progress import ProgressBar
 from agvctl.cli.run_cmd import check_out_dir
 from agvctl.errors import ConfigError
+from agvctl.evaluation.limits import LIMITS
 from agvctl.fileio import write_text
+from agvctl.fuzz.report import FUZZ_METRICS, FuzzOutcome, FuzzReport
+from agvctl.fuzz.run import fuzz
+from agvctl.fuzz.spec import load_fuzz_config, override_fuzz_config
 from agvctl.plots import save_fuzz_plot
-from agvctl.sim.limits import LIMITS
 
 __all__ = ["format_fuzz_report", "register", "run"]
 

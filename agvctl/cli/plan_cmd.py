@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     summary = ref.summary()
     png = None
     if args.plot:  # render everything before writing anything
-        from agvctl.planning.plot import render_reference_png
+        from agvctl.plots.path import render_reference_png
 
         png = render_reference_png(ref)
     if args.out:

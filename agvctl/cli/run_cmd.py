@@ -12,7 +12,7 @@ from agvctl.cli.progress import ProgressBar
 from agvctl.errors import ConfigError
 from agvctl.planning.headroom import limits_report
 from agvctl.reports import write_run_outputs
-from agvctl.sim.experiment import load_experiment, run_experiment
+from agvctl.scenario.experiment import load_experiment, run_experiment
 
 
 def register(sub: Any) -> None:

@@ -12,13 +12,13 @@ from typing import Any
 import numpy as np
 
 from agvctl.cli.options import add_vehicle_options
-from agvctl.controllers.pi import gains_toml
-from agvctl.controllers.tuning import (
+from agvctl.controllers.pi.tuning import (
     SPEC_SOURCE,
     TuningResult,
     TuningSpec,
     design_pi,
 )
+from agvctl.controllers.pi.wheel_loop import gains_toml
 from agvctl.errors import ConfigError
 from agvctl.fileio import atomic_open, write_text
 from agvctl.params import load_vehicle

@@ -1,8 +1,9 @@
 """Controllers: PI wheel-speed loops, MPC pose controllers, and the protocols the closed loop relies on."""
 
-from agvctl.controllers.base import FeedForwardPoseController, PoseCommand, PoseController, WheelSpeedController
-from agvctl.controllers.pi import PIGains, PISettings, PIWheelController, load_gains
-from agvctl.controllers.tuning import LoopMargins, TuningResult, TuningSpec, design_pi
+from agvctl.controllers.base import PoseCommand, PoseController, WheelSpeedController
+from agvctl.controllers.baselines.feedforward import FeedForwardPoseController
+from agvctl.controllers.pi.tuning import LoopMargins, TuningResult, TuningSpec, design_pi
+from agvctl.controllers.pi.wheel_loop import PIGains, PISettings, PIWheelController, load_gains
 
 __all__ = ["FeedForwardPoseController", "PoseCommand", "PoseController", "WheelSpeedController"]
 __all__ += ["LoopMargins", "PIGains", "PISettings", "PIWheelController", "TuningResult", "TuningSpec"]

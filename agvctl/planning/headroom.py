@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from agvctl.actuator import actuator_headroom
+from agvctl.feasibility import actuator_headroom
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 from agvctl.planning.spec import PathLimits

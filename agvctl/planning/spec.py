@@ -47,7 +47,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from agvctl.actuator import (
+from agvctl.config import build, did_you_mean, load_toml, number
+from agvctl.errors import ConfigError
+from agvctl.feasibility import (
     CURRENT_HEADROOM,
     MIN_HEADROOM,
     VOLTAGE_HEADROOM,
@@ -55,8 +57,6 @@ from agvctl.actuator import (
     actuator_headroom,
     feasible_wheel_limits,
 )
-from agvctl.config import build, did_you_mean, load_toml, number
-from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 
 __all__ = [

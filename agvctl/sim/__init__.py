@@ -1,24 +1,24 @@
-"""Simulation: the compiled integrator, the plant stepper, open-loop runs, batches and the log.
+"""Simulation: the plant stepped through the actuator chain, open-loop runs and batches, wheel-step responses, and
+the closed loop.
 
-Inside the package the layers point one way (an import-linter contract): ``experiment`` → ``spec`` →
-``controllers``/``limits``/``metrics``/``estimation`` (offline) → ``loop`` → ``estimators`` and ``wheel_speed``
-(with ``open_loop`` and ``wheel_step``) → ``ekf`` → ``sensors`` and ``stepper`` → ``integrator`` and ``log``."""
+* :mod:`agvctl.sim.stepper` — one sample of the compiled plant behind the DA converter and the amplifier.
+* :mod:`agvctl.sim.open_loop` — voltage profiles applied open loop, one run or a batch.
+* :mod:`agvctl.sim.wheel_step` — the PI wheel loops' step response.
+* :mod:`agvctl.sim.loop` — the closed loop: reference, pose controller, wheel loops, sensors and estimator.
 
-from agvctl.sim.integrator import CompiledPlant, choose_substeps, compiled_plant, sample_splits
-from agvctl.sim.log import PLANT_LOG_COLUMNS, SimLog
+Inside the package the layers point one way (an import-linter contract): ``loop`` → ``open_loop`` and
+``wheel_step`` → ``stepper``."""
+
+from agvctl.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.sim.open_loop import OpenLoopResult, load_input_profile, simulate_batch, simulate_open_loop
 from agvctl.sim.stepper import PlantStepper
 from agvctl.sim.wheel_step import StepMetrics, WheelStepResult, step_metrics, wheel_step_response
 
 __all__ = [
     "PLANT_LOG_COLUMNS",
-    "CompiledPlant",
     "OpenLoopResult",
     "PlantStepper",
     "SimLog",
-    "choose_substeps",
-    "compiled_plant",
-    "sample_splits",
     "load_input_profile",
     "simulate_batch",
     "simulate_open_loop",

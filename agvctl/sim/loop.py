@@ -2,9 +2,9 @@
 
 A plain loop over control ticks t_k = k·T_s (never t += dt). At each tick, following the sample-and-hold rule:
 
-1. measure: the sensors of the true vehicle (:mod:`agvctl.sim.sensors`: encoder counts latched at t_k, gyro,
-   position fixes arriving), the motor speeds (:mod:`agvctl.sim.wheel_speed`: the true ones, or estimated from the
-   counts) and estimate the pose (:mod:`agvctl.sim.estimators`: the true pose, odometry from the counts with the
+1. measure: the sensors of the true vehicle (:mod:`agvctl.sensing`: encoder counts latched at t_k, gyro,
+   position fixes arriving), the motor speeds (:mod:`agvctl.estimation.wheel_speed`: the true ones, or estimated
+   from the counts) and estimate the pose (:mod:`agvctl.estimation`: the true pose, odometry from the counts with the
    *controller's* belief of r and b, or the EKF);
 2. the pose controller computes wheel-speed setpoints from the pose, the measured wheel speeds and the
    reference (with ``compute_delay = "one_sample"`` the setpoints computed at t_k act from t_k+1);
@@ -28,15 +28,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvctl.angles import wrap_angle
 from agvctl.controllers.base import GovernedPoseController, PoseController, WheelSpeedController
+from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator, consistency
+from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
+from agvctl.evaluation.path_metrics import PATH_LOG_COLUMNS, path_error_columns
+from agvctl.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference, ReferenceSamples
 from agvctl.plant.full import PlantOptions
-from agvctl.sim.estimators import ESTIMATORS, PoseEstimator, consistency
-from agvctl.sim.log import PLANT_LOG_COLUMNS, SimLog
-from agvctl.sim.path_metrics import PATH_LOG_COLUMNS, path_error_columns
-from agvctl.sim.sensors import SENSOR_READING_COLUMNS, Measurements, Sensors
+from agvctl.sensing import SENSOR_READING_COLUMNS, Measurements, Sensors
 from agvctl.sim.stepper import PlantStepper
-from agvctl.sim.wheel_speed import WHEEL_SPEED_ESTIMATORS, WheelSpeedEstimator
 
 __all__ = ["CONTROL_LOG_COLUMNS", "SENSOR_NAN_COLUMNS", "ClosedLoopResult", "ComputeDelay", "run_closed_loop"]
 
@@ -84,10 +84,10 @@ CONTROL_LOG_COLUMNS = (
     "solver_status",
     *_SENSOR_COLUMNS,
 )
-"""Columns the closed loop adds to :data:`~agvctl.sim.log.PLANT_LOG_COLUMNS`. ``solver_status`` is 0 when the
+"""Columns the closed loop adds to :data:`~agvctl.log.PLANT_LOG_COLUMNS`. ``solver_status`` is 0 when the
 pose controller solved, 1 for the shifted previous solution, 2 for the reference feed-forward; ``wheel_speed_*``
 are the true rim speeds ω_mot·r/N of the plant. :class:`ClosedLoopResult` adds the errors against the path,
-:data:`~agvctl.sim.path_metrics.PATH_LOG_COLUMNS` (cross-track error, along-track lag, path heading error)."""
+:data:`~agvctl.evaluation.path_metrics.PATH_LOG_COLUMNS` (cross-track error, along-track lag, path heading error)."""
 
 _PER_SAMPLE = (
     "est_x_m",
@@ -175,8 +175,8 @@ def run_closed_loop(
     """Run the cascade on the full plant for the reference's duration plus ``settle_s``.
 
     ``initial_pose`` (x_m, y_m, theta_rad) defaults to the reference's start. ``localization`` names an estimator
-    of :data:`~agvctl.sim.estimators.ESTIMATORS` (built for the controller's vehicle) or is one; ``wheel_speed``
-    likewise names one of :data:`~agvctl.sim.wheel_speed.WHEEL_SPEED_ESTIMATORS` or is one. ``sensor_seed`` seeds
+    of :data:`~agvctl.estimation.registry.ESTIMATORS` (built for the controller's vehicle) or is one; ``wheel_speed``
+    likewise names one of :data:`~agvctl.estimation.wheel_speed.WHEEL_SPEED_ESTIMATORS` or is one. ``sensor_seed`` seeds
     the true vehicle's sensor noise. ``progress``, if given, is called with the fraction done (0…1) about every
     second of simulated time.
     """

@@ -1,7 +1,7 @@
 """Open-loop simulation of the full model from DA voltage commands, single or batched.
 
 A single run is :meth:`PlantStepper.run <agvctl.sim.stepper.PlantStepper.run>` (compiled chunks of samples). A
-batch integrates many vehicles in one compiled call (:meth:`~agvctl.sim.integrator.CompiledPlant.run_batch`,
+batch integrates many vehicles in one compiled call (:meth:`~agvctl.plant.integrator.CompiledPlant.run_batch`,
 vehicles in parallel threads), which a per-vehicle stepper cannot; its rows are recorded by the stepper's
 :func:`~agvctl.sim.stepper.plant_log_rows`, so the logs are the same either way."""
 
@@ -18,11 +18,11 @@ from numpy.typing import ArrayLike, NDArray
 from agvctl.actuator import Actuator
 from agvctl.config import read_text
 from agvctl.errors import ConfigError
+from agvctl.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.params import VehicleParams
 from agvctl.planning.planner import MAX_DURATION_S
 from agvctl.plant.full import STATE_NAMES, PlantOptions, parameter_vector
-from agvctl.sim.integrator import compiled_plant, sample_splits
-from agvctl.sim.log import PLANT_LOG_COLUMNS, SimLog
+from agvctl.plant.integrator import compiled_plant, sample_splits
 from agvctl.sim.stepper import PlantStepper, instant_stats, plant_log_rows
 
 __all__ = ["OpenLoopResult", "load_input_profile", "sample_count", "simulate_batch", "simulate_open_loop"]

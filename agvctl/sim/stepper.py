@@ -7,7 +7,7 @@ Every loop of the package drives the plant through :class:`PlantStepper`, so eac
 * **actuate**: the DA voltage command through the DA converter and amplifier (:class:`~agvctl.actuator.Actuator`);
 * **integrate**: the compiled full model over [t_k, t_k+1) with the motor voltage held (the sample-and-hold rule:
   the update at t_k sees the state just before it);
-* **record**: one row of :data:`~agvctl.sim.log.PLANT_LOG_COLUMNS`, every column picked by name.
+* **record**: one row of :data:`~agvctl.log.PLANT_LOG_COLUMNS`, every column picked by name.
 
 :meth:`PlantStepper.step` is one sample with feedback; :meth:`PlantStepper.run` applies a whole sequence of
 commands without feedback in compiled chunks (the open-loop simulator), recorded the same way. A loop of unknown
@@ -29,11 +29,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvctl.actuator import Actuator, ActuatorOutput
+from agvctl.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.params import VehicleParams
 from agvctl.plant.friction import motor_speed
 from agvctl.plant.full import AUX_NAMES, STATE_NAMES, PlantOptions, parameter_vector
-from agvctl.sim.integrator import STATS_NAMES, CompiledPlant, compiled_plant, sample_splits
-from agvctl.sim.log import PLANT_LOG_COLUMNS, SimLog
+from agvctl.plant.integrator import STATS_NAMES, CompiledPlant, compiled_plant, sample_splits
 
 __all__ = ["PlantStepper", "instant_stats", "plant_log_rows"]
 
@@ -81,7 +81,7 @@ _INSTANT_STATS = {
 
 
 def instant_stats(aux: FloatArray) -> FloatArray:
-    """The statistics of :data:`~agvctl.sim.integrator.STATS_NAMES` at one instant (…×10 auxiliaries in, …×8
+    """The statistics of :data:`~agvctl.plant.integrator.STATS_NAMES` at one instant (…×10 auxiliaries in, …×8
     out): the final row of a log, where no interval follows (no angle turned)."""
     cols = []
     for name in STATS_NAMES:
@@ -97,7 +97,7 @@ def instant_stats(aux: FloatArray) -> FloatArray:
 def plant_log_rows(
     t_s: ArrayLike, actuated: ActuatorOutput, aux: FloatArray, stats: FloatArray, state: FloatArray
 ) -> FloatArray:
-    """Rows of :data:`~agvctl.sim.log.PLANT_LOG_COLUMNS` (m × columns) from m samples' times, actuator outputs
+    """Rows of :data:`~agvctl.log.PLANT_LOG_COLUMNS` (m × columns) from m samples' times, actuator outputs
     (m × 2 each), auxiliaries at the start (m × 10), interval statistics (m × 8) and states (m × 5)."""
     limited = stats[:, _LIMITED] > 0
     parts = (
@@ -238,7 +238,7 @@ class PlantStepper:
             self._sample_rows = []
 
     def log(self) -> SimLog:
-        """The rows recorded so far, as a :class:`~agvctl.sim.log.SimLog`."""
+        """The rows recorded so far, as a :class:`~agvctl.log.SimLog`."""
         self._flush()
         rows = np.vstack(self._rows) if self._rows else np.zeros((0, len(PLANT_LOG_COLUMNS)))
         return SimLog({name: rows[:, j] for j, name in enumerate(PLANT_LOG_COLUMNS)})

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.base import WheelSpeedController
-from agvctl.controllers.pi import PIGains, PIWheelController
+from agvctl.controllers.pi.wheel_loop import PIGains, PIWheelController
 from agvctl.params import VehicleParams
 from agvctl.sim.stepper import PlantStepper
 

@@ -25,12 +25,12 @@ from pathlib import Path
 import numpy as np
 
 from agvctl.controllers.base import PoseController
-from agvctl.controllers.ltv_lqr import LtvLqrController
-from agvctl.controllers.ramsete import RamseteController
+from agvctl.controllers.baselines.ltv_lqr import LtvLqrController
+from agvctl.controllers.baselines.ramsete import RamseteController
+from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.evaluation.path_metrics import path_errors
 from agvctl.params import load_vehicle
-from agvctl.sim.experiment import load_experiment, run_experiment
-from agvctl.sim.metrics import closed_loop_metrics
-from agvctl.sim.path_metrics import path_errors
+from agvctl.scenario.experiment import load_experiment, run_experiment
 
 SHIPPED = Path(__file__).resolve().parents[1]
 

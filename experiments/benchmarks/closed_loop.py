@@ -17,15 +17,16 @@ import sys
 
 import numpy as np
 
-from agvctl.controllers.base import FeedForwardPoseController, PoseController
-from agvctl.controllers.mpc_common import MpcConfig
-from agvctl.controllers.mpc_ltv import LtvMpcController
-from agvctl.controllers.pi import PIWheelController
-from agvctl.controllers.tuning import default_pi_gains
+from agvctl.controllers.base import PoseController
+from agvctl.controllers.baselines.feedforward import FeedForwardPoseController
+from agvctl.controllers.mpc.common import MpcConfig
+from agvctl.controllers.mpc.ltv import LtvMpcController
+from agvctl.controllers.pi.tuning import default_pi_gains
+from agvctl.controllers.pi.wheel_loop import PIWheelController
+from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.params import load_vehicle
 from agvctl.planning import ArcSegment, WheelLimits, plan_segments
 from agvctl.sim.loop import run_closed_loop
-from agvctl.sim.metrics import closed_loop_metrics
 
 
 def main() -> int:

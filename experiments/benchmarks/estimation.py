@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-from agvctl.sim.ekf import PoseEkf
-from agvctl.sim.estimation import log_encoder_counts, log_fixes
-from agvctl.sim.experiment import Experiment, load_experiment, run_experiment
-from agvctl.sim.sensors import Sensors
-from agvctl.sim.wheel_speed import KalmanWheelSpeed
+from agvctl.estimation.ekf import PoseEkf
+from agvctl.estimation.offline import log_encoder_counts, log_fixes
+from agvctl.estimation.wheel_speed import KalmanWheelSpeed
+from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
+from agvctl.sensing import Sensors
 
 EXPERIMENT = Path(__file__).resolve().parent.parent / "figure8_ekf.toml"
 

@@ -1,7 +1,7 @@
 """Benchmark of the scenario fuzzer: issue 10's 500 scenarios on local worker processes.
 
 Runs ``experiments/fuzz/acceptance.toml`` (500 scenarios; by default only its first controller, the default pose
-controller, as issue 10's speed goal counts) through :func:`agvctl.checks.fuzz.fuzz` with ``--jobs`` spawned worker
+controller, as issue 10's speed goal counts) through :func:`agvctl.fuzz.run.fuzz` with ``--jobs`` spawned worker
 processes, and prints the wall time, scenarios/s and runs/s, the simulated time per wall second, and where a run's
 time goes (the per-run wall time spent in the workers). Goal: the 500 scenarios in ≤ 4 min with 2 jobs on a
 2-core machine.
@@ -17,8 +17,8 @@ import sys
 import time
 from pathlib import Path
 
-from agvctl.checks.fuzz import fuzz
-from agvctl.checks.fuzz_spec import load_fuzz_config, override_fuzz_config
+from agvctl.fuzz.run import fuzz
+from agvctl.fuzz.spec import load_fuzz_config, override_fuzz_config
 
 CONFIG = Path(__file__).resolve().parent.parent / "fuzz" / "acceptance.toml"
 GOAL_S = 240.0

@@ -31,11 +31,11 @@ from pathlib import Path
 import numpy as np
 
 from agvctl.controllers.base import PoseCommand, PoseController
-from agvctl.controllers.mpc_common import HorizonReference, MpcConfig, limit_command, resolved_limits
-from agvctl.controllers.mpc_ltv import LtvMpcController
-from agvctl.controllers.mpc_nonlinear import NonlinearMpcController, prediction_step
-from agvctl.controllers.pi import PIWheelController
-from agvctl.controllers.tuning import default_pi_gains
+from agvctl.controllers.mpc.common import HorizonReference, MpcConfig, limit_command, resolved_limits
+from agvctl.controllers.mpc.ltv import LtvMpcController
+from agvctl.controllers.mpc.nonlinear import NonlinearMpcController, prediction_step
+from agvctl.controllers.pi.tuning import default_pi_gains
+from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.params import VehicleParams, load_vehicle
 from agvctl.planning import plan_file
 from agvctl.planning.reference import Reference

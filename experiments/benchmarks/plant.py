@@ -39,8 +39,9 @@ def main() -> int:
     os.environ["AGVCTL_CACHE_DIR"] = tempfile.mkdtemp(prefix="agvctl-bench-cache-")
     from agvctl.actuator import Actuator
     from agvctl.params import load_vehicle
+    from agvctl.plant import integrator
     from agvctl.plant.full import FullModel, parameter_vector
-    from agvctl.sim import integrator, simulate_batch, simulate_open_loop
+    from agvctl.sim import simulate_batch, simulate_open_loop
 
     vehicle = load_vehicle()
     ts = vehicle.control.sample_period_s

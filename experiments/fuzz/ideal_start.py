@@ -30,10 +30,10 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from agvctl.checks.fuzz_gen import generate_scenario, scenario_files
-from agvctl.checks.fuzz_spec import load_fuzz_config
+from agvctl.fuzz.generate import generate_scenario, scenario_files
+from agvctl.fuzz.spec import load_fuzz_config
 from agvctl.params import load_vehicle
-from agvctl.sim.experiment import Experiment, load_experiment, run_experiment
+from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
 
 CONFIG = Path(__file__).resolve().parent / "acceptance.toml"
 

@@ -15,8 +15,8 @@ from numpy.typing import NDArray
 
 from agvctl.actuator import Actuator
 from agvctl.calibration.friction.log import FrictionLog
-from agvctl.controllers.pi import PIWheelController
-from agvctl.controllers.tuning import design_pi
+from agvctl.controllers.pi.tuning import design_pi
+from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.params import VehicleParams
 from agvctl.sim.stepper import PlantStepper
 

@@ -10,12 +10,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.calibration.umbmark.model import Method, UmbmarkCorrection, e_max_syst, umbmark_correction
-from agvctl.controllers.mpc_common import MpcConfig
-from agvctl.controllers.mpc_ltv import LtvMpcController
-from agvctl.controllers.pi import PIWheelController
+from agvctl.controllers.mpc.common import MpcConfig
+from agvctl.controllers.mpc.ltv import LtvMpcController
+from agvctl.controllers.pi.wheel_loop import PIWheelController
+from agvctl.controllers.registry import default_pi_gains
 from agvctl.params import VehicleParams
 from agvctl.planning import LineSegment, TurnSegment, WheelLimits, plan_segments
-from agvctl.sim.controllers import default_pi_gains
 from agvctl.sim.loop import run_closed_loop
 
 __all__ = ["POSITION_NOISE_M", "Direction", "UmbmarkConfig", "UmbmarkResult", "drive_square", "simulate_umbmark"]

@@ -1,0 +1,130 @@
+"""The QP of the LTV MPC (:mod:`agvctl.controllers.mpc.ltv`): where its variables and constraint rows lie, the
+sparsity pattern of its constraint matrix and its cost matrix.
+
+Variables z = [x_1 … x_N, δs_0 … δs_{N−1}] (error states, then setpoints minus feed-forward, two per sample).
+Rows: the dynamics x_{k+1} − A_k x_k − B_k δs_k = 0 (N·nx), the speed box on δs (2N), the rate δs_k − δs_{k−1}
+(2(N − 1)), the first move from the previous command (2) and, with the wheel-loop model, the setpoints' reachable
+lead over the predicted wheel speeds s_k − v_k (2(N − 1)).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from agvctl.controllers.mpc.common import MpcConfig
+
+__all__ = ["QpLayout", "constraint_pattern", "cost_matrix"]
+
+
+@dataclass(frozen=True)
+class QpLayout:
+    """Where the QP's variables and constraint rows lie, for horizon N and nx error states."""
+
+    horizon: int
+    n_states: int
+    wheel_loop: bool
+    """Whether the states include the wheel-loop lag (then the reachable-lead rows exist)."""
+
+    @property
+    def i_setpoints(self) -> int:
+        """Index of δs_0 in z."""
+        return self.horizon * self.n_states
+
+    @property
+    def n_variables(self) -> int:
+        return self.i_setpoints + 2 * self.horizon
+
+    @property
+    def r_box(self) -> int:
+        """First row of the speed box."""
+        return self.horizon * self.n_states
+
+    @property
+    def r_rate(self) -> int:
+        return self.r_box + 2 * self.horizon
+
+    @property
+    def r_first(self) -> int:
+        return self.r_rate + 2 * (self.horizon - 1)
+
+    @property
+    def r_reach(self) -> int:
+        return self.r_first + 2
+
+    @property
+    def n_rows(self) -> int:
+        return self.r_reach + (2 * (self.horizon - 1) if self.wheel_loop else 0)
+
+
+def cost_matrix(config: MpcConfig, layout: QpLayout) -> sp.csc_matrix:
+    """P of the cost ½ zᵀPz + qᵀz (upper triangle): the state weights (terminal scale at k = N), the input and
+    input-rate weights. The position weights are placeholders, kept in the pattern: each step sets them from the
+    reference (the LTV MPC's ``_precompute``)."""
+    c, N, nx = config, layout.horizon, layout.n_states
+    q_diag = np.zeros(nx)
+    q_diag[2] = c.weight_heading
+    p_state = np.tile(q_diag, N)
+    p_state[-nx:] *= c.weight_terminal_scale
+    p_state[::nx] = 1.0
+    p_state[1::nx] = 1.0
+    diff = sp.eye(2 * N, format="csc") - sp.eye(2 * N, k=-2, format="csc")  # rows: δs_k − δs_{k−1}
+    p_input = 2.0 * c.weight_input * sp.eye(2 * N) + 2.0 * c.weight_input_rate * (diff.T @ diff)
+    return sp.triu(sp.block_diag([sp.diags(2.0 * p_state), p_input], format="csc"), format="csc")
+
+
+def constraint_pattern(layout: QpLayout) -> tuple[sp.csc_matrix, NDArray[np.int64], NDArray[np.int64]]:
+    """The constraint matrix with every entry that can ever be nonzero (its time-varying ones zero or one), and
+    the positions in its CSC data of A_1 … A_{N−1} (by k, row, column) and of B_0 … B_{N−1}."""
+    N, nx, iU, n_z, n_rows = layout.horizon, layout.n_states, layout.i_setpoints, layout.n_variables, layout.n_rows
+    r_box, r_rate, r_first, r_reach = layout.r_box, layout.r_rate, layout.r_first, layout.r_reach
+    rows: list[int] = []
+    cols: list[int] = []
+    vals: list[float] = []
+
+    def add(r: int, col: int, v: float) -> int:
+        rows.append(r)
+        cols.append(col)
+        vals.append(v)
+        return len(rows) - 1
+
+    # dynamics x_{k+1} − A_k x_k − B_k δs_k = 0; x_0 is data, so A_0 x_0 goes into the bounds
+    a_entries: list[int] = []
+    b_entries: list[int] = []
+    for k in range(N):
+        for i in range(nx):
+            add(k * nx + i, k * nx + i, 1.0)
+        if k >= 1:
+            for i in range(nx):
+                for j in range(nx):
+                    a_entries.append(add(k * nx + i, (k - 1) * nx + j, 0.0))
+        for i in range(nx):
+            for j in range(2):
+                b_entries.append(add(k * nx + i, iU + 2 * k + j, 1.0))
+    for k in range(2 * N):  # speed box on δs
+        add(r_box + k, iU + k, 1.0)
+    for k in range(1, N):  # rate δs_k − δs_{k−1}
+        for j in range(2):
+            add(r_rate + 2 * (k - 1) + j, iU + 2 * k + j, 1.0)
+            add(r_rate + 2 * (k - 1) + j, iU + 2 * (k - 1) + j, -1.0)
+    for j in range(2):  # first move from the previous command s_{−1}
+        add(r_first + j, iU + j, 1.0)
+    if layout.wheel_loop:  # reachable lead of the setpoint over the wheel: s_k − v_k (v_0 is data, in the bounds)
+        for k in range(1, N):
+            for j in range(2):
+                add(r_reach + 2 * (k - 1) + j, iU + 2 * k + j, 1.0)
+                add(r_reach + 2 * (k - 1) + j, (k - 1) * nx + 3 + j, -1.0)
+
+    ids = np.arange(1, len(rows) + 1, dtype=np.float64)
+    A = sp.csc_matrix((ids, (rows, cols)), shape=(n_rows, n_z))
+    A.sort_indices()
+    order = A.data.astype(np.int64) - 1  # CSC position p holds entry order[p]
+    position = np.empty_like(order)
+    position[order] = np.arange(len(order))
+    A.data = np.asarray(vals, dtype=np.float64)[order]
+    pos_A = position[np.asarray(a_entries, dtype=np.int64)]
+    pos_B = position[np.asarray(b_entries, dtype=np.int64)]
+    return A, pos_A, pos_B

@@ -1,0 +1,411 @@
+"""PI wheel-speed loop design from the decoupled model (eqs 60-61), sampled with a zero-order hold.
+
+The loop, per wheel, broken at the controller's input::
+
+    L(z) = C(z) · k_chain · G_zoh(z)
+
+* G_zoh(z): the decoupled model ω/u = (k_t/R)/(J̃ s + k_e k_t/R + f_m) (eqs 1, 60-61) sampled with a ZOH at
+  T_s
+  (``control.sample_system(..., "zoh")``), K(1 − a)/(z − a) with a = exp(−T_s/τ_m);
+* k_chain: the gain from the controller's output to the motor voltage. The controller outputs a motor
+  voltage u_c,
+  :class:`~agvctl.controllers.pi.wheel_loop.PIWheelController` sends the DA the voltage u_c/k_pow, the DA outputs that
+  voltage (code·α = u_c/k_pow up to half a step: gain 1 V/V, quantisation neglected) and the amplifier
+  multiplies by k_pow: k_chain = k_pow · 1 · (1/k_pow) = 1;
+* C(z) = k_p + k_i T_s z/(z − 1) (:class:`~agvctl.controllers.pi.wheel_loop.PIGains`).
+
+Margins are those of this sampled loop, computed from its frequency response L(e^{jωT_s}) on a dense grid
+up to and including the Nyquist frequency ω = π/T_s (z = −1). For a PI on this first-order plant the phase
+reaches −180° exactly at z = −1 (both C(−1) and G_zoh(−1) are real), which ``control.margin`` /
+``control.stability_margins`` miss (they report an infinite gain margin); here that point is a phase crossing
+like any other, and the gain margin there is −20 log10 |L(−1)|.
+
+Design ("as fast as the margins allow"): for a crossover ω_c, the PI that gives exactly the required phase
+margin there is unique (solve C(e^{jω_c T}) = e^{j(PM − 180°)} / (k_chain G(e^{jω_c T})) for k_p, k_i). For
+a fixed ω_c it also has the best gain margin of all PIs with that crossover and at least that phase margin
+(more phase lead means a larger C(−1) = k_p + k_i T_s/2), and its gain margin falls as ω_c rises. So the
+fastest design is the largest ω_c at which that PI has k_i > 0 and meets the gain margin: found by a scan
+and Brent's method (``scipy.optimize.brentq``). With a crossover demand, the PI with the required phase
+margin at that ω_c is checked against the gain margin.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import control
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import brentq
+
+from agvctl.actuator import Actuator
+from agvctl.controllers.pi.wheel_loop import PIGains
+from agvctl.errors import ConfigError
+from agvctl.params import VehicleParams
+from agvctl.plant.decoupled import decoupled_wheel_models
+
+__all__ = [
+    "LoopMargins",
+    "TuningResult",
+    "TuningSpec",
+    "chain_gain",
+    "design_pi",
+    "frequency_response",
+    "loop_margins",
+    "loop_polynomials",
+    "sampled_wheel_models",
+]
+
+GRID_POINTS = 20_000
+"""Frequency points (linear in ω, up to π/T_s inclusive) for the final margins."""
+_SEARCH_GRID_POINTS = 2_000
+_PM_DESIGN_EXTRA_DEG = 1e-4
+_CROSSOVER_XTOL_RAD_S, _CROSSOVER_RTOL = 1e-13, 4 * float(np.finfo(float).eps)
+"""Brent's method tolerances for the fastest feasible crossover (the smallest relative tolerance it accepts)."""
+"""Designed phase margin above the spec, so the achieved margin is >= the spec despite rounding."""
+SPEC_SOURCE = "tuning specification"
+
+
+@dataclass(frozen=True)
+class TuningSpec:
+    """What the wheel loops must achieve."""
+
+    phase_margin_deg: float = 60.0
+    """Minimum phase margin."""
+    gain_margin_db: float = 10.0
+    """Minimum gain margin (taken up to and including the Nyquist frequency)."""
+    crossover_rad_s: float | None = None
+    """Demanded gain crossover (bandwidth); ``None``: as fast as the margins allow."""
+
+    def __post_init__(self) -> None:
+        pm, gm, wc = self.phase_margin_deg, self.gain_margin_db, self.crossover_rad_s
+        if not (math.isfinite(pm) and 0.0 < pm < 180.0):
+            raise ConfigError(SPEC_SOURCE, "phase_margin_deg", f"must be between 0 and 180 degrees (got {pm:g})")
+        if not (math.isfinite(gm) and gm >= 0.0):
+            raise ConfigError(SPEC_SOURCE, "gain_margin_db", f"must be a finite number >= 0 dB (got {gm:g})")
+        if wc is not None and not (math.isfinite(wc) and wc > 0.0):
+            raise ConfigError(SPEC_SOURCE, "crossover_rad_s", f"must be a positive number of rad/s (got {wc:g})")
+
+
+@dataclass(frozen=True)
+class LoopMargins:
+    """Stability margins of a sampled loop."""
+
+    gain_margin_db: float
+    """Smallest −20 log10 |L| over the phase crossings in (0, π/T_s] (``inf`` if none)."""
+    phase_margin_deg: float
+    """Smallest 180° + ∠L over the gain crossings (``inf`` if |L| never crosses 1)."""
+    crossover_rad_s: float
+    """Gain crossover frequency (the lowest, if several; ``nan`` if none)."""
+    phase_crossover_rad_s: float
+    """Frequency where the gain margin is taken (π/T_s for the PI wheel loop; ``nan`` if none)."""
+
+
+@dataclass(frozen=True)
+class TuningResult:
+    """A PI design and its verification on the sampled linear loops of both wheels."""
+
+    gains: PIGains
+    margins: LoopMargins
+    """The worse of the two wheels' margins (smallest GM, PM and crossover)."""
+    margins_left: LoopMargins
+    margins_right: LoopMargins
+    spec: TuningSpec
+    chain_gain: float
+    """Controller output to motor voltage (V/V), see the module docstring."""
+    plant_left: control.TransferFunction = field(repr=False)
+    """ZOH-sampled decoupled model of the left wheel, motor voltage (V) → motor speed (rad/s)."""
+    plant_right: control.TransferFunction = field(repr=False)
+    max_crossover_rad_s: float = math.nan
+    """The fastest crossover the margins allow (what the design picks when no crossover is demanded)."""
+
+    def loop(self, side: str = "left") -> control.TransferFunction:
+        """The open loop L(z) = C(z) k_chain G_zoh(z) of one wheel as a python-control transfer function."""
+        num, den = loop_polynomials(
+            self.gains, self.plant_left if side == "left" else self.plant_right, self.chain_gain
+        )
+        return control.tf(num, den, self.gains.dt_s)
+
+
+def chain_gain(vehicle: VehicleParams) -> float:
+    """Gain from the controller's motor-voltage output to the motor voltage: (1/k_pow) · 1 · k_pow.
+
+    The controller divides by k_pow to get the DA command; the DA's gain is code·α per requested volt = 1 V/V
+    (up to quantisation); the amplifier multiplies by k_pow.
+    """
+    k_pow = Actuator(vehicle).gain
+    da_gain_v_v = 1.0  # v_DA = α · round(v/α) ≈ v
+    return (1.0 / k_pow) * da_gain_v_v * k_pow
+
+
+def sampled_wheel_models(vehicle: VehicleParams) -> tuple[control.TransferFunction, control.TransferFunction]:
+    """The decoupled models (eqs 60-61) of the left and right wheel sampled with a ZOH at the sample
+    period."""
+    ts = vehicle.control.sample_period_s
+    models = decoupled_wheel_models(vehicle)
+    return (
+        control.sample_system(models.left, ts, method="zoh"),
+        control.sample_system(models.right, ts, method="zoh"),
+    )
+
+
+def _tf_polys(tf: control.TransferFunction) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    num, den = control.tfdata(tf)
+    return np.atleast_1d(np.asarray(num[0][0], dtype=float)), np.atleast_1d(np.asarray(den[0][0], dtype=float))
+
+
+def loop_polynomials(
+    gains: PIGains, plant_z: control.TransferFunction, chain: float = 1.0
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Numerator and denominator (descending powers of z) of L(z) = C(z) · chain · G(z)."""
+    g_num, g_den = _tf_polys(plant_z)
+    num = np.asarray(chain * np.polymul(gains.num, g_num), dtype=np.float64)
+    return num, np.asarray(np.polymul(gains.den, g_den), dtype=np.float64)
+
+
+def frequency_response(
+    num: NDArray[np.float64], den: NDArray[np.float64], dt_s: float, omega_rad_s: NDArray[np.float64]
+) -> NDArray[np.complex128]:
+    """L(e^{jωT}) of a discrete transfer function given by polynomials in descending powers of z."""
+    z = np.exp(1j * np.asarray(omega_rad_s, dtype=float) * dt_s)
+    return np.asarray(np.polyval(num, z) / np.polyval(den, z), dtype=np.complex128)
+
+
+def loop_margins(
+    num: NDArray[np.float64], den: NDArray[np.float64], dt_s: float, *, grid_points: int = GRID_POINTS
+) -> LoopMargins:
+    """Gain and phase margins of the discrete loop ``num/den`` from its frequency response on (0, π/T_s].
+
+    The grid is linear in ω and includes the Nyquist frequency itself; crossings are refined with Brent's
+    method. A phase crossing is a zero of Im L with Re L < 0, including ω = π/T_s where Im L = 0 identically.
+    """
+    w_nyq = math.pi / dt_s
+    w = np.linspace(0.0, w_nyq, grid_points + 1)[1:]
+    resp = frequency_response(num, den, dt_s, w)
+
+    def at(omega: float) -> complex:
+        return complex(frequency_response(num, den, dt_s, np.array([omega]))[0])
+
+    phase = np.unwrap(np.angle(resp))
+    # gain crossings: |L| = 1
+    mag_log = np.log(np.abs(resp))
+    pms, wcs = [], []
+    for i in np.nonzero(np.signbit(mag_log[:-1]) != np.signbit(mag_log[1:]))[0]:
+        wc = brentq(lambda om: math.log(abs(at(om))), w[i], w[i + 1], xtol=1e-12)
+        ph = math.atan2(at(wc).imag, at(wc).real)
+        ph += 2 * math.pi * round((phase[i] - ph) / (2 * math.pi))  # same branch as the unwrapped grid phase
+        pms.append(180.0 + math.degrees(ph))
+        wcs.append(wc)
+    # phase crossings: Im L = 0 with Re L < 0, and z = -1 itself
+    gms, wps = [], []
+    im = resp.imag
+    for i in np.nonzero(np.sign(im[:-1]) * np.sign(im[1:]) < 0)[0]:
+        wp = brentq(lambda om: at(om).imag, w[i], w[i + 1], xtol=1e-12)
+        if at(wp).real < 0:
+            gms.append(-20.0 * math.log10(abs(at(wp))))
+            wps.append(wp)
+    l_nyq = at(w_nyq)
+    if l_nyq.real < 0:
+        gms.append(-20.0 * math.log10(abs(l_nyq)))
+        wps.append(w_nyq)
+    i_gm = int(np.argmin(gms)) if gms else -1
+    return LoopMargins(
+        gain_margin_db=gms[i_gm] if gms else math.inf,
+        phase_margin_deg=min(pms) if pms else math.inf,
+        crossover_rad_s=min(wcs) if wcs else math.nan,
+        phase_crossover_rad_s=wps[i_gm] if gms else math.nan,
+    )
+
+
+def _pi_for_crossover(
+    plant_z: control.TransferFunction,
+    chain: float,
+    crossover_rad_s: float,
+    phase_margin_deg: float,
+    dt_s: float,
+) -> PIGains | None:
+    """The PI with |L| = 1 and phase margin ``phase_margin_deg`` at ``crossover_rad_s``; None if that needs
+    k_i <= 0 (a PI cannot provide the phase lead). Where it would need k_p < 0, the pure integrator (k_p =
+    0) instead."""
+    theta = crossover_rad_s * dt_s
+    g_num, g_den = _tf_polys(plant_z)
+    g = chain * complex(frequency_response(g_num, g_den, dt_s, np.array([crossover_rad_s]))[0])
+    c = np.exp(1j * math.radians(phase_margin_deg - 180.0)) / g
+    # C(e^{jθ}) = k_p + k_i T (1/2 − j/2 · cot(θ/2)), since z/(z − 1) = 1/(1 − e^{−jθ})
+    ki_t = -2.0 * c.imag * math.tan(theta / 2.0)
+    kp = c.real - ki_t / 2.0
+    if not ki_t > 0.0:
+        return None
+    if kp < 0.0:
+        # the plant lags too little here for this margin even with a pure integrator: use k_p = 0, which gives
+        # more phase margin than asked, with |L| = 1 at the crossover
+        z = complex(np.exp(1j * theta))
+        kp, ki_t = 0.0, 1.0 / abs(g * z / (z - 1.0))
+    return PIGains(kp=float(kp), ki=float(ki_t / dt_s), dt_s=float(dt_s))
+
+
+def _worst(a: LoopMargins, b: LoopMargins) -> LoopMargins:
+    ga, gb = (a, b) if a.gain_margin_db <= b.gain_margin_db else (b, a)
+    return LoopMargins(
+        gain_margin_db=ga.gain_margin_db,
+        phase_margin_deg=min(a.phase_margin_deg, b.phase_margin_deg),
+        crossover_rad_s=float(np.fmin(a.crossover_rad_s, b.crossover_rad_s)),
+        phase_crossover_rad_s=ga.phase_crossover_rad_s,
+    )
+
+
+def _spec_excess(
+    plants: tuple[control.TransferFunction, ...],
+    chain: float,
+    crossover_rad_s: float,
+    pm_design_deg: float,
+    dt_s: float,
+    spec: TuningSpec,
+) -> float:
+    """> 0 where a PI with crossover ``crossover_rad_s`` meets ``spec`` on both wheels: for the better of the
+    sides' designs, its smallest GM − spec (dB) and PM − spec (deg) over the wheels; −1 where no design has
+    k_i > 0."""
+    best = -1.0
+    for plant in plants:
+        gains = _pi_for_crossover(plant, chain, crossover_rad_s, pm_design_deg, dt_s)
+        if gains is not None:
+            m = [
+                loop_margins(*loop_polynomials(gains, p, chain), dt_s, grid_points=_SEARCH_GRID_POINTS) for p in plants
+            ]
+            best = max(
+                best,
+                min(min(x.gain_margin_db - spec.gain_margin_db, x.phase_margin_deg - spec.phase_margin_deg) for x in m),
+            )
+    return best
+
+
+def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningResult:
+    """Design the wheel-speed PI for ``spec`` (default: PM >= 60°, GM >= 10 dB, fastest crossover).
+
+    One gain set serves both wheels; it must meet the spec on each side's model. Raises :class:`ConfigError`
+    (one line) when no PI meets the spec.
+    """
+    spec = spec or TuningSpec()
+    ts = vehicle.control.sample_period_s
+    plants = sampled_wheel_models(vehicle)
+    chain = chain_gain(vehicle)
+    w_nyq = math.pi / ts
+    pm_design = spec.phase_margin_deg + _PM_DESIGN_EXTRA_DEG
+
+    def candidate(wc: float, grid: int) -> tuple[PIGains, LoopMargins, LoopMargins] | None:
+        """A PI with crossover ``wc`` meeting the spec on both wheels, or None."""
+        best = None
+        for plant in plants:  # design on each side's model, keep one that suits both
+            gains = _pi_for_crossover(plant, chain, wc, pm_design, ts)
+            if gains is None:
+                continue
+            m = [loop_margins(*loop_polynomials(gains, p, chain), ts, grid_points=grid) for p in plants]
+            meets = all(
+                x.phase_margin_deg >= spec.phase_margin_deg and x.gain_margin_db >= spec.gain_margin_db for x in m
+            )
+            if meets and (best is None or min(x.crossover_rad_s for x in m) > min(x.crossover_rad_s for x in best[1:])):
+                best = (gains, m[0], m[1])
+        return best
+
+    def excess(wc: float) -> float:
+        return _spec_excess(plants, chain, wc, pm_design, ts, spec)
+
+    # the fastest feasible crossover: scan (log-spaced), then Brent's method between the last feasible point and
+    # the next
+    scan = np.geomspace(w_nyq * 1e-4, w_nyq * (1 - 1e-6), 160)
+    feasible = [candidate(float(wc), _SEARCH_GRID_POINTS) is not None for wc in scan]
+    if not any(feasible):
+        raise ConfigError(
+            SPEC_SOURCE,
+            "phase_margin_deg",
+            f"no PI gives phase margin >= {spec.phase_margin_deg:g} deg and gain margin >= "
+            f"{spec.gain_margin_db:g} dB on this vehicle's wheel loop at any crossover up to Nyquist "
+            f"({w_nyq:.4g} rad/s)",
+        )
+    last = max(i for i, ok in enumerate(feasible) if ok)
+    lo = float(scan[last])
+    hi = float(scan[last + 1]) if last + 1 < len(scan) else w_nyq
+    if not excess(hi) < 0:  # feasible (or undefined) up to the Nyquist frequency: the last scanned point
+        max_wc = lo
+    else:
+        max_wc = float(brentq(excess, lo, hi, xtol=_CROSSOVER_XTOL_RAD_S, rtol=_CROSSOVER_RTOL))
+        if excess(max_wc) < 0:  # Brent's answer lies within its tolerance of the boundary: take the feasible side
+            max_wc -= 2.0 * (_CROSSOVER_XTOL_RAD_S + _CROSSOVER_RTOL * max_wc)
+
+    if spec.crossover_rad_s is None:
+        wc_target = max_wc
+    else:
+        wc_target = spec.crossover_rad_s
+        if wc_target >= w_nyq:
+            raise ConfigError(
+                SPEC_SOURCE,
+                "crossover_rad_s",
+                f"{wc_target:g} rad/s is at or above the Nyquist frequency pi/T_s = {w_nyq:.4g} rad/s",
+            )
+    found = candidate(wc_target, GRID_POINTS)
+    if found is None and spec.crossover_rad_s is None:  # rounding at the boundary: back off slightly
+        for shrink in (1 - 1e-6, 1 - 1e-4, 1 - 1e-2):
+            found = candidate(wc_target * shrink, GRID_POINTS)
+            if found is not None:
+                break
+    if found is None:
+        raise ConfigError(
+            SPEC_SOURCE,
+            "crossover_rad_s",
+            f"no PI has crossover {wc_target:g} rad/s with phase margin >= {spec.phase_margin_deg:g} deg and "
+            f"gain margin >= {spec.gain_margin_db:g} dB; with these margins the crossover can be at most "
+            f"{max_wc:.4g} rad/s",
+        )
+    gains, m_left, m_right = found
+    return TuningResult(
+        gains=gains,
+        margins=_worst(m_left, m_right),
+        margins_left=m_left,
+        margins_right=m_right,
+        spec=spec,
+        chain_gain=chain,
+        plant_left=plants[0],
+        plant_right=plants[1],
+        max_crossover_rad_s=max_wc,
+    )
+
+
+def closed_loop_time_constant_s(vehicle: VehicleParams, gains: PIGains, horizon_s: float = 0.6) -> float:
+    """τ of the first-order lag that best fits (least squares) the step response of the closed wheel loops.
+
+    The MPC's ``kinematic+wheel_loop`` prediction model treats each wheel's closed PI loop as such a lag; this
+    is its value for ``gains`` on the sampled linear model (ZOH plant of eqs 60-61, PI, chain gain), the slower
+    side. 0.031 s for the default design (whose closed loop reaches 68 % of a step in one 40 ms sample).
+    """
+    ts = gains.dt_s
+    n = max(3, int(round(horizon_s / ts)))
+    k = np.arange(n)
+    chain = chain_gain(vehicle)
+    taus = []
+    for plant in sampled_wheel_models(vehicle):
+        num, den = loop_polynomials(gains, plant, chain)
+        closed = control.feedback(control.tf(num, den, ts), 1)
+        y = np.asarray(control.step_response(closed, k * ts).outputs, dtype=float).ravel()
+        poles = np.linspace(1e-3, 0.999, 999)  # a = exp(-T/τ); a first-order step response is 1 − a^k
+        errors = [float(np.sum((y - (1.0 - a**k)) ** 2)) for a in poles]
+        a_best = float(poles[int(np.argmin(errors))])
+        taus.append(-ts / math.log(a_best))
+    return max(taus)
+
+
+class WheelLoopDesign(NamedTuple):
+    """The PI gains and the first-order lag τ (s) that best fits their closed loop."""
+
+    gains: PIGains
+    loop_time_constant_s: float
+
+
+@functools.lru_cache(maxsize=32)
+def default_pi_gains(vehicle: VehicleParams) -> WheelLoopDesign:
+    """The PI designed for the default spec (PM ≥ 60°, GM ≥ 10 dB, fastest) and the time constant (s) of the
+    first-order lag that best fits its closed loop (the MPC's wheel-loop model)."""
+    gains = design_pi(vehicle).gains
+    return WheelLoopDesign(gains, closed_loop_time_constant_s(vehicle, gains))

@@ -1,0 +1,115 @@
+"""The controllers an experiment can name: the pose controllers by ``[controller] pose``, and the PI wheel loops.
+
+A new pose controller is one module — a class satisfying :class:`~agvctl.controllers.base.PoseController`,
+constructed as ``Controller(vehicle, settings)`` — and one line in :data:`POSE_CONTROLLERS`. The experiment loader
+builds the ``[controller]`` table's remaining keys strictly into the entry's settings dataclass, once; ``run``,
+``check`` and the README's list of names read the same table.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from agvctl.controllers.base import PoseController
+from agvctl.controllers.baselines.feedforward import FeedForwardPoseController
+from agvctl.controllers.baselines.ltv_lqr import LtvLqrConfig, LtvLqrController
+from agvctl.controllers.baselines.ramsete import RamseteConfig, RamseteController
+from agvctl.controllers.mpc.common import MpcConfig
+from agvctl.controllers.mpc.ltv import LtvMpcController
+from agvctl.controllers.mpc.nonlinear import NonlinearMpcController
+from agvctl.controllers.pi.tuning import WheelLoopDesign, closed_loop_time_constant_s, default_pi_gains
+from agvctl.controllers.pi.wheel_loop import PIWheelController, load_gains
+from agvctl.errors import ConfigError
+from agvctl.params import VehicleParams
+
+__all__ = [
+    "POSE_CONTROLLERS",
+    "PoseControllerKind",
+    "WheelLoopDesign",
+    "WheelLoops",
+    "default_pi_gains",
+    "design_wheel_loops",
+]
+
+
+@dataclass(frozen=True)
+class PoseControllerKind:
+    """One entry of :data:`POSE_CONTROLLERS`."""
+
+    make: Callable[[VehicleParams, Any], PoseController]
+    """``make(vehicle, settings)``: the controller, designed for the controller's vehicle."""
+    settings: type | None
+    """The dataclass the ``[controller]`` table's other keys are built into (None: the controller takes none)."""
+    description: str
+    fit_wheel_loop: Callable[[Any, WheelLoopDesign], Any] | None = None
+    """Completes the settings with the experiment's wheel loops (e.g. the MPC's model of their lag)."""
+
+
+def _mpc_wheel_loop(config: MpcConfig, wheel: WheelLoopDesign) -> MpcConfig:
+    """The MPC predicts the wheel loops as first-order lags: unless set, the best fit to the experiment's own."""
+    if config.wheel_loop_time_constant_s is not None:
+        return config
+    return dataclasses.replace(config, wheel_loop_time_constant_s=wheel.loop_time_constant_s)
+
+
+POSE_CONTROLLERS: dict[str, PoseControllerKind] = {
+    "mpc": PoseControllerKind(LtvMpcController, MpcConfig, "linear time-varying MPC on OSQP", _mpc_wheel_loop),
+    "nmpc": PoseControllerKind(NonlinearMpcController, MpcConfig, "nonlinear MPC on CasADi/IPOPT", _mpc_wheel_loop),
+    "ramsete": PoseControllerKind(RamseteController, RamseteConfig, "WPILib's Ramsete unicycle law (yardstick)"),
+    "ltv_lqr": PoseControllerKind(LtvLqrController, LtvLqrConfig, "WPILib's LTV unicycle LQR (yardstick)"),
+    "none": PoseControllerKind(
+        lambda vehicle, settings: FeedForwardPoseController(), None, "the reference's feed-forward only"
+    ),
+}
+"""The pose controllers by the name an experiment's ``[controller] pose`` gives."""
+
+
+@dataclass(frozen=True)
+class WheelLoops:
+    """An experiment's PI wheel-speed loops: the gains (designed, or from a gains file) and their options."""
+
+    design: WheelLoopDesign
+    coulomb_feedforward: bool
+    symmetric_braking: bool
+    gentle_stop: bool
+
+    def controller(self, vehicle: VehicleParams) -> PIWheelController:
+        """The wheel-speed controller on ``vehicle`` (the controller's model)."""
+        return PIWheelController(
+            vehicle,
+            self.design.gains,
+            coulomb_feedforward=self.coulomb_feedforward,
+            symmetric_braking=self.symmetric_braking,
+            gentle_stop=self.gentle_stop,
+        )
+
+
+def design_wheel_loops(
+    vehicle: VehicleParams,
+    gains_path: Path | None,
+    *,
+    coulomb_feedforward: bool,
+    symmetric_braking: bool,
+    gentle_stop: bool,
+    source: str,
+) -> WheelLoops:
+    """The wheel loops for ``vehicle``: from the gains file at ``gains_path`` (written by ``agvctl tune --out``;
+    its Coulomb feed-forward adds to ``coulomb_feedforward``), or designed for the default spec. ``source`` is the
+    experiment file named in errors."""
+    if gains_path is None:
+        return WheelLoops(default_pi_gains(vehicle), coulomb_feedforward, symmetric_braking, gentle_stop)
+    if not gains_path.exists():
+        raise ConfigError(source, "controller.pi_gains", f"file not found: {gains_path}")
+    settings = load_gains(gains_path)
+    if abs(settings.dt_s - vehicle.control.sample_period_s) > 1e-12:
+        raise ConfigError(
+            str(gains_path),
+            "pi.dt_s",
+            f"gains designed for {settings.dt_s:g} s, the vehicle samples every {vehicle.control.sample_period_s:g} s",
+        )
+    design = WheelLoopDesign(settings.gains, closed_loop_time_constant_s(vehicle, settings.gains))
+    return WheelLoops(design, settings.coulomb_feedforward or coulomb_feedforward, symmetric_braking, gentle_stop)

@@ -1,0 +1,70 @@
+"""The estimators' protocols, and the consistency of an estimate against the truth.
+
+Every sample the closed loop hands the pose estimator the :class:`~agvctl.sensing.Measurements` of the true
+vehicle's sensors (latched encoder counts, the gyro, the position fixes arriving, the rim speeds the wheel loops
+measured, and the true pose: a perfect pose sensor, for the ``truth`` estimator only), and the wheel-speed estimator
+the latched counts. An estimator that also has a ``pose_covariance`` (3×3) and a ``last_nis`` attribute is checked
+for consistency (NEES, NIS) in the log, as :class:`~agvctl.estimation.ekf.PoseEkf` is.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.angles import wrap_angle
+from agvctl.sensing import Measurements
+
+__all__ = ["PoseEstimator", "WheelSpeedEstimator", "consistency"]
+
+FloatArray = NDArray[np.float64]
+
+
+class PoseEstimator(Protocol):
+    """Estimates the pose (x_m, y_m, theta_rad) once per sample period."""
+
+    def reset(self, pose: FloatArray) -> None:
+        """Start from ``pose`` (x_m, y_m, theta_rad), known at t = 0."""
+
+    def update(self, measurements: Measurements) -> FloatArray:
+        """The estimate at this sample from this sample's measurements."""
+        ...
+
+
+class WheelSpeedEstimator(Protocol):
+    """Motor speeds (left, right) in rad/s at t_k, from the latched counts (and the true speeds, for ``exact``)."""
+
+    def reset(self) -> None:
+        """Forget the past (the vehicle starts at rest)."""
+
+    def update(self, encoder_counts: NDArray[np.int64], true_omega_rad_s: FloatArray) -> FloatArray:
+        """The speeds at this sample."""
+        ...
+
+    def applied(self, da_command_v: FloatArray) -> None:
+        """The DA voltage command (left, right, V) held over the coming sample."""
+
+
+def consistency(estimator: object, estimate: FloatArray, true_pose: FloatArray) -> tuple[float, ...]:
+    """``(σ_x m, σ_y m, σ_θ rad, NEES, NIS)`` of an estimator with a ``pose_covariance``, NaN for one without.
+
+    NEES is eᵀP⁻¹e with e the estimate's error against the truth (heading wrapped), 3 degrees of freedom; NIS the
+    estimator's ``last_nis`` (NaN at samples without a fix). In plain floats (Cramer's rule on the symmetric 3×3
+    P): it runs every sample, where numpy's per-call cost would exceed the arithmetic.
+    """
+    cov = getattr(estimator, "pose_covariance", None)
+    if cov is None:
+        return (math.nan,) * 5
+    (a, b, c), (_, d, e), (_, _, f) = np.asarray(cov, dtype=float).tolist()
+    x, y, t = (np.asarray(estimate, dtype=float) - true_pose).tolist()
+    t = wrap_angle(t)
+    # adj(P) of P = [[a b c] [b d e] [c e f]], and det P
+    A, B, C = d * f - e * e, c * e - b * f, b * e - c * d
+    D, E, F = a * f - c * c, b * c - a * e, a * d - b * b
+    det = a * A + b * B + c * C
+    nees = (A * x * x + D * y * y + F * t * t + 2 * (B * x * y + C * x * t + E * y * t)) / det
+    nis = float(getattr(estimator, "last_nis", math.nan))
+    return (math.sqrt(a), math.sqrt(d), math.sqrt(f), nees, nis)

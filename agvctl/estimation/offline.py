@@ -1,0 +1,223 @@
+"""Estimation on logged data: every estimator, the EKF and an RTS smoother over a closed-loop ``log.csv``.
+
+A closed-loop log records what the sensors read (``encoder_count_*``, ``gyro_rate_rad_s``, the fixes as they
+arrived with ``fix_measured_t_s``), so the estimators can be run again offline, with other settings or another
+believed vehicle::
+
+    from agvctl.params import load_vehicle
+    from agvctl.estimation.offline import filter_log, read_log, smooth_log
+
+    log = read_log("out/figure8_ekf/log.csv")
+    smoothed = smooth_log(log, load_vehicle())        # est_x_m, est_y_m, est_theta_rad, est_sigma_*, ...
+
+:func:`estimate_log` runs any pose estimator (a name of :data:`~agvctl.estimation.registry.ESTIMATORS`, or yours) and
+:func:`wheel_speeds_log` any wheel-speed estimator over the logged readings, fed as the loop fed them.
+:func:`filter_log` replays the causal EKF exactly as the loop ran it (fixes applied when they arrived, with or
+without latency compensation). :func:`smooth_log` knows the whole run: each fix is applied at the sample it was
+measured (no latency to handle offline), then a Rauch-Tung-Striebel backward pass gives every sample the
+estimate from all the data. Only the last fix arriving at a sample is logged (fix rates up to 1/T_s).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.angles import wrap_angle
+from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator
+from agvctl.estimation.ekf import EkfSettings, PoseEkf
+from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
+from agvctl.log import SimLog
+from agvctl.params import VehicleParams
+from agvctl.sensing import SENSOR_READING_COLUMNS, Measurements, PositionFix, Sensors
+
+__all__ = [
+    "ESTIMATE_COLUMNS",
+    "estimate_log",
+    "filter_log",
+    "log_encoder_counts",
+    "log_fixes",
+    "read_log",
+    "resense_log",
+    "smooth_log",
+    "wheel_speeds_log",
+]
+
+FloatArray = NDArray[np.float64]
+
+ESTIMATE_COLUMNS = (
+    "t_s",
+    "est_x_m",
+    "est_y_m",
+    "est_theta_rad",
+    "est_sigma_x_m",
+    "est_sigma_y_m",
+    "est_sigma_theta_rad",
+    "radius_error_left",
+    "radius_error_right",
+    "nees",
+)
+"""The columns :func:`filter_log` and :func:`smooth_log` return (``radius_error_*``: the ε states, relative;
+``nees``: eᵀP⁻¹e of the pose against the log's true pose, 3 degrees of freedom, NaN for a log without it)."""
+
+
+def read_log(path: str | Path) -> SimLog:
+    """A log written by :meth:`SimLog.to_csv` (``agvctl run``'s ``log.csv``), every column as floats."""
+    with open(path, newline="", encoding="utf-8") as fh:
+        header = next(csv.reader(fh))
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return SimLog({name: np.array(data[:, j]) for j, name in enumerate(header)})
+
+
+def resense_log(log: SimLog, vehicle: VehicleParams, *, seed: int) -> SimLog:
+    """``log`` with its sensor columns read again by ``vehicle``'s sensors with another noise ``seed``: counts from
+    the true shaft angles, gyro and fixes from the true pose. The same true run, another sensor realisation (for
+    Monte Carlo consistency checks of an estimator)."""
+    sensors = Sensors(vehicle, seed=seed)
+    angles = np.column_stack([log["motor_angle_left_rad"], log["motor_angle_right_rad"]])
+    poses = np.column_stack([log["x_m"], log["y_m"], log["theta_rad"]])
+    cols = dict(log.columns)
+    new = {name: np.full(len(log), math.nan) for name in SENSOR_READING_COLUMNS}
+    for k in range(len(log)):
+        counts = sensors.encoder_counts(angles[k])
+        meas = sensors.read(k, counts, poses[k], np.zeros(2))
+        new["encoder_count_left"][k], new["encoder_count_right"][k] = counts
+        new["gyro_rate_rad_s"][k] = meas.gyro_rate_rad_s
+        if meas.fixes:
+            fix = meas.fixes[-1]
+            new["fix_x_m"][k], new["fix_y_m"][k], new["fix_theta_rad"][k] = fix.pose
+            new["fix_measured_t_s"][k] = fix.measured_t_s
+    cols.update(new)
+    return SimLog(cols)
+
+
+def log_fixes(log: SimLog, ts: float) -> list[tuple[PositionFix, ...]]:
+    """The fixes arriving at each sample of a log (from its ``fix_*`` columns), T_s = ``ts`` in s."""
+    out: list[tuple[PositionFix, ...]] = []
+    for t_meas, x, y, th in zip(
+        log["fix_measured_t_s"], log["fix_x_m"], log["fix_y_m"], log["fix_theta_rad"], strict=True
+    ):
+        if math.isnan(t_meas):
+            out.append(())
+        else:
+            j = int(round(t_meas / ts))
+            out.append((PositionFix(j, j * ts, np.array([x, y, th])),))
+    return out
+
+
+def _start(log: SimLog) -> FloatArray:
+    """The pose the loop started the estimator from: the first row's estimate."""
+    return np.array([log["est_x_m"][0], log["est_y_m"][0], log["est_theta_rad"][0]])
+
+
+def log_encoder_counts(log: SimLog) -> NDArray[np.int64]:
+    """The latched counts of a log (samples × 2: left, right)."""
+    return np.column_stack([log["encoder_count_left"], log["encoder_count_right"]]).round().astype(np.int64)
+
+
+def _table(log: SimLog, states: FloatArray, covs: FloatArray) -> SimLog:
+    sig = np.sqrt(np.diagonal(covs, axis1=1, axis2=2))
+    nees = np.full(len(log), math.nan)
+    if "x_m" in log:
+        e = states[:, :3] - np.column_stack([log["x_m"], log["y_m"], log["theta_rad"]])
+        e[:, 2] = wrap_angle(e[:, 2])
+        nees = np.einsum("ki,ki->k", e, np.linalg.solve(covs[:, :3, :3], e[:, :, None])[:, :, 0])
+    cols = [log["t_s"], *states[:, :3].T, *sig[:, :3].T, states[:, 3], states[:, 4], nees]
+    return SimLog({name: np.asarray(c, dtype=float) for name, c in zip(ESTIMATE_COLUMNS, cols, strict=True)})
+
+
+def _pair(log: SimLog, name: str) -> FloatArray:
+    return np.column_stack([log[name.format("left")], log[name.format("right")]])
+
+
+def estimate_log(log: SimLog, vehicle: VehicleParams, localization: str | PoseEstimator = "odometry") -> SimLog:
+    """A pose estimator over a log (``t_s``, ``est_x_m``, ``est_y_m``, ``est_theta_rad``), started at the log's
+    first estimate and fed each row's readings as the loop fed them; ``vehicle`` is the believed one."""
+    estimator = ESTIMATORS[localization](vehicle) if isinstance(localization, str) else localization
+    estimator.reset(_start(log))
+    w, m = vehicle.wheels, vehicle.motor
+    rim_per_motor = np.array([w.radius_left_m / m.left.gear_ratio, w.radius_right_m / m.right.gear_ratio])
+    counts, fixes = log_encoder_counts(log), log_fixes(log, vehicle.control.sample_period_s)
+    poses = np.column_stack([log["x_m"], log["y_m"], log["theta_rad"]])
+    wheel = _pair(log, "measured_omega_motor_{}_rad_s") * rim_per_motor
+    t, gyro = log["t_s"], log["gyro_rate_rad_s"]
+    est = np.empty((len(log), 3))
+    for k in range(len(log)):
+        meas = Measurements(k, float(t[k]), poses[k], wheel[k], counts[k], float(gyro[k]), fixes[k])
+        est[k] = estimator.update(meas)
+    return SimLog({"t_s": np.array(t), "est_x_m": est[:, 0], "est_y_m": est[:, 1], "est_theta_rad": est[:, 2]})
+
+
+def wheel_speeds_log(log: SimLog, vehicle: VehicleParams, wheel_speed: str | WheelSpeedEstimator = "kalman") -> SimLog:
+    """A wheel-speed estimator over a log's counts and DA commands (``t_s``, ``omega_motor_{left,right}_rad_s``);
+    ``vehicle`` is the believed one."""
+    speeds = WHEEL_SPEED_ESTIMATORS[wheel_speed](vehicle) if isinstance(wheel_speed, str) else wheel_speed
+    speeds.reset()
+    counts, true_omega = log_encoder_counts(log), _pair(log, "omega_motor_{}_rad_s")
+    commands = _pair(log, "da_command_{}_v")
+    omega = np.empty((len(log), 2))
+    for k in range(len(log)):
+        omega[k] = speeds.update(counts[k], true_omega[k])
+        speeds.applied(commands[k])
+    return SimLog(
+        {"t_s": np.array(log["t_s"]), "omega_motor_left_rad_s": omega[:, 0], "omega_motor_right_rad_s": omega[:, 1]}
+    )
+
+
+def filter_log(
+    log: SimLog,
+    vehicle: VehicleParams,
+    settings: EkfSettings | None = None,
+    *,
+    initial_pose: FloatArray | None = None,
+) -> SimLog:
+    """The causal EKF over a log, as the loop runs it (``vehicle``: the believed one), started from
+    ``initial_pose`` (x_m, y_m, theta_rad; default the log's first estimate, as the loop did)."""
+    ekf = PoseEkf(vehicle, settings)
+    ekf.reset(_start(log) if initial_pose is None else np.asarray(initial_pose, dtype=float))
+    counts, gyro, fixes = (
+        log_encoder_counts(log),
+        log["gyro_rate_rad_s"],
+        log_fixes(log, vehicle.control.sample_period_s),
+    )
+    states, covs = np.empty((len(log), 5)), np.empty((len(log), 5, 5))
+    for k in range(len(log)):
+        ekf.step(k, counts[k], float(gyro[k]), fixes[k])
+        states[k], covs[k] = ekf.x, ekf.P
+    return _table(log, states, covs)
+
+
+def smooth_log(log: SimLog, vehicle: VehicleParams, settings: EkfSettings | None = None) -> SimLog:
+    """The Rauch-Tung-Striebel smoothed estimate over a log: the EKF forward with every fix at the sample it was
+    measured, then backwards ``x_s,k = x_k + C_k (x_s,k+1 − x⁻_k+1)``, ``C_k = P_k F_k+1ᵀ (P⁻_k+1)⁻¹``."""
+    ekf = PoseEkf(vehicle, settings)
+    ekf.reset(_start(log))
+    n, ts = len(log), vehicle.control.sample_period_s
+    counts, gyro = log_encoder_counts(log), log["gyro_rate_rad_s"]
+    by_sample: dict[int, list[PositionFix]] = {}
+    for arrived in log_fixes(log, ts):
+        for fix in arrived:
+            by_sample.setdefault(fix.measured_sample, []).append(fix)
+    x, P = ekf.x.copy(), ekf.P.copy()
+    xs, Ps = np.empty((n, 5)), np.empty((n, 5, 5))
+    x_pred, P_pred, Fs = np.empty((n, 5)), np.empty((n, 5, 5)), np.empty((n, 5, 5))
+    for k in range(n):
+        if k > 0:
+            d = (counts[k] - counts[k - 1]) * ekf.metres_per_count
+            travel = np.array([d[0], d[1], (gyro[k] - vehicle.sensors.gyro_bias_rad_s) * ts])
+            x, F, Q = ekf.transition(x, travel)
+            P = F @ P @ F.T + Q
+            Fs[k] = F
+        x_pred[k], P_pred[k] = x, P
+        for fix in by_sample.get(k, []):
+            x, P, _nis = ekf.fix_update(x, P, fix.pose)
+        xs[k], Ps[k] = x, P
+    for k in range(n - 2, -1, -1):  # the backward pass
+        C = np.linalg.solve(P_pred[k + 1], Fs[k + 1] @ Ps[k]).T
+        xs[k] = xs[k] + C @ (xs[k + 1] - x_pred[k + 1])
+        Ps[k] = Ps[k] + C @ (Ps[k + 1] - P_pred[k + 1]) @ C.T
+    return _table(log, xs, Ps)

@@ -1,0 +1,236 @@
+"""The limits a run is judged by: one table (name → metric → series → unit), an experiment's ``[limits]``, and
+their evaluation on a run (value, pass/fail, worst and first times).
+
+Adding a limit is one entry in :data:`LIMITS`: the experiment loader validates ``[limits]`` against it, and
+:func:`evaluate_limits` and the messages of ``run`` and ``check`` read it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.config import convert_value, did_you_mean, join_key
+from agvctl.errors import ConfigError
+from agvctl.evaluation.metrics import estimate_heading_error_rad, estimate_position_error_m
+from agvctl.log import SimLog
+from agvctl.params import VehicleParams
+
+__all__ = ["LIMITS", "Limit", "LimitResult", "LimitsSpec", "all_passed", "evaluate_limits", "format_limit_message"]
+
+Series = Callable[[SimLog, float], NDArray[np.float64]]
+
+
+@dataclass(frozen=True)
+class Limit:
+    """One limit: an upper bound on a metric of :func:`~agvctl.evaluation.metrics.closed_loop_metrics`."""
+
+    metric: str
+    """The metric the bound applies to."""
+    unit: str
+    """As printed after the value (``" m"``, ``"°"``; empty for fractions and counts)."""
+    series: Series
+    """The per-sample signal behind the metric, from the log and T_s (s): its worst sample and the first one past
+    the bound are reported. For ``events`` limits, the per-sample flags counted or averaged."""
+    timing: Literal["peak", "rms", "final", "events"]
+    """How the times are reported: ``peak`` (worst = the signal's peak), ``rms`` (no first exceedance: the bound
+    is on a whole-run statistic), ``final`` (both at the end), ``events`` (both at the first flagged sample)."""
+    values: Literal["positive", "fraction", "count"]
+    """What the file may give: a number > 0, a fraction in [0, 1], or an integer >= 0."""
+
+
+def _both(log: SimLog, name: str) -> NDArray[np.float64]:
+    return np.maximum(log[name.format("left")], log[name.format("right")])
+
+
+def _position_error(log: SimLog, ts: float) -> NDArray[np.float64]:
+    return np.asarray(log["position_error_m"])
+
+
+LIMITS: dict[str, Limit] = {
+    "wheel_speed_m_s": Limit(
+        "peak_wheel_speed_m_s",
+        " m/s",
+        lambda log, ts: np.maximum(np.abs(log["wheel_speed_left_m_s"]), np.abs(log["wheel_speed_right_m_s"])),
+        "peak",
+        "positive",
+    ),
+    "wheel_accel_m_s2": Limit(
+        "peak_wheel_accel_m_s2", " m/s²", lambda log, ts: _both(log, "wheel_accel_peak_{}_m_s2"), "peak", "positive"
+    ),
+    "motor_current_a": Limit(
+        "peak_motor_current_a", " A", lambda log, ts: _both(log, "current_peak_{}_a"), "peak", "positive"
+    ),
+    "current_limited_fraction": Limit(
+        "current_limited_fraction",
+        "",
+        lambda log, ts: np.asarray((log["current_limited_left"] > 0) | (log["current_limited_right"] > 0)),
+        "events",
+        "fraction",
+    ),
+    "da_saturation_fraction": Limit(
+        "da_saturation_fraction",
+        "",
+        lambda log, ts: np.asarray((log["da_clipped_left"] > 0) | (log["da_clipped_right"] > 0)),
+        "events",
+        "fraction",
+    ),
+    "tracking_error_max_m": Limit("tracking_error_max_m", " m", _position_error, "peak", "positive"),
+    "tracking_error_rms_m": Limit("tracking_error_rms_m", " m", _position_error, "rms", "positive"),
+    "heading_error_max_deg": Limit(
+        "heading_error_max_deg", "°", lambda log, ts: np.degrees(np.abs(log["heading_error_rad"])), "peak", "positive"
+    ),
+    "final_position_error_m": Limit("final_position_error_m", " m", _position_error, "final", "positive"),
+    "cross_track_error_max_m": Limit(
+        "cross_track_error_max_m", " m", lambda log, ts: np.asarray(log["cross_track_error_m"]), "peak", "positive"
+    ),
+    "cross_track_error_rms_m": Limit(
+        "cross_track_error_rms_m", " m", lambda log, ts: np.asarray(log["cross_track_error_m"]), "rms", "positive"
+    ),
+    "along_track_lag_max_m": Limit(
+        "along_track_lag_max_m", " m", lambda log, ts: np.abs(log["along_track_lag_m"]), "peak", "positive"
+    ),
+    "path_heading_error_max_deg": Limit(
+        "path_heading_error_max_deg",
+        "°",
+        lambda log, ts: np.degrees(np.abs(log["path_heading_error_rad"])),
+        "peak",
+        "positive",
+    ),
+    "estimate_error_rms_m": Limit("estimate_error_rms_m", " m", estimate_position_error_m, "rms", "positive"),
+    "estimate_error_max_m": Limit("estimate_error_max_m", " m", estimate_position_error_m, "peak", "positive"),
+    "heading_estimate_error_max_deg": Limit(
+        "heading_estimate_error_max_deg",
+        "°",
+        lambda log, ts: np.degrees(estimate_heading_error_rad(log, ts)),
+        "peak",
+        "positive",
+    ),
+    "solve_time_p99_ms": Limit(
+        "solve_time_p99_ms", " ms", lambda log, ts: log["solve_time_s"] * 1e3, "peak", "positive"
+    ),
+    "deadline_misses": Limit(
+        "deadline_misses", "", lambda log, ts: np.asarray(log["solve_time_s"] > ts), "events", "count"
+    ),
+    "solver_failures": Limit(
+        "solver_failures", "", lambda log, ts: np.asarray(log["solver_status"] > 0), "events", "count"
+    ),
+}
+"""Every limit an experiment's ``[limits]`` table may set, in the order they are reported."""
+
+_VALUES: dict[str, tuple[type, dict[str, float]]] = {
+    "positive": (float, {"gt": 0.0}),
+    "fraction": (float, {"ge": 0.0, "le": 1.0}),
+    "count": (int, {"ge": 0}),
+}
+
+
+@dataclass(frozen=True)
+class LimitsSpec:
+    """``[limits]``: upper bounds by name of :data:`LIMITS` (all optional)."""
+
+    bounds: dict[str, float] = field(default_factory=dict)
+
+    @classmethod
+    def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> LimitsSpec:
+        bounds: dict[str, float] = {}
+        for key, value in data.items():
+            if key not in LIMITS:
+                hint = did_you_mean(key, LIMITS, prefix.split(".") if prefix else [])
+                raise ConfigError(source, join_key(prefix, key), "unknown key" + hint)
+            tp, meta = _VALUES[LIMITS[key].values]
+            bounds[key] = convert_value(tp, value, source, join_key(prefix, key), meta)
+        return cls(bounds)
+
+    def to_file(self) -> dict[str, Any]:
+        return dict(self.bounds)
+
+    def items(self) -> list[tuple[str, float]]:
+        """The limits that are set, as (key, bound), in the order of :data:`LIMITS`."""
+        return [(key, float(self.bounds[key])) for key in LIMITS if key in self.bounds]
+
+
+def format_limit_message(
+    limit: str, value: float, bound: float, passed: bool, worst_time_s: float | None, first_time_s: float | None
+) -> str:
+    """``"tracking_error_max_m: 0.0012 m against the limit 0.03 m — ok"`` (with the times when violated)."""
+    unit = LIMITS[limit].unit if limit in LIMITS else ""
+    text = f"{limit}: {value:.6g}{unit} against the limit {bound:.6g}{unit}"
+    if passed:
+        return text + " — ok"
+    text += " — VIOLATED"
+    if worst_time_s is not None:
+        text += f", worst at t = {worst_time_s:.2f} s"
+    if first_time_s is not None:
+        text += f", first exceeded at t = {first_time_s:.2f} s"
+    return text
+
+
+@dataclass(frozen=True)
+class LimitResult:
+    """One limit checked on one run."""
+
+    limit: str
+    bound: float
+    value: float
+    passed: bool
+    worst_time_s: float | None
+    """When the signal behind the limit was worst (None for counts that never happened)."""
+    first_time_s: float | None
+    """When the signal first went past the bound (None if it never did)."""
+    default: bool = False
+    """True when the bound is a default (wheel_accel_m_s2 = the vehicle's a_lim), not set in the file."""
+
+    @property
+    def message(self) -> str:
+        return format_limit_message(
+            self.limit, self.value, self.bound, self.passed, self.worst_time_s, self.first_time_s
+        )
+
+    def as_dict(self) -> dict[str, object]:
+        d = asdict(self)
+        d["message"] = self.message
+        return d
+
+
+def _times(key: str, log: SimLog, bound: float, sample_period_s: float) -> tuple[float | None, float | None]:
+    """(worst, first past the bound) of a limit's series, as its table entry's ``timing`` says."""
+    t = log["t_s"]
+    limit = LIMITS[key]
+    series = limit.series(log, sample_period_s)
+    if limit.timing == "final":
+        return float(t[-1]), float(t[-1])
+    if limit.timing == "events":
+        idx = np.nonzero(series)[0]
+        first = float(t[idx[0]]) if idx.size else None
+        return first, first
+    above = np.nonzero(series > bound)[0]
+    first = float(t[above[0]]) if above.size else None
+    return float(t[int(np.argmax(series))]), (None if limit.timing == "rms" else first)
+
+
+def evaluate_limits(
+    limits: LimitsSpec, log: SimLog, metrics: dict[str, float], vehicle: VehicleParams, sample_period_s: float
+) -> list[LimitResult]:
+    """Check every limit that is set, plus the wheel acceleration against a_lim (eq 5) when none is set."""
+    items = limits.items()
+    defaults = set()
+    if "wheel_accel_m_s2" not in limits.bounds:
+        items.append(("wheel_accel_m_s2", vehicle.derived.accel_limit_m_s2))
+        defaults.add("wheel_accel_m_s2")
+    results = []
+    for key, bound in items:
+        value = float(metrics[LIMITS[key].metric])
+        passed = value <= bound * (1 + 1e-12)
+        worst, first = _times(key, log, bound, sample_period_s)
+        results.append(LimitResult(key, bound, value, bool(passed), worst, None if passed else first, key in defaults))
+    return results
+
+
+def all_passed(results: list[LimitResult]) -> bool:
+    return all(r.passed for r in results) and not any(math.isnan(r.value) for r in results)

@@ -1,0 +1,115 @@
+"""Figures of merit of a closed-loop run, computed from its log (the ``metrics`` of ``summary.json``)."""
+
+from __future__ import annotations
+
+import math
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.angles import wrap_angle
+from agvctl.log import SimLog
+
+__all__ = [
+    "closed_loop_metrics",
+    "estimate_heading_error_rad",
+    "estimate_metrics",
+    "estimate_position_error_m",
+    "time_to_converge_s",
+    "RunRecord",
+]
+
+
+class RunRecord(Protocol):
+    """What the metrics read of a closed-loop run (:class:`agvctl.sim.loop.ClosedLoopResult` is one)."""
+
+    @property
+    def log(self) -> SimLog: ...
+
+    @property
+    def sample_period_s(self) -> float: ...
+
+    @property
+    def solver_failures(self) -> int: ...
+
+
+def estimate_position_error_m(log: SimLog, ts: float = 0.0) -> NDArray[np.float64]:
+    """|estimated − true position| per sample (m)."""
+    return np.asarray(np.hypot(log["est_x_m"] - log["x_m"], log["est_y_m"] - log["y_m"]))
+
+
+def estimate_heading_error_rad(log: SimLog, ts: float = 0.0) -> NDArray[np.float64]:
+    """|estimated − true heading| per sample, wrapped (rad)."""
+    return np.asarray(np.abs(wrap_angle(log["est_theta_rad"] - log["theta_rad"])))
+
+
+def time_to_converge_s(t_s: np.ndarray, error_m: np.ndarray, threshold_m: float) -> float:
+    """The first time after which the error stays at or below ``threshold_m`` (inf if it never settles)."""
+    above = np.nonzero(error_m > threshold_m)[0]
+    if above.size == 0:
+        return 0.0
+    last = int(above[-1])
+    return float(t_s[last + 1]) if last + 1 < len(t_s) else math.inf
+
+
+def _peak_abs(values: np.ndarray) -> float:
+    """max |values|; NaN if any value is NaN (a run that diverged), never a silently smaller number."""
+    return float(np.max(np.abs(values))) if len(values) else 0.0
+
+
+def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
+    """Tracking, actuator and computation figures of a run (SI units, names carry them).
+
+    Besides the time-indexed tracking error |p(t) − p_d(t)|, the errors against the reference's path separate
+    being off the path from being behind the clock (:mod:`agvctl.evaluation.path_metrics`): ``cross_track_error_*_m``
+    (distance to the path), ``along_track_lag_max_m`` (the largest |lag| along the path, behind or ahead) and
+    ``path_heading_error_max_deg`` (heading against the path's at the nearest point).
+    """
+    log = result.log
+    err = log["position_error_m"]
+    cross = log["cross_track_error_m"]
+    solve_ms = log["solve_time_s"][:-1] * 1e3 if len(log) > 1 else log["solve_time_s"] * 1e3
+    clipped = (log["da_clipped_left"] > 0) | (log["da_clipped_right"] > 0)
+    limited = np.maximum(log["current_limited_fraction_left"], log["current_limited_fraction_right"])
+    return {
+        "tracking_error_rms_m": float(np.sqrt(np.mean(err**2))),
+        "tracking_error_max_m": float(np.max(err)),
+        "heading_error_max_deg": float(np.degrees(np.max(np.abs(log["heading_error_rad"])))),
+        "final_position_error_m": float(err[-1]),
+        "cross_track_error_max_m": _peak_abs(cross),
+        "cross_track_error_rms_m": float(np.sqrt(np.mean(cross**2))),
+        "along_track_lag_max_m": _peak_abs(log["along_track_lag_m"]),
+        "path_heading_error_max_deg": float(np.degrees(_peak_abs(log["path_heading_error_rad"]))),
+        "peak_wheel_speed_m_s": float(
+            max(np.max(np.abs(log["wheel_speed_left_m_s"])), np.max(np.abs(log["wheel_speed_right_m_s"])))
+        ),
+        "peak_wheel_accel_m_s2": float(
+            max(log.peak_abs("wheel_accel_peak_left_m_s2"), log.peak_abs("wheel_accel_peak_right_m_s2"))
+        ),
+        "peak_motor_current_a": float(max(log.peak_abs("current_peak_left_a"), log.peak_abs("current_peak_right_a"))),
+        "da_saturation_fraction": float(np.mean(clipped[:-1])) if len(log) > 1 else 0.0,
+        "current_limited_fraction": float(np.mean(limited[:-1])) if len(log) > 1 else 0.0,
+        "solve_time_p50_ms": float(np.percentile(solve_ms, 50)),
+        "solve_time_p99_ms": float(np.percentile(solve_ms, 99)),
+        "deadline_misses": int(np.sum(solve_ms > result.sample_period_s * 1e3)),
+        "solver_failures": int(result.solver_failures),
+        "time_to_2cm_s": time_to_converge_s(log["t_s"], err, 0.02),
+        **estimate_metrics(log),
+    }
+
+
+def estimate_metrics(log: SimLog) -> dict[str, float]:
+    """The pose estimate against the truth (zero with ``localization = "truth"``); with an estimator that has a
+    covariance also its mean NEES (3 degrees of freedom) and mean NIS over the fixes."""
+    est = estimate_position_error_m(log)
+    out = {
+        "estimate_error_rms_m": float(np.sqrt(np.mean(est**2))),
+        "estimate_error_max_m": float(np.max(est)),
+        "heading_estimate_error_max_deg": float(np.degrees(np.max(estimate_heading_error_rad(log)))),
+    }
+    if np.any(np.isfinite(log["nees"])):
+        out["nees_mean"] = float(np.nanmean(log["nees"]))
+        nis = log["nis"][np.isfinite(log["nis"])]
+        out["nis_mean"] = float(np.mean(nis)) if nis.size else math.nan
+    return out

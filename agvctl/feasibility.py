@@ -1,0 +1,175 @@
+"""What the actuator chain can deliver to the wheels: reachable rim accelerations, feasible path limits and the
+headroom a plan leaves for feedback (eqs 5 and 33 with the amplifier's current limit and full-scale voltage)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agvctl.actuator import full_scale_voltage_v
+from agvctl.params import VehicleParams
+
+__all__ = [
+    "CURRENT_HEADROOM",
+    "MIN_HEADROOM",
+    "VOLTAGE_HEADROOM",
+    "FeasibleLimits",
+    "HeadroomWarning",
+    "WheelReach",
+    "actuator_headroom",
+    "feasible_wheel_limits",
+    "wheel_accel_reach_m_s2",
+]
+
+CURRENT_HEADROOM = 0.2
+"""Fraction of I_max a default path leaves to the feedback (the plan uses at most 80 %)."""
+VOLTAGE_HEADROOM = 0.2
+"""Fraction of the full-scale amplifier voltage a default path leaves to the feedback."""
+MIN_HEADROOM = 0.1
+"""Explicit path limits that leave less than this fraction of current or voltage get a :class:`HeadroomWarning`."""
+
+
+class HeadroomWarning(UserWarning):
+    """Explicit path limits the actuator can deliver, but with too little current or voltage left for feedback."""
+
+
+@dataclass(frozen=True)
+class _Side:
+    """One side's constants for the straight-line drive model of eq 5 (both wheels alike, J_tot = J + M r²/(2N²))."""
+
+    r_over_n: float
+    j_tot: float
+    k_t: float
+    k_e: float
+    resistance: float
+    f_m: float
+    tau_c: float
+    tau_s: float
+
+
+def _sides(vehicle: VehicleParams) -> tuple[_Side, _Side]:
+    w, m, mass = vehicle.wheels, vehicle.motor, vehicle.body.mass_kg
+    out = []
+    for r, mp in ((w.radius_left_m, m.left), (w.radius_right_m, m.right)):
+        n = mp.gear_ratio
+        out.append(
+            _Side(
+                r / n,
+                mp.inertia_kg_m2 + 0.5 * mass * r**2 / n**2,  # eq 5
+                mp.torque_constant_n_m_a,
+                mp.voltage_constant_v_s_rad,
+                mp.resistance_ohm,
+                mp.viscous_friction_n_m_s_rad,
+                mp.coulomb_friction_n_m,
+                mp.stiction_n_m,
+            )
+        )
+    return out[0], out[1]
+
+
+class WheelReach:
+    """The largest rim accelerations each wheel can reach at its rim speed, from eq 33 with the current limit and
+    the full-scale voltage: i = min(I_max, (u_fs − k_e ω)/R), J_tot ω̇ = k_t i − f_m ω − τ_c sign(ω) (τ_s from
+    rest), J_tot of eq 5 (both wheels alike). Constants are gathered once; a call is a few array operations."""
+
+    def __init__(self, vehicle: VehicleParams) -> None:
+        sides = _sides(vehicle)
+
+        def field(name: str) -> NDArray[np.float64]:
+            return np.array([getattr(side, name) for side in sides], dtype=np.float64)
+
+        self._r_over_n, self._j_tot, self._k_t = field("r_over_n"), field("j_tot"), field("k_t")
+        self._k_e, self._resistance, self._f_m = field("k_e"), field("resistance"), field("f_m")
+        self._tau_c, self._tau_s = field("tau_c"), field("tau_s")
+        self._u_fs, self._i_max = full_scale_voltage_v(vehicle), vehicle.amplifier.current_limit_a
+        self._pair_sides = sides
+
+    def _up(self, v: NDArray[np.float64]) -> NDArray[np.float64]:
+        omega = v / self._r_over_n
+        current = np.clip((self._u_fs - self._k_e * omega) / self._resistance, 0.0, self._i_max)
+        friction = np.where(omega > 0, self._tau_c, np.where(omega < 0, -self._tau_c, self._tau_s))
+        accel = (self._k_t * current - self._f_m * omega - friction) / self._j_tot * self._r_over_n
+        return np.asarray(np.maximum(accel, 0.0), dtype=np.float64)
+
+    def accel_pair_m_s2(self, left_m_s: float, right_m_s: float) -> tuple[float, float, float, float]:
+        """(up_left, up_right, down_left, down_right) of :meth:`accel_m_s2` for one pair of rim speeds, in plain
+        floats (a controller's per-sample call: no array overhead)."""
+        out = [0.0, 0.0, 0.0, 0.0]
+        u_fs, i_max = self._u_fs, self._i_max
+        for j, v in enumerate((left_m_s, right_m_s)):
+            side = self._pair_sides[j]
+            r_n = side.r_over_n
+            for sign, slot in ((1.0, j), (-1.0, j + 2)):
+                omega = sign * v / r_n
+                current = min(max((u_fs - side.k_e * omega) / side.resistance, 0.0), i_max)
+                friction = side.tau_c if omega > 0 else (-side.tau_c if omega < 0 else side.tau_s)
+                accel = (side.k_t * current - side.f_m * omega - friction) / side.j_tot * r_n
+                out[slot] = max(accel, 0.0)
+        return out[0], out[1], out[2], out[3]
+
+    def accel_m_s2(self, wheel_speed_m_s: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(up, down) ≥ 0 in m/s², shaped like ``wheel_speed_m_s`` (…, 2: left, right): towards +v and towards −v
+        (the mirror image, down(v) = up(−v))."""
+        v = np.asarray(wheel_speed_m_s, dtype=np.float64)
+        return self._up(v), self._up(-v)
+
+
+def wheel_accel_reach_m_s2(
+    vehicle: VehicleParams, wheel_speed_m_s: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(up, down) of :meth:`WheelReach.accel_m_s2` for ``vehicle``."""
+    return WheelReach(vehicle).accel_m_s2(wheel_speed_m_s)
+
+
+@dataclass(frozen=True)
+class FeasibleLimits:
+    """Wheel limits a path can be planned at with headroom left for feedback (nominal vehicle)."""
+
+    wheel_speed_m_s: float
+    """The speed at which accelerating at ``wheel_accel_m_s2`` still leaves ``voltage_headroom`` of u_fs."""
+    wheel_accel_m_s2: float
+    """The acceleration that leaves ``current_headroom`` of I_max (eq 5 with (1 − headroom) I_max)."""
+    current_headroom: float
+    voltage_headroom: float
+
+
+def feasible_wheel_limits(
+    vehicle: VehicleParams, current_headroom: float = CURRENT_HEADROOM, voltage_headroom: float = VOLTAGE_HEADROOM
+) -> FeasibleLimits:
+    """The default path limits: eq 5 with (1 − ``current_headroom``)·I_max, and the wheel speed at which that
+    acceleration needs (1 − ``voltage_headroom``)·u_fs: u = R i + k_e ω with k_t i = J_tot a N/r + τ_c + f_m ω
+    (eq 33 at the current limit's share). The smaller of the two sides."""
+    u_fs, i_max = full_scale_voltage_v(vehicle), vehicle.amplifier.current_limit_a
+    accels, speeds = [], []
+    for s in _sides(vehicle):
+        torque = (1.0 - current_headroom) * i_max * s.k_t - s.tau_c
+        a = max(torque, 0.0) / s.j_tot * s.r_over_n
+        accel_torque = s.j_tot * a / s.r_over_n + s.tau_c
+        omega = ((1.0 - voltage_headroom) * u_fs - s.resistance * accel_torque / s.k_t) / (
+            s.k_e + s.resistance * s.f_m / s.k_t
+        )
+        accels.append(a)
+        speeds.append(max(omega, 0.0) * s.r_over_n)
+    return FeasibleLimits(min(speeds), min(accels), current_headroom, voltage_headroom)
+
+
+def actuator_headroom(
+    vehicle: VehicleParams, wheel_speed_m_s: ArrayLike, wheel_accel_m_s2: ArrayLike
+) -> tuple[float, float]:
+    """(current, voltage): the smallest fractions of I_max and of u_fs left unused when the nominal vehicle drives
+    the given wheel speeds and accelerations (arrays …×2, left/right) on the straight-line model of eq 5 (negative:
+    the actuator cannot deliver them)."""
+    v = np.asarray(wheel_speed_m_s, dtype=np.float64)
+    a = np.asarray(wheel_accel_m_s2, dtype=np.float64)
+    u_fs, i_max = full_scale_voltage_v(vehicle), vehicle.amplifier.current_limit_a
+    worst_i, worst_u = 0.0, 0.0
+    for j, s in enumerate(_sides(vehicle)):
+        omega = v[..., j] / s.r_over_n
+        torque = s.j_tot * a[..., j] / s.r_over_n + s.tau_c * np.sign(omega) + s.f_m * omega
+        current = torque / s.k_t
+        voltage = s.resistance * current + s.k_e * omega
+        worst_i = max(worst_i, float(np.max(np.abs(current), initial=0.0)) / i_max)
+        worst_u = max(worst_u, float(np.max(np.abs(voltage), initial=0.0)) / u_fs)
+    return 1.0 - worst_i, 1.0 - worst_u

@@ -1,0 +1,169 @@
+"""``agvctl fuzz``: random scenarios through the closed loop, with one or more pose controllers, against limits.
+
+:func:`fuzz` draws every scenario in this process (:mod:`agvctl.fuzz.generate`; scenario i of seed s from
+(s, i) alone), turns each into its path and experiment files (one per controller) and sends them to the executor
+of ``agvctl check`` (:func:`agvctl.checks.runner.open_executor`: a worker thread, spawned local processes or a
+Dask cluster). A worker writes the files into a temporary directory, loads them with
+:func:`~agvctl.scenario.experiment.load_experiment` — exactly what ``agvctl run`` does with the written-out file — runs
+the closed loop and returns the metrics and the verdicts of the configuration's limits (the default a_lim check
+of ``agvctl check`` is not a fuzz criterion). A run that raises, or whose log or metrics hold a non-finite value,
+is a failure with its one-line reason, never an exception out of the fuzzer. Results do not depend on the number
+of jobs or the executor (the measured solve times excepted).
+
+The report and its statistics are :class:`~agvctl.fuzz.report.FuzzReport`::
+
+    spec = load_fuzz_config("experiments/fuzz/ci.toml")
+    report = fuzz(spec, jobs=2)
+    report.statistics()["mpc"]["cross_track_error_max_m"]["p90"]
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+import time
+import traceback
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from agvctl.checks.runner import ExecutorKind, execute, open_executor, resolved_jobs
+from agvctl.evaluation.limits import LimitResult, evaluate_limits
+from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.fuzz.generate import generate_scenario, scenario_files
+from agvctl.fuzz.report import FuzzOutcome, FuzzReport, FuzzTask
+from agvctl.fuzz.spec import FuzzSpec
+from agvctl.log import SimLog
+from agvctl.params import load_vehicle
+from agvctl.scenario.experiment import load_experiment, run_experiment
+from agvctl.sim.loop import SENSOR_NAN_COLUMNS
+
+__all__ = ["FuzzRun", "fuzz", "fuzz_tasks", "run_fuzz_task"]
+
+_MAY_BE_INFINITE = frozenset({"time_to_2cm_s"})
+"""Metrics for which infinity is a value (never within 2 cm), not a numerical failure."""
+
+
+def _one_line(text: str, limit: int = 300) -> str:
+    line = " ".join(text.split())
+    return line if len(line) <= limit else line[: limit - 1] + "…"
+
+
+def _non_finite(log: SimLog, metrics: dict[str, float]) -> str | None:
+    """Why the run is numerically broken (non-finite log columns or metrics), or None. The sensor columns are NaN
+    where there is no reading (no gyro, no fix arriving this sample) and do not count."""
+    bad = [name for name in log if name not in SENSOR_NAN_COLUMNS and not np.all(np.isfinite(log[name]))]
+    if bad:
+        broken = ~np.all(np.isfinite(np.column_stack([log[name] for name in bad])), axis=1)
+        at = float(log["t_s"][int(np.argmax(broken))])
+        names = ", ".join(bad[:5]) + (", …" if len(bad) > 5 else "")
+        return f"non-finite values in the log ({names}) from t = {at:.2f} s"
+    metric_bad = [k for k, v in metrics.items() if not math.isfinite(v) and k not in _MAY_BE_INFINITE]
+    if metric_bad:
+        return f"non-finite metrics: {', '.join(metric_bad)}"
+    return None
+
+
+def run_fuzz_task(task: FuzzTask) -> FuzzOutcome:
+    """Run one scenario with one controller (in this process): write its files, load, run, judge. Never raises
+    for a failing run: a crash or a non-finite value is reported in the outcome. Module-level so it pickles."""
+    t0 = time.perf_counter()
+    metrics: dict[str, float] = {}
+    limits: tuple[LimitResult, ...] = ()
+    error: str | None = None
+    simulated_s = 0.0
+    with warnings.catch_warnings(record=True) as caught, tempfile.TemporaryDirectory(prefix="agvctl-fuzz-") as tmp:
+        warnings.simplefilter("always")
+        try:
+            for name, text in task.files:
+                Path(tmp, name).write_text(text, encoding="utf-8")
+            experiment = load_experiment(Path(tmp, task.files[-1][0]))
+            result = run_experiment(experiment)
+            simulated_s = result.n_samples * result.sample_period_s
+            metrics = closed_loop_metrics(result)
+            verdicts = evaluate_limits(
+                experiment.spec.limits, result.log, metrics, experiment.controller_vehicle, result.sample_period_s
+            )
+            limits = tuple(r for r in verdicts if not r.default)
+            error = _non_finite(result.log, metrics)
+        except Exception as exc:  # any crash of a run is a finding, reported with its scenario
+            where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
+            at = f" (at {Path(where.filename).name}:{where.lineno})" if where else ""
+            error = _one_line(f"{type(exc).__name__}: {exc}{at}")
+    notes = tuple(sorted({_one_line(f"{w.category.__name__}: {w.message}") for w in caught}))
+    passed = error is None and all(r.passed and not math.isnan(r.value) for r in limits)
+    return FuzzOutcome(
+        task.scenario,
+        task.controller,
+        passed,
+        metrics,
+        limits,
+        error,
+        notes,
+        time.perf_counter() - t0,
+        simulated_s,
+    )
+
+
+@dataclass(frozen=True)
+class FuzzRun:
+    """The work of a fuzz configuration: its scenarios' tasks, (scenario, controller) in order."""
+
+    spec: FuzzSpec
+    tasks: list[FuzzTask]
+
+
+def fuzz_tasks(spec: FuzzSpec, scenarios: Sequence[int] | None = None) -> FuzzRun:
+    """Draw the scenarios (default: ``range(spec.scenarios)``) and make one task per scenario and controller.
+
+    Everything is drawn and validated here, before anything runs; a scenario outside the envelope's valid
+    vehicles raises a one-line :class:`ConfigError`.
+    """
+    vehicle = load_vehicle(None if spec.vehicle == "default" else spec.vehicle)
+    indices = range(spec.scenarios) if scenarios is None else scenarios
+    tasks: list[FuzzTask] = []
+    for i in indices:
+        scenario = generate_scenario(spec, vehicle, int(i))
+        for controller in spec.controllers:
+            files = tuple(scenario_files(spec, scenario, controller).items())
+            tasks.append(FuzzTask(int(i), scenario.name, controller, files))
+    return FuzzRun(spec, tasks)
+
+
+def fuzz(
+    spec: FuzzSpec,
+    *,
+    jobs: int | None = None,
+    executor: ExecutorKind = "local",
+    scheduler: str | None = None,
+    scenarios: Sequence[int] | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> FuzzReport:
+    """Run every scenario of ``spec`` with each of its pose controllers and judge it against its limits.
+
+    Parameters
+    ----------
+    spec
+        From :func:`~agvctl.fuzz.spec.load_fuzz_config`.
+    jobs
+        Local worker processes (default: all cores); one job runs in a worker thread of this process. With
+        ``executor="dask"`` and no scheduler: the local Dask cluster's workers.
+    executor
+        ``"local"``, or ``"dask"`` to send the runs to the Dask scheduler at ``scheduler`` (``tcp://host:8786``).
+    scenarios
+        Only these scenario indices (default: ``range(spec.scenarios)``); each is the same as in a full run.
+    progress
+        Called as ``progress(done, total)`` in this thread after each run.
+
+    Raises :class:`ConfigError` on bad input before any run. From a script, call this under
+    ``if __name__ == "__main__":`` (local workers are spawned processes, which import the calling script again).
+    """
+    t0 = time.perf_counter()
+    jobs = resolved_jobs(jobs, executor)
+    work = fuzz_tasks(spec, scenarios)
+    with open_executor(executor, jobs, scheduler, len(work.tasks)) as pool:
+        outcomes = execute(pool, run_fuzz_task, work.tasks, progress)
+    return FuzzReport(spec, work.tasks, outcomes, time.perf_counter() - t0)

@@ -1,0 +1,316 @@
+"""The fuzz configuration file (``experiments/fuzz/*.toml``): what scenarios to draw, which controllers, the limits.
+
+```toml
+name = "acceptance"                 # optional (default: the file's stem)
+seed = 10                           # scenario i of seed s depends on (s, i) alone
+scenarios = 500
+controllers = ["mpc", "ramsete"]    # names of agvctl.controllers.registry.POSE_CONTROLLERS; the first is compared
+vehicle = "default"                 # or a vehicle TOML (relative to this file): the controllers' nominal model
+settle_s = 3.0                      # each run's time after the reference ends
+
+[paths]                             # every key optional; these are the defaults
+segments = [2, 6]                   # how many segments, inclusive
+segment_types = ["line", "arc", "turn"]
+line_length_m = [0.3, 2.5]
+arc_radius_m = [0.3, 1.5]
+arc_angle_deg = [20.0, 180.0]       # magnitude; left or right at random (turns too)
+turn_angle_deg = [20.0, 180.0]
+join = ["smooth", "stop"]
+explicit_limits_fraction = 0.5      # share of paths with a [limits] table; the others plan with the defaults
+wheel_speed_fraction = [0.3, 1.0]   # explicit limits, as fractions of the vehicle's physical maxima
+wheel_accel_fraction = [0.3, 1.0]
+
+[start]                             # the true start pose, off the path's start
+offset_max_m = 0.05
+heading_max_deg = 5.0
+
+[plant]                             # relative ranges [low, high] of dotted vehicle keys (replaces the defaults)
+"wheels.radius_left_m" = [-0.01, 0.01]
+"body.mass_kg" = [-0.10, 0.30]
+
+[controller]                        # more keys for every run's [controller] table (pose comes from controllers)
+coulomb_feedforward = true
+
+[limits]                            # the pass criteria: experiment-file limit keys (replaces the defaults)
+cross_track_error_max_m = 0.10
+```
+
+Without ``[plant]``, the envelope is :data:`DEFAULT_ENVELOPE`; without ``[limits]``, :data:`DEFAULT_FUZZ_LIMITS`.
+Every problem is a one-line :class:`~agvctl.errors.ConfigError` naming the file and key, before anything runs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from agvctl.config import build, build_fields, convert_value, join_key, load_toml, number
+from agvctl.controllers.registry import POSE_CONTROLLERS
+from agvctl.errors import ConfigError
+from agvctl.evaluation.limits import LimitsSpec
+from agvctl.params import VehicleParams, load_vehicle
+from agvctl.scenario.spec import ControllerSpec
+
+__all__ = [
+    "DEFAULT_ENVELOPE",
+    "DEFAULT_FUZZ_LIMITS",
+    "FuzzSpec",
+    "PathGenSpec",
+    "StartSpec",
+    "keep_stiction_above_coulomb",
+    "load_fuzz_config",
+    "nominal_value",
+    "override_fuzz_config",
+]
+
+Range = tuple[float, float]
+
+DEFAULT_ENVELOPE: dict[str, Range] = {
+    "wheels.radius_left_m": (-0.01, 0.01),
+    "wheels.radius_right_m": (-0.01, 0.01),
+    "wheels.separation_m": (-0.02, 0.02),
+    "body.mass_kg": (-0.10, 0.30),
+    "motor.left.coulomb_friction_n_m": (-0.5, 0.5),
+    "motor.left.stiction_n_m": (-0.5, 0.5),
+    "motor.right.coulomb_friction_n_m": (-0.5, 0.5),
+    "motor.right.stiction_n_m": (-0.5, 0.5),
+}
+"""The plant envelope of issue 10: each value drawn uniformly in nominal · (1 + [low, high]), each side on its own
+(the generator keeps stiction ≥ Coulomb friction, see :mod:`agvctl.fuzz.generate`)."""
+
+DEFAULT_FUZZ_LIMITS: dict[str, float] = {
+    "cross_track_error_max_m": 0.10,
+    "final_position_error_m": 0.02,
+    "path_heading_error_max_deg": 90.0,
+}
+"""The pass criteria of issue 10: on the path within 10 cm, at its end within 2 cm, never turned around."""
+
+
+def _ordered(
+    value: Sequence[float], source: str, key: str, *, low: float | None = None, high: float | None = None
+) -> None:
+    """A [low, high] range: two numbers, low <= high, within the bounds given."""
+    if len(value) != 2:
+        raise ConfigError(source, key, f"expected [low, high] (got {len(value)} numbers)")
+    lo, hi = value
+    if lo > hi:
+        raise ConfigError(source, key, f"low {lo:g} is above high {hi:g}")
+    if low is not None and lo < low:
+        raise ConfigError(source, key, f"must be >= {low:g} (got {lo:g})")
+    if high is not None and hi > high:
+        raise ConfigError(source, key, f"must be <= {high:g} (got {hi:g})")
+
+
+@dataclass(frozen=True)
+class PathGenSpec:
+    """``[paths]``: how random paths are drawn (lengths in m, angles in degrees, fractions in [0, 1])."""
+
+    segments: tuple[int, ...] = (2, 6)
+    segment_types: tuple[str, ...] = ("line", "arc", "turn")
+    line_length_m: tuple[float, ...] = (0.3, 2.5)
+    arc_radius_m: tuple[float, ...] = (0.3, 1.5)
+    arc_angle_deg: tuple[float, ...] = (20.0, 180.0)
+    turn_angle_deg: tuple[float, ...] = (20.0, 180.0)
+    join: tuple[str, ...] = ("smooth", "stop")
+    explicit_limits_fraction: float = number(ge=0.0, le=1.0, default=0.5)
+    wheel_speed_fraction: tuple[float, ...] = (0.3, 1.0)
+    wheel_accel_fraction: tuple[float, ...] = (0.3, 1.0)
+
+    def validate(self, *, source: str, prefix: str) -> None:
+        def k(name: str) -> str:
+            return join_key(prefix, name)
+
+        _ordered(self.segments, source, k("segments"), low=1, high=100)
+        _ordered(self.line_length_m, source, k("line_length_m"), low=1e-3, high=1000)
+        _ordered(self.arc_radius_m, source, k("arc_radius_m"), low=1e-3, high=1000)
+        _ordered(self.arc_angle_deg, source, k("arc_angle_deg"), low=0.1, high=3600)
+        _ordered(self.turn_angle_deg, source, k("turn_angle_deg"), low=0.1, high=3600)
+        for name in ("wheel_speed_fraction", "wheel_accel_fraction"):
+            _ordered(getattr(self, name), source, k(name), low=1e-3, high=1.0)
+        for name, allowed in (("segment_types", ("line", "arc", "turn")), ("join", ("smooth", "stop"))):
+            values = getattr(self, name)
+            if not values:
+                raise ConfigError(source, k(name), f"give at least one of {', '.join(map(repr, allowed))}")
+            for i, v in enumerate(values):
+                if v not in allowed:
+                    raise ConfigError(
+                        source, f"{k(name)}[{i}]", f"must be one of {', '.join(map(repr, allowed))} (got {v!r})"
+                    )
+
+
+@dataclass(frozen=True)
+class StartSpec:
+    """``[start]``: how far the true start pose is off the path's start, at most (uniform in distance, direction
+    and heading)."""
+
+    offset_max_m: float = number(ge=0.0, le=10.0, default=0.05)
+    heading_max_deg: float = number(ge=0.0, le=180.0, default=5.0)
+
+
+def nominal_value(vehicle: VehicleParams, key: str) -> float | None:
+    """The value of a dotted vehicle key (``"motor.left.stiction_n_m"``), or None if it names no number."""
+    node: Any = vehicle
+    for part in key.split("."):
+        if not dataclasses.is_dataclass(node) or part not in {f.name for f in dataclasses.fields(node)}:
+            return None
+        node = getattr(node, part)
+    if isinstance(node, bool) or not isinstance(node, float):
+        return None
+    return node
+
+
+def _side_value(values: Mapping[str, float], vehicle: VehicleParams, side: str, what: str) -> float:
+    for key in (f"motor.{side}.{what}", f"motor.{what}"):
+        if key in values:
+            return values[key]
+    nominal = nominal_value(vehicle, f"motor.{side}.{what}")
+    assert nominal is not None
+    return nominal
+
+
+def keep_stiction_above_coulomb(values: Mapping[str, float], vehicle: VehicleParams) -> dict[str, float]:
+    """Plant overrides with stiction at or above Coulomb friction on each side: where the Coulomb friction
+    exceeds the stiction, the two side values are exchanged if both are given, else the side's stiction is raised
+    to the Coulomb friction."""
+    out = dict(values)
+    for side in ("left", "right"):
+        coulomb = _side_value(out, vehicle, side, "coulomb_friction_n_m")
+        stiction = _side_value(out, vehicle, side, "stiction_n_m")
+        if coulomb <= stiction:
+            continue
+        c_key, s_key = f"motor.{side}.coulomb_friction_n_m", f"motor.{side}.stiction_n_m"
+        if c_key in out and s_key in out:
+            out[c_key], out[s_key] = out[s_key], out[c_key]
+        else:
+            out[s_key] = coulomb
+    return out
+
+
+@dataclass(frozen=True)
+class FuzzSpec:
+    """A fuzz configuration, validated (see the module notes). ``plant`` maps dotted vehicle keys to relative
+    ranges; ``controller`` holds the extra ``[controller]`` keys of every run."""
+
+    seed: int = number(ge=0)
+    scenarios: int = number(ge=1, le=1_000_000)
+    controllers: tuple[str, ...] = ("mpc",)
+    name: str = ""
+    vehicle: str = "default"
+    settle_s: float = number(ge=0.0, le=600.0, default=3.0)
+    paths: PathGenSpec = dataclasses.field(default_factory=PathGenSpec)
+    start: StartSpec = dataclasses.field(default_factory=StartSpec)
+    plant: dict[str, Range] = dataclasses.field(default_factory=lambda: dict(DEFAULT_ENVELOPE))
+    controller: dict[str, Any] = dataclasses.field(default_factory=dict)
+    limits: LimitsSpec = dataclasses.field(default_factory=lambda: LimitsSpec(dict(DEFAULT_FUZZ_LIMITS)))
+    source: str = dataclasses.field(default="<fuzz>", metadata={"derived": True})
+
+    @classmethod
+    def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> FuzzSpec:
+        tables = ("plant", "controller", "limits")
+        base: FuzzSpec = build_fields(
+            cls, {k: v for k, v in data.items() if k not in tables}, source=source, prefix=prefix
+        )
+        changes: dict[str, Any] = {}
+        for name in tables:
+            if name in data and not isinstance(data[name], Mapping):
+                raise ConfigError(source, join_key(prefix, name), "expected a table")
+        if "plant" in data:
+            changes["plant"] = {
+                str(k): _range(v, source, join_key(join_key(prefix, "plant"), str(k))) for k, v in data["plant"].items()
+            }
+        if "controller" in data:
+            changes["controller"] = dict(data["controller"])
+        if "limits" in data:
+            changes["limits"] = LimitsSpec.from_file(data["limits"], source=source, prefix=join_key(prefix, "limits"))
+        return dataclasses.replace(base, **changes)
+
+    def validate(self, *, source: str, prefix: str) -> None:
+        key = join_key(prefix, "controllers")
+        if not self.controllers:
+            raise ConfigError(source, key, "give at least one pose controller")
+        for i, name in enumerate(self.controllers):
+            if name not in POSE_CONTROLLERS:
+                names = ", ".join(map(repr, POSE_CONTROLLERS))
+                raise ConfigError(source, f"{key}[{i}]", f"must be one of {names} (got {name!r})")
+            if name in self.controllers[:i]:
+                raise ConfigError(source, f"{key}[{i}]", f"{name!r} is listed twice")
+
+
+def _range(value: Any, source: str, key: str) -> Range:
+    pair = convert_value(tuple[float, ...], value, source, key)
+    _ordered(pair, source, key, low=-0.99)
+    return (float(pair[0]), float(pair[1]))
+
+
+def _check_against_vehicle(spec: FuzzSpec, vehicle: VehicleParams) -> None:
+    """Every envelope key a number of the vehicle, each range's ends a valid vehicle; the controller table valid
+    for every controller."""
+    src = spec.source
+    for key, (lo, hi) in spec.plant.items():
+        where = f"plant.{key}"
+        nominal = nominal_value(vehicle, key)
+        if nominal is None:
+            raise ConfigError(src, where, "not a numeric vehicle key (e.g. body.mass_kg, motor.left.stiction_n_m)")
+        for end in (lo, hi):
+            try:
+                at_end = keep_stiction_above_coulomb({key: nominal * (1.0 + end)}, vehicle)
+                vehicle.with_overrides(list(at_end.items()), source="envelope")
+            except ConfigError as exc:
+                raise ConfigError(src, where, f"gives an invalid vehicle at {end:+g}: {exc.problem}") from None
+    if "pose" in spec.controller:
+        raise ConfigError(src, "controller.pose", "set by controllers = [...]; remove it here")
+    for name in spec.controllers:
+        ControllerSpec.from_file({"pose": name, **spec.controller}, source=src, prefix="controller")
+
+
+def load_fuzz_config(path: str | Path) -> FuzzSpec:
+    """Read and validate a fuzz configuration file (and the vehicle it names). One-line errors name the file and
+    key; ``name`` defaults to the file's stem and ``vehicle`` is resolved relative to the file."""
+    path = Path(path)
+    spec = build(FuzzSpec, load_toml(path), source=str(path))
+    vehicle_path = spec.vehicle
+    if vehicle_path != "default":
+        resolved = Path(vehicle_path) if Path(vehicle_path).is_absolute() else path.parent / vehicle_path
+        if not resolved.exists():
+            raise ConfigError(str(path), "vehicle", f"file not found: {resolved}")
+        vehicle_path = str(resolved.resolve())
+    spec = dataclasses.replace(spec, source=str(path), name=spec.name or path.stem, vehicle=vehicle_path)
+    vehicle = load_vehicle(None if vehicle_path == "default" else vehicle_path)
+    _check_against_vehicle(spec, vehicle)
+    if not math.isfinite(vehicle.derived.max_speed_m_s):
+        raise ConfigError(str(path), "vehicle", "the vehicle has no finite top speed")
+    return spec
+
+
+def override_fuzz_config(
+    spec: FuzzSpec,
+    *,
+    seed: int | None = None,
+    scenarios: int | None = None,
+    controllers: Sequence[str] | None = None,
+) -> FuzzSpec:
+    """``spec`` with the seed, the number of scenarios or the controllers replaced (the command line's options),
+    validated as in the file; errors name the option."""
+    if seed is not None and seed < 0:
+        raise ConfigError("--seed", "", f"must be >= 0 (got {seed})")
+    if scenarios is not None and not 1 <= scenarios <= 1_000_000:
+        raise ConfigError("--scenarios", "", f"must be between 1 and 1000000 (got {scenarios})")
+    changes: dict[str, Any] = {}
+    if seed is not None:
+        changes["seed"] = seed
+    if scenarios is not None:
+        changes["scenarios"] = scenarios
+    if controllers is not None:
+        changes["controllers"] = tuple(controllers)
+    out = dataclasses.replace(spec, **changes)
+    if controllers is not None:
+        out.validate(source="--controllers", prefix="")
+        try:
+            _check_against_vehicle(out, load_vehicle(None if out.vehicle == "default" else out.vehicle))
+        except ConfigError as exc:
+            raise ConfigError("--controllers", "", f"{exc}") from None
+    return out

@@ -1,0 +1,142 @@
+"""Experiment files: a trajectory, a vehicle, the simulated truth, the controllers and the limits to check.
+
+```toml
+name = "figure8"
+trajectory = "../trajectories/figure8.toml"     # relative to this file
+vehicle = "default"                             # or a vehicle TOML path (relative to this file)
+settle_s = 2.0                                  # extra time after the reference ends
+[plant]                                         # the simulated truth may differ from the controller's model
+set = { "wheels.radius_right_m" = 0.1005, "motor.coulomb_friction_n_m" = 0.08, "motor.stiction_n_m" = 0.09 }
+initial_pose = { x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }
+sensor_seed = 0                                 # the true sensors' noise seed (agvctl.sensing)
+[controller]
+pose = "mpc"            # a name of agvctl.controllers.registry.POSE_CONTROLLERS: "mpc" | "nmpc" | "none"
+compute_delay = "none"  # or "one_sample"
+localization = "truth"  # agvctl.estimation.registry.ESTIMATORS: or "odometry" (encoder counts), "ekf" (+ fixes)
+wheel_speed = "exact"   # agvctl.estimation.wheel_speed: or "count_difference", "kalman" (from the encoder counts)
+horizon = 20            # ...and the pose controller's settings (for the MPCs, controllers.mpc_common.MpcConfig)
+[limits]                # agvctl.evaluation.limits.LIMITS; checked by `agvctl check`, reported by `agvctl run`
+tracking_error_max_m = 0.03
+```
+
+:func:`load_experiment` reads the file once into an :class:`Experiment`: the validated file
+(:class:`~agvctl.scenario.spec.ExperimentSpec`), the nominal and true vehicles, the planned reference and the wheel
+loops — bad input shows as one line naming the file and key before anything runs. :func:`run_experiment` builds
+the controllers (or takes yours) and runs the closed loop::
+
+    experiment = load_experiment("experiments/line.toml")
+    result = run_experiment(experiment, pose_controller=my_controller)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from agvctl.config import build, load_toml
+from agvctl.controllers.base import PoseController, WheelSpeedController
+from agvctl.controllers.registry import POSE_CONTROLLERS, WheelLoops, design_wheel_loops
+from agvctl.errors import ConfigError
+from agvctl.params import VehicleParams, load_vehicle
+from agvctl.planning import PathSpec, load_path, plan
+from agvctl.planning.reference import Reference
+from agvctl.scenario.spec import ExperimentSpec
+from agvctl.sim.loop import ClosedLoopResult, run_closed_loop
+
+__all__ = ["Experiment", "experiment_from_spec", "load_experiment", "run_experiment"]
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """Everything a run needs, loaded and validated once."""
+
+    spec: ExperimentSpec
+    """The file, validated; the pose controller's settings completed (written back out as the resolved file)."""
+    controller_vehicle: VehicleParams
+    """The nominal model the controllers are designed for and know."""
+    plant_vehicle: VehicleParams
+    """The simulated truth (``[plant] set`` applied)."""
+    reference: Reference
+    """The planned trajectory."""
+    wheel_loops: WheelLoops
+    """The PI wheel-speed loops (gains designed or from the gains file)."""
+    path: PathSpec | None = None
+    """The trajectory file, validated (its explicit limits; None for an experiment built without one)."""
+
+
+def load_experiment(path: str | Path) -> Experiment:
+    """Read and validate an experiment file and everything it names: trajectory, vehicles, controller settings."""
+    path = Path(path)
+    spec = build(ExperimentSpec, load_toml(path), source=str(path))
+    return experiment_from_spec(dataclasses.replace(spec, source=str(path)))
+
+
+def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
+    """Load the vehicles (nominal and true), plan the reference, design the wheel loops and complete the pose
+    controller's settings with them. Errors name the experiment file and key."""
+    src = spec.source
+    vehicle_path = None if spec.vehicle == "default" else spec.resolve(spec.vehicle)
+    if vehicle_path is not None and not vehicle_path.exists():
+        raise ConfigError(src, "vehicle", f"file not found: {vehicle_path}")
+    controller_vehicle = load_vehicle(vehicle_path)
+    plant_vehicle = controller_vehicle.with_overrides(list(spec.plant.set.items()), source=f"{src}: plant.set")
+    traj = spec.resolve(spec.trajectory)
+    if not traj.exists():
+        raise ConfigError(src, "trajectory", f"file not found: {traj}")
+    path = load_path(traj)
+    reference = plan(path, controller_vehicle)
+    c = spec.controller
+    wheel_loops = design_wheel_loops(
+        controller_vehicle,
+        None if c.pi_gains is None else spec.resolve(c.pi_gains),
+        coulomb_feedforward=c.coulomb_feedforward,
+        symmetric_braking=c.symmetric_braking,
+        gentle_stop=c.gentle_stop,
+        source=src,
+    )
+    fit = POSE_CONTROLLERS[c.pose].fit_wheel_loop
+    if fit is not None:
+        c = dataclasses.replace(c, pose_settings=fit(c.pose_settings, wheel_loops.design))
+    spec = dataclasses.replace(spec, controller=c)
+    return Experiment(spec, controller_vehicle, plant_vehicle, reference, wheel_loops, path)
+
+
+def run_experiment(
+    experiment: Experiment,
+    *,
+    pose_controller: PoseController | None = None,
+    wheel_controller: WheelSpeedController | None = None,
+    progress: Callable[[float], None] | None = None,
+) -> ClosedLoopResult:
+    """Run an experiment's closed loop.
+
+    Parameters
+    ----------
+    experiment
+        From :func:`load_experiment`.
+    pose_controller, wheel_controller
+        Your own controllers (:class:`~agvctl.controllers.base.PoseController`, wheel-speed setpoints in m/s;
+        :class:`~agvctl.controllers.base.WheelSpeedController`, DA voltages in V) instead of the file's.
+    progress
+        Called with the fraction done (0…1) about every simulated second.
+    """
+    e = experiment
+    c = e.spec.controller
+    if pose_controller is None:
+        pose_controller = POSE_CONTROLLERS[c.pose].make(e.controller_vehicle, c.pose_settings)
+    return run_closed_loop(
+        plant_vehicle=e.plant_vehicle,
+        controller_vehicle=e.controller_vehicle,
+        reference=e.reference,
+        pose_controller=pose_controller,
+        wheel_controller=wheel_controller or e.wheel_loops.controller(e.controller_vehicle),
+        initial_pose=e.spec.plant.start_pose(),
+        settle_s=e.spec.settle_s,
+        compute_delay=c.compute_delay,
+        localization=c.localization,
+        wheel_speed=c.wheel_speed,
+        sensor_seed=e.spec.plant.sensor_seed,
+        progress=progress,
+    )

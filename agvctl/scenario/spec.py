@@ -1,0 +1,195 @@
+"""The experiment file's schema, validated strictly (one-line errors naming the file and key).
+
+See :mod:`agvctl.scenario.experiment` for the file format; this module holds its tables as frozen dataclasses, which
+:func:`agvctl.config.to_dict` writes back out as the resolved ``experiment.toml`` of a run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from agvctl.config import build, build_fields, convert_value, did_you_mean, join_key, number, to_dict
+from agvctl.controllers.registry import POSE_CONTROLLERS
+from agvctl.errors import ConfigError
+from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
+from agvctl.evaluation.limits import LimitsSpec
+from agvctl.planning.spec import StartPose
+from agvctl.sim.loop import ComputeDelay
+
+__all__ = ["ControllerSpec", "ExperimentSpec", "PlantSpec", "RobustnessSpec", "Spread"]
+
+
+@dataclass(frozen=True)
+class PlantSpec:
+    """The simulated truth: dotted-key overrides of the vehicle, and where the vehicle starts."""
+
+    set: dict[str, Any] = dataclasses.field(default_factory=dict)
+    initial_pose: StartPose | None = None
+    sensor_seed: int = number(ge=0, default=0)
+    """The seed of the true vehicle's sensor noise (encoder phases, gyro, fixes)."""
+
+    @classmethod
+    def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> PlantSpec:
+        keys = ["set", "initial_pose", "sensor_seed"]
+        for k in data:
+            if k not in keys:
+                raise ConfigError(source, join_key(prefix, k), "unknown key" + did_you_mean(k, keys, [prefix]))
+        sets = data.get("set", {})
+        if not isinstance(sets, Mapping):
+            raise ConfigError(source, join_key(prefix, "set"), "expected a table of dotted vehicle keys")
+        pose = data.get("initial_pose")
+        seed = convert_value(int, data.get("sensor_seed", 0), source, join_key(prefix, "sensor_seed"), {"ge": 0})
+        return cls(
+            sensor_seed=seed,
+            set=dict(sets),
+            initial_pose=None
+            if pose is None
+            else build(StartPose, pose, source=source, prefix=join_key(prefix, "initial_pose")),
+        )
+
+    def start_pose(self) -> tuple[float, float, float] | None:
+        """The true start pose (x_m, y_m, theta_rad); None: the reference's start."""
+        pose = self.initial_pose
+        return None if pose is None else (pose.x_m, pose.y_m, math.radians(pose.theta_deg))
+
+
+def _choice(value: str, choices: Mapping[str, Any], source: str, key: str) -> None:
+    if value not in choices:
+        names = ", ".join(repr(c) for c in choices)
+        raise ConfigError(source, key, f"must be one of {names} (got {value!r})")
+
+
+@dataclass(frozen=True)
+class ControllerSpec:
+    """The controllers of an experiment. Keys other than these go to the pose controller's settings."""
+
+    pose: str = "mpc"
+    """A name of :data:`~agvctl.controllers.registry.POSE_CONTROLLERS`."""
+    compute_delay: ComputeDelay = "none"
+    localization: str = "truth"
+    """A name of :data:`~agvctl.estimation.registry.ESTIMATORS`."""
+    wheel_speed: str = "exact"
+    """How the loops measure the motor speeds: a name of :data:`~agvctl.estimation.registry.WHEEL_SPEED_ESTIMATORS`.
+    """
+    pi_gains: str | None = None
+    """A gains file written by ``agvctl tune --out`` (relative to the experiment); default: tuned on the fly."""
+    coulomb_feedforward: bool = True
+    """Add the Coulomb-friction voltage τ_c R/k_t to the PI output (ramped in near zero speed). On by default: the
+    wheels then answer small setpoints instead of sitting in the friction until the integrator winds up (over the 500
+    acceptance fuzz scenarios the median RMS tracking error falls 7 % with the MPC and with Ramsete alike)."""
+    symmetric_braking: bool = False
+    """Limit the braking current so that friction-assisted braking decelerates no harder than a_lim."""
+    gentle_stop: bool = False
+    """Limit the braking current only in the last sample before a wheel stops."""
+    pose_settings: Any = dataclasses.field(default=None, metadata={"derived": True})
+    """The pose controller's settings (an instance of its registry entry's ``settings``), validated once."""
+
+    def __post_init__(self) -> None:
+        kind = POSE_CONTROLLERS.get(self.pose)
+        if self.pose_settings is None and kind is not None and kind.settings is not None:
+            object.__setattr__(self, "pose_settings", kind.settings())
+
+    @classmethod
+    def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> ControllerSpec:
+        own = [f.name for f in dataclasses.fields(cls) if not f.metadata.get("derived")]
+        base: ControllerSpec = build_fields(
+            cls, {k: v for k, v in data.items() if k in own}, source=source, prefix=prefix
+        )
+        _choice(base.pose, POSE_CONTROLLERS, source, join_key(prefix, "pose"))
+        _choice(base.localization, ESTIMATORS, source, join_key(prefix, "localization"))
+        _choice(base.wheel_speed, WHEEL_SPEED_ESTIMATORS, source, join_key(prefix, "wheel_speed"))
+        rest = {k: v for k, v in data.items() if k not in own}
+        kind = POSE_CONTROLLERS[base.pose]
+        if kind.settings is None:
+            if rest:
+                key = next(iter(rest))
+                raise ConfigError(
+                    source,
+                    join_key(prefix, key),
+                    f"not used with pose = {base.pose!r}" + did_you_mean(key, own, [prefix]),
+                )
+            return base
+        return dataclasses.replace(base, pose_settings=build(kind.settings, rest, source=source, prefix=prefix))
+
+    def to_file(self) -> dict[str, Any]:
+        own = {
+            f.name: getattr(self, f.name)
+            for f in dataclasses.fields(self)
+            if not f.metadata.get("derived") and getattr(self, f.name) is not None
+        }
+        return {**own, **(to_dict(self.pose_settings) if self.pose_settings is not None else {})}
+
+
+@dataclass(frozen=True)
+class Spread:
+    """How one vehicle value varies across Monte Carlo samples, relative to its nominal value."""
+
+    kind: Literal["uniform", "normal"]
+    relative: float
+    """Half-width of the uniform interval (value · (1 ± relative)) or the Gaussian sigma (value · (1 + N(0, σ)))."""
+
+
+@dataclass(frozen=True)
+class RobustnessSpec:
+    """``[robustness]``: Monte Carlo over the plant's parameters (the controller keeps the nominal model)."""
+
+    samples: int = number(ge=1, le=100000, default=100)
+    seed: int = number(ge=0, default=0)
+    spread: dict[str, Spread] = dataclasses.field(default_factory=dict)
+
+    @classmethod
+    def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> RobustnessSpec:
+        plain = {k: v for k, v in data.items() if k != "spread"}
+        base: RobustnessSpec = build_fields(cls, plain, source=source, prefix=prefix)
+        raw = data.get("spread", {})
+        if not isinstance(raw, Mapping):
+            raise ConfigError(source, join_key(prefix, "spread"), "expected a table of dotted vehicle keys")
+        spreads: dict[str, Spread] = {}
+        for key, value in raw.items():
+            where = f"{join_key(prefix, 'spread')}.{key}"
+            if isinstance(value, Mapping):
+                if list(value) != ["normal"]:
+                    raise ConfigError(source, where, "expected a relative half-width (uniform) or { normal = SIGMA }")
+                kind, rel = "normal", value["normal"]
+            else:
+                kind, rel = "uniform", value
+            if isinstance(rel, bool) or not isinstance(rel, (int, float)) or not math.isfinite(rel) or rel < 0:
+                raise ConfigError(source, where, f"must be a finite relative spread >= 0 (got {rel!r})")
+            if kind == "uniform" and rel >= 1:
+                raise ConfigError(source, where, f"a uniform spread of ±{rel:g} would reach zero or below; use < 1")
+            spreads[str(key)] = Spread(kind, float(rel))  # type: ignore[arg-type]
+        return dataclasses.replace(base, spread=spreads)
+
+    def to_file(self) -> dict[str, Any]:
+        spread: dict[str, Any] = {
+            k: (v.relative if v.kind == "uniform" else {"normal": v.relative}) for k, v in self.spread.items()
+        }
+        return {"samples": self.samples, "seed": self.seed, "spread": spread}
+
+
+@dataclass(frozen=True)
+class ExperimentSpec:
+    """An experiment file, validated. Paths are resolved relative to the file."""
+
+    name: str
+    trajectory: str
+    vehicle: str = "default"
+    settle_s: float = number(ge=0, default=2.0)
+    plant: PlantSpec = dataclasses.field(default_factory=PlantSpec)
+    controller: ControllerSpec = dataclasses.field(default_factory=ControllerSpec)
+    limits: LimitsSpec = dataclasses.field(default_factory=LimitsSpec)
+    robustness: RobustnessSpec | None = None
+    source: str = dataclasses.field(default="<experiment>", metadata={"derived": True})
+
+    @property
+    def base_dir(self) -> Path:
+        return Path(self.source).parent
+
+    def resolve(self, relative: str) -> Path:
+        path = Path(relative)
+        return path if path.is_absolute() else self.base_dir / path
