@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agvctl.controllers.mpc.common import MpcConfig, limit_command
+from agvctl.controllers.mpc.config import MpcConfig
+from agvctl.controllers.mpc.fallback import limit_command
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.nonlinear import NonlinearMpcController
 from agvctl.controllers.mpc.osqp_steps import PublicSteps

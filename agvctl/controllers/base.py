@@ -12,7 +12,7 @@ They command DA voltages; the actuator chain does the rest.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal, Protocol, runtime_checkable
+from typing import Literal, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,7 +20,6 @@ from numpy.typing import NDArray
 from agvctl.planning.reference import Reference
 
 __all__ = [
-    "GovernedPoseController",
     "PoseCommand",
     "PoseController",
     "SolveStatus",
@@ -40,6 +39,11 @@ class PoseCommand:
     """Wall time of the controller's computation for this sample (the whole step, Python included)."""
     status: SolveStatus = "solved"
     """``solved``, or the fallback used when the solver failed or ran out of time."""
+    reference_done: bool | None = None
+    """Whether the controller is done with the reference. None (a controller that tracks the loop's clock): the
+    run lasts the reference's duration, then its settling time. True or False (a controller that keeps its own
+    clock, e.g. a reference governor that waits for a lagging vehicle): the run ends the settling time after the
+    controller is done, at most twice the reference's duration (at least 30 s more) later."""
 
 
 class PoseController(Protocol):
@@ -51,17 +55,6 @@ class PoseController(Protocol):
     def update(self, t_s: float, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]) -> PoseCommand:
         """Setpoints for the sample starting at ``t_s`` given the pose (x_m, y_m, theta_rad) and the measured
         wheel rim speeds (left, right) in m/s."""
-        ...
-
-
-@runtime_checkable
-class GovernedPoseController(PoseController, Protocol):
-    """A pose controller that tracks the reference at its own clock (a reference governor): the closed loop runs
-    until :attr:`reference_time_s` reaches the reference's end (then its settling time), at most twice as long."""
-
-    @property
-    def reference_time_s(self) -> float:
-        """The reference time being tracked at the last update (s), ≤ the loop's time."""
         ...
 
 

@@ -21,16 +21,16 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
-from agvctl.controllers.base import GovernedPoseController, PoseController, WheelSpeedController
+from agvctl.controllers.base import PoseController, WheelSpeedController
 from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator, consistency
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
-from agvctl.evaluation.path_metrics import PATH_LOG_COLUMNS, path_error_columns
+from agvctl.evaluation.path_metrics import path_error_columns
 from agvctl.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference, ReferenceSamples
@@ -42,23 +42,47 @@ __all__ = ["CONTROL_LOG_COLUMNS", "SENSOR_NAN_COLUMNS", "ClosedLoopResult", "Com
 
 ComputeDelay = Literal["none", "one_sample"]
 
-_SENSOR_COLUMNS = (
-    "motor_angle_left_rad",
-    "motor_angle_right_rad",
-    "measured_omega_motor_left_rad_s",
-    "measured_omega_motor_right_rad_s",
-    *SENSOR_READING_COLUMNS,
-    "est_sigma_x_m",
-    "est_sigma_y_m",
-    "est_sigma_theta_rad",
-    "nees",
-    "nis",
-)
+
+class _ControlRow(NamedTuple):
+    """What the loop records at each sample, by column name (plain floats)."""
+
+    est_x_m: float
+    est_y_m: float
+    est_theta_rad: float
+    setpoint_wheel_speed_left_m_s: float
+    setpoint_wheel_speed_right_m_s: float
+    setpoint_omega_motor_left_rad_s: float
+    setpoint_omega_motor_right_rad_s: float
+    da_command_left_v: float
+    da_command_right_v: float
+    solve_time_s: float
+    solver_status: float
+    motor_angle_left_rad: float
+    motor_angle_right_rad: float
+    measured_omega_motor_left_rad_s: float
+    measured_omega_motor_right_rad_s: float
+    encoder_count_left: float
+    encoder_count_right: float
+    gyro_rate_rad_s: float
+    fix_x_m: float
+    fix_y_m: float
+    fix_theta_rad: float
+    fix_measured_t_s: float
+    est_sigma_x_m: float
+    est_sigma_y_m: float
+    est_sigma_theta_rad: float
+    nees: float
+    nis: float
+
+
+_SENSOR_COLUMNS = _ControlRow._fields[_ControlRow._fields.index("motor_angle_left_rad") :]
 """What the sensors read and the estimators made of it: the true shaft angles (the encoders' source), the motor
-speeds the wheel loops used, the latched counts, the gyro, the last fix arriving at the sample (NaN when none) with
-its measurement time, the estimate's σ and its NEES against the truth, and the NIS of a fix (NaN for estimators
-without a covariance)."""
-SENSOR_NAN_COLUMNS = _SENSOR_COLUMNS[6:]
+speeds the wheel loops used, the latched counts (and the rest of :data:`~agvctl.sensing.SENSOR_READING_COLUMNS`: the
+gyro, the last fix arriving at the sample, NaN when none, with its measurement time), the estimate's σ and its NEES
+against the truth, and the NIS of a fix (NaN for estimators without a covariance)."""
+assert set(SENSOR_READING_COLUMNS) <= set(_SENSOR_COLUMNS)
+
+SENSOR_NAN_COLUMNS = _SENSOR_COLUMNS[_SENSOR_COLUMNS.index("gyro_rate_rad_s") :]
 """The columns that are NaN where there is no reading: no gyro, no fix arriving, no covariance, no fix's NIS."""
 
 CONTROL_LOG_COLUMNS = (
@@ -89,28 +113,12 @@ pose controller solved, 1 for the shifted previous solution, 2 for the reference
 are the true rim speeds ω_mot·r/N of the plant. :class:`ClosedLoopResult` adds the errors against the path,
 :data:`~agvctl.evaluation.path_metrics.PATH_LOG_COLUMNS` (cross-track error, along-track lag, path heading error)."""
 
-_PER_SAMPLE = (
-    "est_x_m",
-    "est_y_m",
-    "est_theta_rad",
-    "setpoint_wheel_speed_left_m_s",
-    "setpoint_wheel_speed_right_m_s",
-    "setpoint_omega_motor_left_rad_s",
-    "setpoint_omega_motor_right_rad_s",
-    "da_command_left_v",
-    "da_command_right_v",
-    "solve_time_s",
-    "solver_status",
-    *_SENSOR_COLUMNS,
-)
-"""The control columns recorded every sample, in the order of the loop's record line."""
-
 _STATUS_CODE = {"solved": 0, "fallback_shifted": 1, "fallback_feedforward": 2}
 
 
-@dataclass
+@dataclass(frozen=True)
 class ClosedLoopResult:
-    """A closed-loop run: the full log, its duration and timing."""
+    """A closed-loop run: the full log (with the errors against the reference's path), its duration and timing."""
 
     log: SimLog
     reference: Reference
@@ -120,14 +128,6 @@ class ClosedLoopResult:
     solver_failures: int
     n_samples: int
     sample_period_s: float
-
-    def __post_init__(self) -> None:
-        """Complete the log with the errors against the reference's *path* (:data:`PATH_LOG_COLUMNS`), computed
-        once for the whole run from its poses (one k-d tree on the path; none of this in the per-sample loop)."""
-        log = self.log
-        if all(name in log for name in ("x_m", "y_m", "theta_rad")) and not all(n in log for n in PATH_LOG_COLUMNS):
-            errors = path_error_columns(log["t_s"], log["x_m"], log["y_m"], log["theta_rad"], self.reference)
-            log.columns.update(errors)
 
 
 def _rim_per_motor(vehicle: VehicleParams) -> NDArray[np.float64]:
@@ -150,10 +150,33 @@ class _Delay:
         return applied
 
 
-def _longest_run(duration_s: float, settle_s: float, ts: float) -> int:
-    """Samples a governed run may take at most: twice the reference's duration (at least 30 s more), then
+class _RunLength:
+    """How many samples the run takes. A controller on the loop's clock (``reference_done`` None) gets the
+    reference's duration plus ``settle_s``; one that keeps its own clock runs until ``settle_s`` after it is done
+    with the reference (again, if it resumes), at most twice the reference's duration (at least 30 s more) plus
     ``settle_s`` — a vehicle that has not reached the end by then is reported where it is."""
-    return max(int(math.ceil((max(2.0 * duration_s, duration_s + 30.0) + settle_s) / ts - 1e-9)), 1)
+
+    def __init__(self, duration_s: float, settle_s: float, sample_period_s: float) -> None:
+        ts = sample_period_s
+        self.planned = max(int(math.ceil((duration_s + settle_s) / ts - 1e-9)), 1)
+        self.longest = max(int(math.ceil((max(2.0 * duration_s, duration_s + 30.0) + settle_s) / ts - 1e-9)), 1)
+        self.settle = int(math.ceil(settle_s / ts - 1e-9))
+        self.samples = self.planned
+        self._governed = False
+        self._done_at: int | None = None
+
+    def after(self, k: int, reference_done: bool | None) -> int:
+        """The run's length in samples, after the controller's command at sample ``k``."""
+        if reference_done is None:
+            return self.samples
+        if not self._governed:
+            self._governed, self.samples = True, self.longest
+        if reference_done and self._done_at is None:
+            self._done_at = k
+            self.samples = min(self.longest, max(self.planned, k + self.settle))
+        elif not reference_done and self._done_at is not None:
+            self._done_at, self.samples = None, self.longest
+        return self.samples
 
 
 def run_closed_loop(
@@ -175,24 +198,23 @@ def run_closed_loop(
     """Run the cascade on the full plant for the reference's duration plus ``settle_s``.
 
     ``initial_pose`` (x_m, y_m, theta_rad) defaults to the reference's start. ``localization`` names an estimator
-    of :data:`~agvctl.estimation.registry.ESTIMATORS` (built for the controller's vehicle) or is one; ``wheel_speed``
-    likewise names one of :data:`~agvctl.estimation.wheel_speed.WHEEL_SPEED_ESTIMATORS` or is one. ``sensor_seed`` seeds
-    the true vehicle's sensor noise. ``progress``, if given, is called with the fraction done (0…1) about every
-    second of simulated time.
+    of :data:`~agvctl.estimation.registry.ESTIMATORS` (built for the controller's vehicle) or is one;
+    ``wheel_speed`` likewise names one of :data:`~agvctl.estimation.registry.WHEEL_SPEED_ESTIMATORS` or is one.
+    ``sensor_seed`` seeds the true vehicle's sensor noise. ``progress``, if given, is called with the fraction done
+    (0…1) about every second of simulated time. A controller that keeps its own clock (its commands'
+    :attr:`~agvctl.controllers.base.PoseCommand.reference_done` set) sets the run's length.
     """
     t_setup = time.perf_counter()
     ts = controller_vehicle.control.sample_period_s
     if plant_vehicle.control.sample_period_s != ts:
         raise ValueError("the plant and the controller must share control.sample_period_s")
-    n_planned = max(int(math.ceil((reference.duration_s + settle_s) / ts - 1e-9)), 1)
-    governor = pose_controller if isinstance(pose_controller, GovernedPoseController) else None
-    n = n_longest = _longest_run(reference.duration_s, settle_s, ts) if governor is not None else n_planned
-    t = np.arange(n + 1) * ts
-    ref = reference.sample(t)
-    start = (float(ref.x_m[0]), float(ref.y_m[0]), float(ref.theta_rad[0])) if initial_pose is None else initial_pose
-    plant = PlantStepper(plant_vehicle, initial_state=[0.0, 0.0, *start], options=plant_options)
+    length = _RunLength(reference.duration_s, settle_s, ts)
+    if initial_pose is None:
+        ref0 = reference.sample(np.zeros(1))
+        initial_pose = (float(ref0.x_m[0]), float(ref0.y_m[0]), float(ref0.theta_rad[0]))
+    plant = PlantStepper(plant_vehicle, initial_state=[0.0, 0.0, *initial_pose], options=plant_options)
     estimator = ESTIMATORS[localization](controller_vehicle) if isinstance(localization, str) else localization
-    estimator.reset(np.array(start, dtype=float))
+    estimator.reset(np.array(initial_pose, dtype=float))
     sensors = Sensors(plant_vehicle, seed=sensor_seed)
     speeds = WHEEL_SPEED_ESTIMATORS[wheel_speed](controller_vehicle) if isinstance(wheel_speed, str) else wheel_speed
     speeds.reset()
@@ -200,13 +222,12 @@ def run_closed_loop(
     delay = _Delay(compute_delay)
     pose_controller.reset(reference)
     wheel_controller.reset()
-    control: list[list[float]] = []  # the rows of _PER_SAMPLE, one per sample, as plain numbers
-    failures = 0
-    end_reached_k: int | None = None  # the sample at which a governed reference reached its end
+    rows: list[_ControlRow] = []
+    failures, n, k = 0, length.samples, 0
     progress_every = max(1, int(round(1.0 / ts)))
     setup = time.perf_counter() - t_setup
     t0 = time.perf_counter()
-    for k in range(n + 1):
+    while True:
         angle = plant.motor_angle_rad  # 1. measure and estimate
         counts = sensors.encoder_counts(angle)
         omega = speeds.update(counts, plant.measure())
@@ -214,15 +235,9 @@ def run_closed_loop(
         meas = sensors.read(k, counts, plant.pose, wheel_meas)
         est = estimator.update(meas)
         tc = time.perf_counter()  # 2. pose controller
-        cmd = pose_controller.update(float(t[k]), est, wheel_meas)
+        cmd = pose_controller.update(k * ts, est, wheel_meas)
         solve = time.perf_counter() - tc
-        if governor is not None:  # the run ends settle_s after the governed reference is done (again, if it resumes)
-            done = governor.reference_time_s >= reference.duration_s - 1e-9
-            if done and end_reached_k is None:
-                end_reached_k = k
-                n = min(n_longest, max(n_planned, k + int(math.ceil(settle_s / ts - 1e-9))))
-            elif not done and end_reached_k is not None:
-                end_reached_k, n = None, n_longest
+        n = length.after(k, cmd.reference_done)
         status = _STATUS_CODE.get(cmd.status, 2)
         failures += status > 0
         setpoint = delay(np.array([cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s]))
@@ -234,47 +249,82 @@ def run_closed_loop(
         else:
             plant.finish(da_cmd)
         checks = consistency(estimator, est, meas.true_pose)
-        sensed = [*_plain(angle), *_plain(omega), *_plain(counts), *_sensor_row(meas), *checks]
-        control.append([*_plain(est), *_plain(setpoint), *_plain(sp_motor), *_plain(da_cmd), solve, status, *sensed])
+        rows.append(_control_row(est, setpoint, sp_motor, da_cmd, solve, status, angle, omega, counts, meas, checks))
         if progress is not None and k % progress_every == 0:
             progress(k / n)
         if k >= n:
             break
+        k += 1
     wall = time.perf_counter() - t0
     if progress is not None:
         progress(1.0)
-    ref = reference.sample(t[: n + 1])
-    return ClosedLoopResult(
-        log=_closed_loop_log(plant.log(), np.array(control, dtype=np.float64), ref, _rim_per_motor(plant_vehicle)),
-        reference=reference,
-        wall_time_s=wall,
-        setup_time_s=setup,
-        solver_failures=failures,
-        n_samples=n,
-        sample_period_s=ts,
+    ref = reference.sample(np.arange(n + 1) * ts)
+    log = _closed_loop_log(plant.log(), rows, ref, _rim_per_motor(plant_vehicle), reference)
+    return ClosedLoopResult(log, reference, wall, setup, failures, n, ts)
+
+
+def _control_row(
+    est: NDArray[np.float64],
+    setpoint: NDArray[np.float64],
+    sp_motor: NDArray[np.float64],
+    da_cmd: NDArray[np.float64],
+    solve_s: float,
+    status: int,
+    angle: NDArray[np.float64],
+    omega: NDArray[np.float64],
+    counts: NDArray[np.int64],
+    meas: Measurements,
+    checks: tuple[float, ...],
+) -> _ControlRow:
+    """One sample's record."""
+    x, y, theta = np.asarray(est, dtype=np.float64).tolist()
+    fix = meas.fixes[-1].pose if meas.fixes else (math.nan, math.nan, math.nan)
+    fix_t = meas.fixes[-1].measured_t_s if meas.fixes else math.nan
+    sigma_x, sigma_y, sigma_theta, nees, nis = checks
+    return _ControlRow(
+        est_x_m=x,
+        est_y_m=y,
+        est_theta_rad=theta,
+        setpoint_wheel_speed_left_m_s=float(setpoint[0]),
+        setpoint_wheel_speed_right_m_s=float(setpoint[1]),
+        setpoint_omega_motor_left_rad_s=float(sp_motor[0]),
+        setpoint_omega_motor_right_rad_s=float(sp_motor[1]),
+        da_command_left_v=float(da_cmd[0]),
+        da_command_right_v=float(da_cmd[1]),
+        solve_time_s=solve_s,
+        solver_status=float(status),
+        motor_angle_left_rad=float(angle[0]),
+        motor_angle_right_rad=float(angle[1]),
+        measured_omega_motor_left_rad_s=float(omega[0]),
+        measured_omega_motor_right_rad_s=float(omega[1]),
+        encoder_count_left=float(counts[0]),
+        encoder_count_right=float(counts[1]),
+        gyro_rate_rad_s=meas.gyro_rate_rad_s,
+        fix_x_m=float(fix[0]),
+        fix_y_m=float(fix[1]),
+        fix_theta_rad=float(fix[2]),
+        fix_measured_t_s=fix_t,
+        est_sigma_x_m=sigma_x,
+        est_sigma_y_m=sigma_y,
+        est_sigma_theta_rad=sigma_theta,
+        nees=nees,
+        nis=nis,
     )
 
 
-def _plain(values: ArrayLike) -> list[float]:
-    """Values as plain Python floats, for a row of the log."""
-    plain: list[float] = np.asarray(values, dtype=np.float64).tolist()
-    return plain
-
-
-def _sensor_row(meas: Measurements) -> tuple[float, ...]:
-    """The gyro and the last fix arriving at this sample (its pose and measurement time; NaN when none)."""
-    if not meas.fixes:
-        return (meas.gyro_rate_rad_s, math.nan, math.nan, math.nan, math.nan)
-    fix = meas.fixes[-1]
-    return (meas.gyro_rate_rad_s, *fix.pose, fix.measured_t_s)
-
-
 def _closed_loop_log(
-    plant_log: SimLog, control: NDArray[np.float64], ref: ReferenceSamples, true_rim_per_motor: NDArray[np.float64]
+    plant_log: SimLog,
+    rows: list[_ControlRow],
+    ref: ReferenceSamples,
+    true_rim_per_motor: NDArray[np.float64],
+    reference: Reference,
 ) -> SimLog:
-    """The plant's columns, the control columns recorded per sample and those derived from the reference."""
+    """The plant's columns, the control columns recorded per sample, those derived from the reference and the
+    errors against the reference's path (:data:`~agvctl.evaluation.path_metrics.PATH_LOG_COLUMNS`, computed once for
+    the whole run from its poses: one k-d tree on the path, none of it in the per-sample loop)."""
     cols = dict(plant_log.columns)
-    cols.update({name: control[:, j] for j, name in enumerate(_PER_SAMPLE)})
+    control = np.array(rows, dtype=np.float64)
+    cols.update({name: control[:, j] for j, name in enumerate(_ControlRow._fields)})
     cols["wheel_speed_left_m_s"] = cols["omega_motor_left_rad_s"] * true_rim_per_motor[0]
     cols["wheel_speed_right_m_s"] = cols["omega_motor_right_rad_s"] * true_rim_per_motor[1]
     cols["ref_x_m"], cols["ref_y_m"], cols["ref_theta_rad"] = ref.x_m, ref.y_m, ref.theta_rad
@@ -282,4 +332,6 @@ def _closed_loop_log(
     cols["ref_wheel_speed_right_m_s"] = ref.wheel_speed_right_m_s
     cols["position_error_m"] = np.hypot(cols["x_m"] - ref.x_m, cols["y_m"] - ref.y_m)
     cols["heading_error_rad"] = wrap_angle(cols["theta_rad"] - ref.theta_rad)
-    return SimLog({name: cols[name] for name in (*PLANT_LOG_COLUMNS, *CONTROL_LOG_COLUMNS)})
+    ordered = {name: cols[name] for name in (*PLANT_LOG_COLUMNS, *CONTROL_LOG_COLUMNS)}
+    ordered.update(path_error_columns(cols["t_s"], cols["x_m"], cols["y_m"], cols["theta_rad"], reference))
+    return SimLog(ordered)

@@ -19,7 +19,7 @@ import numpy as np
 
 from agvctl.controllers.base import PoseController
 from agvctl.controllers.baselines.feedforward import FeedForwardPoseController
-from agvctl.controllers.mpc.common import MpcConfig
+from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.pi.tuning import default_pi_gains
 from agvctl.controllers.pi.wheel_loop import PIWheelController

@@ -31,7 +31,9 @@ from pathlib import Path
 import numpy as np
 
 from agvctl.controllers.base import PoseCommand, PoseController
-from agvctl.controllers.mpc.common import HorizonReference, MpcConfig, limit_command, resolved_limits
+from agvctl.controllers.mpc.config import MpcConfig, resolved_limits
+from agvctl.controllers.mpc.fallback import limit_command
+from agvctl.controllers.mpc.horizon import HorizonReference
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.nonlinear import NonlinearMpcController, prediction_step
 from agvctl.controllers.pi.tuning import default_pi_gains

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.calibration.umbmark.model import Method, UmbmarkCorrection, e_max_syst, umbmark_correction
-from agvctl.controllers.mpc.common import MpcConfig
+from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.controllers.registry import default_pi_gains

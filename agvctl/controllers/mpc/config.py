@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from agvctl.config import number
+from agvctl.controllers.mpc.docking import DockingConfig
 from agvctl.params import VehicleParams
 
 __all__ = [
@@ -67,10 +68,12 @@ class MpcConfig:
     (:func:`lead_factor_s`). Bounded, so the setpoints never run away from a saturated wheel; above 1, so that the PI
     loop's proportional action can still push a wheel that is heavier or stiffer than the controller's model
     (measured on the figure-8 with a 35 kg payload: tracking RMS 2.0 mm at 1, 1.45 mm at 2.5)."""
-    docking: bool = True
-    """Stopped beside the end of the path, back up and come in again (:mod:`~agvctl.controllers.mpc.docking`)."""
+    docking: DockingConfig = DockingConfig()
+    """When and how to dock, stopped beside the end of the path (:mod:`~agvctl.controllers.mpc.docking`): the
+    ``[controller.docking]`` table."""
     reference_governor: bool = True
-    """Slow the reference's clock down while the vehicle lags behind it (graceful lag; see :class:`MpcStepper`)."""
+    """Slow the reference's clock down while the vehicle lags behind it (graceful lag:
+    :mod:`~agvctl.controllers.mpc.governor`)."""
     governor_lag_start_m: float = number(gt=0, default=0.04, doc="lag at which the governor starts to slow, m")
     governor_lag_stop_m: float = number(gt=0, default=0.10, doc="lag at which the governor holds the reference, m")
     governor_catch_up: float = number(ge=1, le=2, default=1.5, doc="largest clock rate while catching up")

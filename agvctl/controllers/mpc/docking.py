@@ -27,13 +27,15 @@ from agvctl.planning import PathLimits, PathSpec, StartPose, plan
 from agvctl.planning.reference import Reference
 from agvctl.planning.spec import LineSegment, Segment, TurnSegment
 
-__all__ = ["Docking", "DockingConfig"]
+__all__ = ["Docking", "DockingConfig", "EndOfPath"]
 
 
 @dataclass(frozen=True)
 class DockingConfig:
-    """When and how to dock (SI units)."""
+    """When and how to dock (SI units): an experiment file's ``[controller.docking]`` table."""
 
+    enabled: bool = True
+    """Stopped beside the end of the path, back up and come in again."""
     tolerance_m: float = number(gt=0, default=0.008, doc="lateral error at rest beyond which to dock, m")
     speed_m_s: float = number(gt=0, default=0.15, doc="speed of the manoeuvre, m/s")
     accel_m_s2: float = number(gt=0, default=0.3, doc="acceleration of the manoeuvre, m/s²")
@@ -115,3 +117,59 @@ class Docking:
             join="stop",
         )
         return plan(spec, self.vehicle)
+
+
+class EndOfPath:
+    """Where a tracking controller stands on its references: the path, then any docking manoeuvres, and whether it
+    is done with them.
+
+    The path's clock runs from 0; a manoeuvre's clock from the sample after it was planned. At the end of the
+    current reference, a vehicle at rest beside the path's end starts a manoeuvre (while attempts last; also after
+    being done, if it is pushed off), one still moving is decided on once it rests, and one within tolerance is done.
+    """
+
+    def __init__(self, docking: Docking, sample_period_s: float) -> None:
+        self.docking = docking
+        self.sample_period_s = sample_period_s
+        self.path_duration_s = 0.0
+        self.current_duration_s = 0.0
+        self.time_offset_s = 0.0
+        """The loop time at which the current reference's t = 0 lies (0 on the path itself)."""
+        self.done = False
+
+    @property
+    def on_path(self) -> bool:
+        """Whether the current reference is the path itself (no manoeuvre has started)."""
+        return self.time_offset_s == 0.0
+
+    def reset(self, reference: Reference) -> None:
+        """Start on the path ``reference``."""
+        self.path_duration_s = self.current_duration_s = reference.duration_s
+        self.time_offset_s = 0.0
+        self.done = False
+        self.docking.reset(reference)
+
+    def local_time_s(self, t_s: float) -> float:
+        """The loop time ``t_s`` on the current reference."""
+        return max(t_s - self.time_offset_s, 0.0)
+
+    def after_step(
+        self, t_s: float, reference_time_s: float, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]
+    ) -> Reference | None:
+        """After the step at ``t_s`` with the clock at ``reference_time_s`` on the current reference: the manoeuvre
+        to track from the next sample on, or None (go on, or done)."""
+        if reference_time_s < self.current_duration_s - 1e-9:
+            return None
+        if not (self.docking.config.enabled and self.docking.needed(pose)):
+            self.done = True
+            return None
+        if max(abs(float(wheel_speed_m_s[0])), abs(float(wheel_speed_m_s[1]))) > 0.01:
+            return None  # still moving: decide at rest
+        manoeuvre = self.docking.plan(pose)
+        if manoeuvre is None:
+            self.done = True
+            return None
+        self.done = False
+        self.current_duration_s = manoeuvre.duration_s
+        self.time_offset_s = t_s + self.sample_period_s  # the manoeuvre's t = 0 is the next sample
+        return manoeuvre

@@ -32,22 +32,13 @@ import osqp
 from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
-from agvctl.controllers.mpc.common import (
-    HorizonReference,
-    MpcConfig,
-    MpcStepper,
-    SetpointFallback,
-    lead_factor_s,
-    resolved_config,
-    resolved_limits,
-    turning_in_place,
-    wheel_loop_time_constant_s,
-)
-from agvctl.controllers.mpc.docking import Docking
+from agvctl.controllers.mpc.common import MpcStepper
+from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
+from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
 from agvctl.controllers.mpc.ltv_qp import QpLayout, constraint_pattern, cost_matrix
 from agvctl.controllers.mpc.matrix_exponential import expm_batch
 from agvctl.controllers.mpc.osqp_steps import solver_steps
-from agvctl.feasibility import WheelReach
+from agvctl.controllers.mpc.shaping import HorizonStep, SetpointWindow
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 
@@ -96,21 +87,10 @@ class LtvMpcController(MpcStepper):
         *,
         osqp_settings: Mapping[str, Any] | None = None,
     ) -> None:
-        self.config = resolved_config(config or MpcConfig())
+        super().__init__(vehicle, config)
         self._osqp_overrides = dict(osqp_settings or {})
-        c = self.config
-        self.sample_period_s = vehicle.control.sample_period_s
-        self.separation_m = vehicle.wheels.separation_m
-        self._reach = WheelReach(vehicle)
-        self._docking = Docking(vehicle)
-        self._lead_factor_s = lead_factor_s(c, self.sample_period_s)
-        self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 = resolved_limits(c, vehicle)
-        self._lag = c.prediction_model == "kinematic+wheel_loop"
+        self._lag = self.config.prediction_model == "kinematic+wheel_loop"
         self.nx = 5 if self._lag else 3
-        self._failures = 0
-        self._grid: HorizonReference | None = None
-        self._fallback = SetpointFallback(c.horizon)
-        self._u_prev: FloatArray | None = None
         self._build_problem()
 
     # -- public -------------------------------------------------------------------------------------------
@@ -120,13 +100,12 @@ class LtvMpcController(MpcStepper):
         """The last solved setpoint sequence (N×2, left/right, m/s) — for plots and tests."""
         return self._fallback.sequence_m_s.copy()
 
-    def _retarget(self, reference: Reference) -> None:
+    def _retarget(self, reference: Reference) -> HorizonReference:
         """Precompute ``reference``'s horizon grid and every time-varying matrix entry."""
         grid = HorizonReference(reference, self.config, self.sample_period_s)
-        self._grid = grid
         self._precompute(grid)
-        self._fallback.clear()
         self._heading_lin = 0.0
+        return grid
 
     # -- problem structure --------------------------------------------------------------------------------
 
@@ -249,13 +228,12 @@ class LtvMpcController(MpcStepper):
 
     # -- one step -----------------------------------------------------------------------------------------
 
-    def _initial_error(
-        self, g: HorizonReference, k: int, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]
-    ) -> FloatArray:
+    def _initial_error(self, step: HorizonStep) -> FloatArray:
         """x_0: the pose (and wheel-speed) error against the reference at the governed clock, which lies a
         fraction of a sample past grid point k (0 while it keeps time)."""
+        g, k, pose, wheel_speed_m_s = step.grid, step.k, step.pose, step.wheel_speed_m_s
         x0 = self._x0
-        f = self._fraction
+        f = step.fraction
         x_ref, y_ref, th_ref = g.x_m[k], g.y_m[k], g.theta_rad[k]
         ct, st = g.cos_theta[k], g.sin_theta[k]
         wheel_ref = g.wheel_m_s[k]
@@ -304,15 +282,12 @@ class LtvMpcController(MpcStepper):
         first[0] += cx0 * (x0[3] + x0[4])
         first[1] += cy0 * (x0[3] + x0[4])
 
-    def _solve(
-        self, k: int, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]
-    ) -> tuple[float, float] | None:
-        g = self._grid
-        assert g is not None and self._u_prev is not None
+    def _solve(self, step: HorizonStep) -> tuple[float, float] | None:
+        g, k = step.grid, step.k
         c, N, nx = self.config, self.config.horizon, self.nx
         iU, iS = self._iU, self._iS
-        x0 = self._initial_error(g, k, pose, wheel_speed_m_s)
-        u_prev = self._u_prev
+        x0 = self._initial_error(step)
+        u_prev = step.previous_m_s
         if not math.isfinite(
             x0[0] + x0[1] + x0[2] + float(u_prev[0]) + float(u_prev[1]) + (x0[3] + x0[4] if self._lag else 0.0)
         ):
@@ -347,7 +322,8 @@ class LtvMpcController(MpcStepper):
         lo[rf : rf + 2] = start - a_step
         hi[rf : rf + 2] = start + a_step
         if self._lag:
-            self._reach_bounds(k, ff0, wheel_speed_m_s)
+            assert step.window is not None  # finite wheel speeds: x_0 holds them
+            self._reach_bounds(k, ff0, step.wheel_speed_m_s, step.window)
 
         # rate cost w_Δ‖D δs + r‖², r_0 = −start, r_k = d_{k+k'}: linear term 2 w_Δ Dᵀ r
         r = self._rate_c
@@ -373,20 +349,22 @@ class LtvMpcController(MpcStepper):
         self._fallback.store(k, seq)
         return float(seq[0, 0]), float(seq[0, 1])
 
-    def _reach_bounds(self, k: int, ff0: FloatArray, wheel_speed_m_s: NDArray[np.float64]) -> None:
+    def _reach_bounds(
+        self, k: int, ff0: FloatArray, wheel_speed_m_s: NDArray[np.float64], window: SetpointWindow
+    ) -> None:
         """The setpoints' reachable leads over their wheels (the wheel-loop model's rows): the first sample's from the
         measured speed (within its speed box), later ones from the reference's speeds, never tighter than the first
         (so that holding the first setpoint stays feasible as the wheel converges)."""
         N, lo, hi = self.config.horizon, self._l, self._u
         rb, rc = self._r_box, self._r_reach
-        window_lo, window_hi = self._window
+        window_lo, window_hi = window.lower_m_s, window.upper_m_s
         np.maximum(lo[rb : rb + 2], window_lo - ff0, out=lo[rb : rb + 2])
         np.minimum(hi[rb : rb + 2], window_hi - ff0, out=hi[rb : rb + 2])
         ahead = slice(2 * (k + 1), 2 * (k + N))
         if max(abs(float(wheel_speed_m_s[0])), abs(float(wheel_speed_m_s[1]))) <= self.max_wheel_speed_m_s:
             base = self._reach_base[ahead]
-            lead_down = np.maximum(self._reach_down[ahead].reshape(-1, 2), self._lead_down_m_s).ravel()
-            lead_up = np.maximum(self._reach_up[ahead].reshape(-1, 2), self._lead_up_m_s).ravel()
+            lead_down = np.maximum(self._reach_down[ahead].reshape(-1, 2), window.lead_down_m_s).ravel()
+            lead_up = np.maximum(self._reach_up[ahead].reshape(-1, 2), window.lead_up_m_s).ravel()
             lo[rc : rc + 2 * (N - 1)] = base - lead_down
             hi[rc : rc + 2 * (N - 1)] = base + lead_up
         else:  # a wheel beyond the speed box (a reset at speed): only the first sample is bounded

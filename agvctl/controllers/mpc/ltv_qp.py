@@ -15,7 +15,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from agvctl.controllers.mpc.common import MpcConfig
+from agvctl.controllers.mpc.config import MpcConfig
 
 __all__ = ["QpLayout", "constraint_pattern", "cost_matrix"]
 

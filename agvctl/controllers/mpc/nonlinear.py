@@ -19,18 +19,10 @@ import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.controllers.mpc.common import (
-    HorizonReference,
-    MpcConfig,
-    MpcStepper,
-    SetpointFallback,
-    lead_factor_s,
-    resolved_config,
-    resolved_limits,
-    wheel_loop_time_constant_s,
-)
-from agvctl.controllers.mpc.docking import Docking
-from agvctl.feasibility import WheelReach
+from agvctl.controllers.mpc.common import MpcStepper
+from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
+from agvctl.controllers.mpc.horizon import HorizonReference
+from agvctl.controllers.mpc.shaping import HorizonStep
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 
@@ -87,19 +79,9 @@ class NonlinearMpcController(MpcStepper):
         *,
         ipopt_options: dict[str, Any] | None = None,
     ) -> None:
-        self.config = resolved_config(config or MpcConfig())
-        self.sample_period_s = vehicle.control.sample_period_s
-        self.separation_m = vehicle.wheels.separation_m
-        self._reach = WheelReach(vehicle)
-        self._docking = Docking(vehicle)
-        self._lead_factor_s = lead_factor_s(self.config, self.sample_period_s)
-        self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 = resolved_limits(self.config, vehicle)
+        super().__init__(vehicle, config)
         self._lag = self.config.prediction_model == "kinematic+wheel_loop"
         self.nx = 5 if self._lag else 3
-        self._failures = 0
-        self._grid: HorizonReference | None = None
-        self._fallback = SetpointFallback(self.config.horizon)
-        self._u_prev: FloatArray | None = None
         self._w0: FloatArray | None = None
         self._lam_x0: FloatArray | None = None
         self._lam_g0: FloatArray | None = None
@@ -109,12 +91,11 @@ class NonlinearMpcController(MpcStepper):
     def _on_failure(self) -> None:
         self._w0 = None  # a failed solve's iterate is no warm start
 
-    def _retarget(self, reference: Reference) -> None:
-        """Sample ``reference``'s horizon grid; forget the warm start and the fallbacks."""
-        self._grid = HorizonReference(reference, self.config, self.sample_period_s)
-        self._fallback.clear()
+    def _retarget(self, reference: Reference) -> HorizonReference:
+        """Sample ``reference``'s horizon grid; forget the warm start."""
         self._w0 = None
         self._last_k = -1
+        return HorizonReference(reference, self.config, self.sample_period_s)
 
     # -- the NLP ------------------------------------------------------------------------------------------
 
@@ -171,11 +152,8 @@ class NonlinearMpcController(MpcStepper):
 
     # -- one step -----------------------------------------------------------------------------------------
 
-    def _solve(
-        self, k: int, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]
-    ) -> tuple[float, float] | None:
-        g = self._grid
-        assert g is not None and self._u_prev is not None
+    def _solve(self, step: HorizonStep) -> tuple[float, float] | None:
+        g, k, pose, wheel_speed_m_s = step.grid, step.k, step.pose, step.wheel_speed_m_s
         N, nx = self.config.horizon, self.nx
         # the pose's heading taken to the branch nearest the (continuous) reference heading
         theta_ref = g.theta_rad[k]
@@ -189,13 +167,13 @@ class NonlinearMpcController(MpcStepper):
             return None  # a broken measurement
         ref = np.stack([g.x_m[k + 1 : k + N + 1], g.y_m[k + 1 : k + N + 1], g.theta_rad[k + 1 : k + N + 1]])
         ff = g.feedforward_m_s[k : k + N]
-        f = self._fraction  # the governed clock between grid points (0 while it keeps time): interpolate
+        f = step.fraction  # the governed clock between grid points (0 while it keeps time): interpolate
         if f > 0.0:
             ahead = np.stack([g.x_m[k + 2 : k + N + 2], g.y_m[k + 2 : k + N + 2], g.theta_rad[k + 2 : k + N + 2]])
             ref = ref + f * (ahead - ref)
             ff = ff + f * (g.feedforward_m_s[k + 1 : k + N + 1] - ff)
         v_max = self.max_wheel_speed_m_s
-        u_prev = np.clip(self._u_prev, -v_max, v_max)  # as in the LTV MPC: keeps the first move feasible
+        u_prev = np.clip(step.previous_m_s, -v_max, v_max)  # as in the LTV MPC: keeps the first move feasible
         p = np.concatenate([x0, ref.T.ravel(), ff.ravel(), u_prev])
 
         if self._w0 is None or k != self._last_k + 1:

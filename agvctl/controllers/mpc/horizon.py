@@ -1,0 +1,77 @@
+"""The reference on the MPC's control grid, sampled once per reference so that every horizon window is a slice, and
+whether the reference turns in place there."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, overload
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
+from agvctl.planning.reference import Reference
+
+__all__ = ["HorizonReference", "turning_in_place"]
+
+FloatArray = NDArray[np.float64]
+
+
+class HorizonReference:
+    """The reference on the control grid t_j = j·T_s, sampled once at reset and padded with the final pose at
+    rest so that any horizon window ``[k, k + N]`` is a slice.
+
+    Arrays of length ``n_points`` (grid points, j = 0 … K + N + 1): ``x_m, y_m, theta_rad, speed_m_s,
+    yaw_rate_rad_s, wheel_m_s`` (n×2). Arrays of length ``n_points − 1`` (intervals [t_j, t_j+1]):
+    ``mid_*``, the reference at the midpoint of the interval, and ``feedforward_m_s`` (n×2), the setpoint
+    that makes the prediction model follow the reference: the midpoint wheel speeds for the kinematic model,
+    and for the wheel loop the inverse of its exact discretisation, s_j = (v_j+1 − a v_j)/(1 − a) with
+    a = exp(−T_s/τ).
+    """
+
+    def __init__(self, reference: Reference, config: MpcConfig, sample_period_s: float) -> None:
+        T = sample_period_s
+        N = config.horizon
+        self.sample_period_s = T
+        self.last_start = len(reference.grid_times_s)
+        """The largest window start: from here on the reference is at rest, so later windows are the same."""
+        n = self.last_start + N + 2
+        t = np.arange(n, dtype=np.float64) * T
+        g = reference.sample(t)
+        m = reference.sample(t[:-1] + 0.5 * T)
+        self.n_points = n
+        self.x_m, self.y_m, self.theta_rad = g.x_m, g.y_m, g.theta_rad
+        self.cos_theta, self.sin_theta = np.cos(g.theta_rad), np.sin(g.theta_rad)
+        self.speed_m_s, self.yaw_rate_rad_s = g.speed_m_s, g.yaw_rate_rad_s
+        self.travel_m = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(g.x_m), np.diff(g.y_m)))))
+        """Distance the reference point has moved by each grid point (m)."""
+        self.wheel_m_s = np.column_stack([g.wheel_speed_left_m_s, g.wheel_speed_right_m_s])
+        self.mid_theta_rad, self.mid_speed_m_s = m.theta_rad, m.speed_m_s
+        self.mid_yaw_rate_rad_s = m.yaw_rate_rad_s
+        mid_wheel = np.column_stack([m.wheel_speed_left_m_s, m.wheel_speed_right_m_s])
+        if config.prediction_model == "kinematic":
+            ff = mid_wheel
+        else:
+            a = math.exp(-T / wheel_loop_time_constant_s(config))
+            ff = (self.wheel_m_s[1:] - a * self.wheel_m_s[:-1]) / (1.0 - a)
+        self.feedforward_m_s: FloatArray = np.ascontiguousarray(ff)
+
+    def window_start(self, t_s: float) -> int:
+        """The grid index of the sample starting at ``t_s`` (rounded), clamped to ``[0, last_start]``."""
+        k = round(t_s / self.sample_period_s)
+        return min(max(k, 0), self.last_start)
+
+
+@overload
+def turning_in_place(yaw_rate_rad_s: float, speed_m_s: float, separation_m: float) -> bool: ...
+
+
+@overload
+def turning_in_place(yaw_rate_rad_s: FloatArray, speed_m_s: FloatArray, separation_m: float) -> NDArray[np.bool_]: ...
+
+
+def turning_in_place(yaw_rate_rad_s: Any, speed_m_s: Any, separation_m: float) -> Any:
+    """Whether the reference turns (almost) in place: its wheels' turning speed |ω|·b/2 above four times its speed
+    (elementwise for arrays). There the path is a point, "along" it is only where a spinning frame points, and the
+    governor measures the heading lag."""
+    return abs(yaw_rate_rad_s) * 0.5 * separation_m > 4.0 * abs(speed_m_s) + 1e-6

@@ -1,0 +1,212 @@
+"""What shapes an MPC command between the solver and the wheel loops: the setpoints each wheel can follow, the rules
+of motion near the path's start and its turning points, and the hard speed and rate limits.
+
+**Reachable setpoints (anti-windup across the cascade).** Each wheel's setpoint stays within a bounded lead of its
+*measured* speed: s − v ∈ [−D↓, D↑], D = reach_lead·a_reach·T_s/(1 − e^(−T_s/τ)) for the wheel-loop lag τ
+(reach_lead·a_reach·T_s for the kinematic model), a_reach from :class:`~agvctl.feasibility.WheelReach` (current
+limit, back-EMF and friction of the controller's model). The previous command s_{−1} is brought into the same
+window before the solve, so the setpoints never run away from wheels that are current- or voltage-limited
+(:class:`ReachWindow`, :class:`CommandShaper`).
+
+**Rules of motion** (:class:`CommandRule`), applied in order to the solver's (or the fallback's) setpoints:
+
+* :class:`NoBackingAtStart` — at the start of a forward path the vehicle never backs up to a start point it is
+  already past, and before any turn in place it keeps a forward mean speed while it turns towards the path.
+* :class:`TowardTurningPoint` — where the reference turns in place, a mean speed that would carry the vehicle away
+  from the turning point is dropped (the turn kept).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.controllers.mpc.fallback import limit_command
+from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
+from agvctl.feasibility import WheelReach
+
+__all__ = [
+    "START_TURN_FORWARD_SHARE",
+    "CommandRule",
+    "CommandShaper",
+    "HorizonStep",
+    "NoBackingAtStart",
+    "ReachWindow",
+    "SetpointWindow",
+    "TowardTurningPoint",
+]
+
+FloatArray = NDArray[np.float64]
+
+START_TURN_FORWARD_SHARE = 0.1
+"""At the start of a forward path, before any turn in place, the command's mean speed is at least this share of its
+wheels' speed difference: turning towards the path from rest with a zero mean, two wheels that break away unequally
+(stiction, radii) move the centre backwards, away from a path the vehicle points at."""
+
+
+class SetpointWindow(NamedTuple):
+    """The setpoints (left, right; m/s) each wheel can follow from its measured speed, and the leads that make it."""
+
+    lower_m_s: FloatArray
+    upper_m_s: FloatArray
+    lead_down_m_s: FloatArray
+    """D↓ (left, right): how far a setpoint may lie below its wheel's speed."""
+    lead_up_m_s: FloatArray
+    """D↑ (left, right): how far a setpoint may lie above its wheel's speed."""
+
+
+@dataclass(frozen=True, slots=True)
+class HorizonStep:
+    """What a solver and the rules see of one MPC step."""
+
+    grid: HorizonReference
+    k: int
+    """The window's first grid point (the governed clock, rounded down)."""
+    fraction: float
+    """The governed clock's position between grid points k and k + 1, in [0, 1)."""
+    pose: FloatArray
+    wheel_speed_m_s: FloatArray
+    """The measured wheel rim speeds (left, right)."""
+    window: SetpointWindow | None
+    """The reachable setpoints; None when a wheel speed is not finite (a broken measurement)."""
+    previous_m_s: FloatArray
+    """The previous command (left, right), brought into the window."""
+    on_main_path: bool
+    """Whether the step tracks the path itself (not a docking manoeuvre)."""
+
+
+class ReachWindow:
+    """The reachable-setpoint window of a vehicle (see the module notes): ``lead_factor_s`` is D/a_reach."""
+
+    def __init__(self, reach: WheelReach, lead_factor_s: float, max_wheel_speed_m_s: float) -> None:
+        self.reach = reach
+        self.lead_factor_s = lead_factor_s
+        self.max_wheel_speed_m_s = max_wheel_speed_m_s
+
+    def __call__(self, wheel_speed_m_s: FloatArray) -> SetpointWindow | None:
+        """The window from the measured wheel speeds (left, right), or None if either is not finite. The window
+        always meets the speed box, even from a measured speed beyond it."""
+        v_l, v_r = float(wheel_speed_m_s[0]), float(wheel_speed_m_s[1])
+        if not (math.isfinite(v_l) and math.isfinite(v_r)):
+            return None
+        up_l, up_r, down_l, down_r = self.reach.accel_pair_m_s2(v_l, v_r)
+        f, v_max = self.lead_factor_s, self.max_wheel_speed_m_s
+        lower = np.array([min(v_l - down_l * f, v_max), min(v_r - down_r * f, v_max)])
+        upper = np.array([max(v_l + up_l * f, -v_max), max(v_r + up_r * f, -v_max)])
+        return SetpointWindow(lower, upper, np.array([down_l * f, down_r * f]), np.array([up_l * f, up_r * f]))
+
+
+class CommandRule(Protocol):
+    """A rule of motion: the setpoints (left, right; m/s) of one step, reshaped."""
+
+    def reset(self, grid: HorizonReference) -> None:
+        """Start on the path sampled by ``grid``."""
+
+    def __call__(self, step: HorizonStep, left: float, right: float) -> tuple[float, float]: ...
+
+
+class NoBackingAtStart:
+    """At the start of a forward path (the reference has moved less than 5 cm, and no backward but some forward
+    speed over the horizon), never back up to a start point the vehicle is already past: the reference comes to it
+    (the turn is kept, the backward speed dropped). Before any turn in place the mean speed stays at least
+    ``forward_share`` of the wheels' speed difference, so that a turn towards the path cannot back the centre away
+    from it."""
+
+    def __init__(self, horizon: int, separation_m: float, forward_share: float = START_TURN_FORWARD_SHARE) -> None:
+        self.horizon = horizon
+        self.separation_m = separation_m
+        self.forward_share = forward_share
+        self._turned = np.zeros(1, dtype=np.bool_)
+
+    def reset(self, grid: HorizonReference) -> None:
+        spins = turning_in_place(grid.yaw_rate_rad_s, grid.speed_m_s, self.separation_m)
+        self._turned = np.maximum.accumulate(spins)  # per grid point: turned in place by then
+
+    def _starting_forward(self, step: HorizonStep) -> bool:
+        g, k = step.grid, step.k
+        if not step.on_main_path or g.travel_m[k] >= 0.05:
+            return False
+        ahead = g.speed_m_s[k : k + self.horizon + 1]
+        return bool(np.min(ahead) >= -1e-9 and np.max(ahead) > 1e-6)
+
+    def __call__(self, step: HorizonStep, left: float, right: float) -> tuple[float, float]:
+        if not self._starting_forward(step):
+            return left, right
+        turned = bool(self._turned[min(step.k, len(self._turned) - 1)])
+        least = 0.0 if turned else 0.5 * self.forward_share * abs(right - left)
+        mean = 0.5 * (left + right)
+        if mean < least:
+            return left + least - mean, right + least - mean
+        return left, right
+
+
+class TowardTurningPoint:
+    """Where the reference turns in place, the setpoints without their mean speed if it would carry the vehicle away
+    from the turning point (the turn kept): the path there is the point, so moving away from it moves off the path.
+    Driving along the heading with speed U changes the squared distance to the point at −2U·(distance ahead along
+    the heading), so only a mean speed towards the point is kept."""
+
+    def __init__(self, separation_m: float) -> None:
+        self.separation_m = separation_m
+
+    def reset(self, grid: HorizonReference) -> None:
+        """Nothing to precompute."""
+
+    def __call__(self, step: HorizonStep, left: float, right: float) -> tuple[float, float]:
+        g, k, pose = step.grid, step.k, step.pose
+        if not turning_in_place(float(g.yaw_rate_rad_s[k]), float(g.speed_m_s[k]), self.separation_m):
+            return left, right
+        th = float(pose[2])
+        ahead = math.cos(th) * (float(g.x_m[k]) - float(pose[0])) + math.sin(th) * (float(g.y_m[k]) - float(pose[1]))
+        mean = 0.5 * (left + right)
+        if mean * ahead < 0.0:
+            return left - mean, right - mean
+        return left, right
+
+
+class CommandShaper:
+    """The previous command and everything a command passes after the solver: the rules, the reachable window and
+    the hard limits |s| ≤ v_max, |s − s_prev| ≤ a_lim·T_s (:func:`~agvctl.controllers.mpc.fallback.limit_command`)."""
+
+    def __init__(self, rules: tuple[CommandRule, ...], max_wheel_speed_m_s: float, max_step_m_s: float) -> None:
+        self.rules = rules
+        self.max_wheel_speed_m_s = max_wheel_speed_m_s
+        self.max_step_m_s = max_step_m_s
+        self._previous: FloatArray | None = None
+
+    def reset(self, grid: HorizonReference) -> None:
+        """Start on a new path: the next command starts from the measured wheel speeds."""
+        self._previous = None
+        for rule in self.rules:
+            rule.reset(grid)
+
+    def previous(self, wheel_speed_m_s: FloatArray, window: SetpointWindow | None) -> FloatArray:
+        """The previous command, kept reachable from the wheels (anti-windup); the measured speeds at the first
+        step."""
+        if self._previous is None:
+            self._previous = np.array(wheel_speed_m_s, dtype=np.float64)
+        elif window is not None:
+            u, a_step = self._previous, self.max_step_m_s
+            lo, hi = window.lower_m_s, window.upper_m_s
+            u[0] = min(max(float(u[0]), float(lo[0]) - a_step), float(hi[0]) + a_step)
+            u[1] = min(max(float(u[1]), float(lo[1]) - a_step), float(hi[1]) + a_step)
+        return self._previous
+
+    def __call__(self, step: HorizonStep, left: float, right: float) -> tuple[float, float]:
+        """The command for ``step`` from the setpoints (left, right) the solver or a fallback gave; remembered as
+        the next step's previous command."""
+        for rule in self.rules:
+            left, right = rule(step, left, right)
+        if step.window is not None:
+            lo, hi = step.window.lower_m_s, step.window.upper_m_s
+            left = min(max(left, float(lo[0])), float(hi[0]))
+            right = min(max(right, float(lo[1])), float(hi[1]))
+        u = step.previous_m_s
+        left = limit_command(left, u[0], self.max_wheel_speed_m_s, self.max_step_m_s)
+        right = limit_command(right, u[1], self.max_wheel_speed_m_s, self.max_step_m_s)
+        u[0], u[1] = left, right
+        return left, right
