@@ -1,4 +1,4 @@
-"""Calibration and identification (issue 6): eqs 63-69 as corrected in the ERRATA, and UMBmark.
+"""Calibration and identification: eqs 63-69 as corrected in the ERRATA, and UMBmark.
 
 Expected values come from the physics: the truths the simulated plant is given, the report's 5.46 kg m², the
 steady-state balance k_pow k_t u/R = (k_e k_t/R + f_m) ω + τ_c, and the UMBmark error model's geometry.

@@ -1,4 +1,4 @@
-"""Issue 10: feasible defaults, a saturation-aware cascade and graceful lag, judged on the full closed loop.
+"""Feasible defaults, a saturation-aware cascade and graceful lag, judged on the full closed loop.
 
 Physics behind the checks: a wheel's rim acceleration at I_max is (k_t I_max − τ_c)/J_tot · r/N (eq 5), so a
 plant 30 % heavier with 50 % more Coulomb friction cannot follow the default plan's acceleration; the vehicle must

@@ -252,7 +252,7 @@ PATH_DOCS = [_read(p) for p in TRAJECTORIES]
 
 
 PATH_REGRESSIONS = [
-    {"segments": [{"type": "line", "length_m": 1e12}]},  # issue 9: Ruckig raised inside plan
+    {"segments": [{"type": "line", "length_m": 1e12}]},  # Ruckig must not raise inside plan
     {"segments": [{"type": "line", "length_m": 1e8}]},
     {"segments": [{"type": "line", "length_m": 1e6}]},  # plannable, but a reference of twelve days
     {"segments": [{"type": "turn", "angle_deg": 1e10}]},
@@ -526,8 +526,8 @@ def test_help_and_version() -> None:
 
 # Cases the properties found (st.data() tests take no @example): each must end in exit 2 and one line.
 REGRESSIONS = {
-    "issue 9: a path segment of 1e12 m": ["plan", "{d}/p.toml", "--out", "{d}/ref.csv"],
-    "issue 9: run --out naming an existing file": [
+    "a path segment of 1e12 m": ["plan", "{d}/p.toml", "--out", "{d}/ref.csv"],
+    "run --out naming an existing file": [
         "run",
         str(ROOT / "experiments" / "line.toml"),
         "--out",

@@ -28,7 +28,7 @@ from agvctl.sim.wheel_step import WheelStepResult, wheel_step_response
 __all__ = ["register", "run", "summary"]
 
 STEP_M_S = 0.3
-"""The verification step: a 0.3 m/s wheel-speed step on both wheels (issue 4)."""
+"""The verification step: a 0.3 m/s wheel-speed step on both wheels."""
 _FLAGS = {
     "phase_margin_deg": "--phase-margin",
     "gain_margin_db": "--gain-margin",

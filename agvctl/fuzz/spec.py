@@ -79,7 +79,7 @@ DEFAULT_ENVELOPE: dict[str, Range] = {
     "motor.right.coulomb_friction_n_m": (-0.5, 0.5),
     "motor.right.stiction_n_m": (-0.5, 0.5),
 }
-"""The plant envelope of issue 10: each value drawn uniformly in nominal · (1 + [low, high]), each side on its own
+"""The declared plant envelope: each value drawn uniformly in nominal · (1 + [low, high]), each side on its own
 (the generator keeps stiction ≥ Coulomb friction, see :mod:`agvctl.fuzz.generate`)."""
 
 DEFAULT_FUZZ_LIMITS: dict[str, float] = {
@@ -87,7 +87,7 @@ DEFAULT_FUZZ_LIMITS: dict[str, float] = {
     "final_position_error_m": 0.02,
     "path_heading_error_max_deg": 90.0,
 }
-"""The pass criteria of issue 10: on the path within 10 cm, at its end within 2 cm, never turned around."""
+"""The default pass criteria: on the path within 10 cm, at its end within 2 cm, never turned around."""
 
 
 def _ordered(

@@ -278,6 +278,12 @@ def _control_row(
 ) -> _ControlRow:
     """One sample's record."""
     x, y, theta = np.asarray(est, dtype=np.float64).tolist()
+    sp_l, sp_r = setpoint.tolist()
+    spm_l, spm_r = sp_motor.tolist()
+    da_l, da_r = da_cmd.tolist()
+    angle_l, angle_r = angle.tolist()
+    omega_l, omega_r = omega.tolist()
+    count_l, count_r = counts.tolist()
     fix = meas.fixes[-1].pose if meas.fixes else (math.nan, math.nan, math.nan)
     fix_t = meas.fixes[-1].measured_t_s if meas.fixes else math.nan
     sigma_x, sigma_y, sigma_theta, nees, nis = checks
@@ -285,20 +291,20 @@ def _control_row(
         est_x_m=x,
         est_y_m=y,
         est_theta_rad=theta,
-        setpoint_wheel_speed_left_m_s=float(setpoint[0]),
-        setpoint_wheel_speed_right_m_s=float(setpoint[1]),
-        setpoint_omega_motor_left_rad_s=float(sp_motor[0]),
-        setpoint_omega_motor_right_rad_s=float(sp_motor[1]),
-        da_command_left_v=float(da_cmd[0]),
-        da_command_right_v=float(da_cmd[1]),
+        setpoint_wheel_speed_left_m_s=sp_l,
+        setpoint_wheel_speed_right_m_s=sp_r,
+        setpoint_omega_motor_left_rad_s=spm_l,
+        setpoint_omega_motor_right_rad_s=spm_r,
+        da_command_left_v=da_l,
+        da_command_right_v=da_r,
         solve_time_s=solve_s,
         solver_status=float(status),
-        motor_angle_left_rad=float(angle[0]),
-        motor_angle_right_rad=float(angle[1]),
-        measured_omega_motor_left_rad_s=float(omega[0]),
-        measured_omega_motor_right_rad_s=float(omega[1]),
-        encoder_count_left=float(counts[0]),
-        encoder_count_right=float(counts[1]),
+        motor_angle_left_rad=angle_l,
+        motor_angle_right_rad=angle_r,
+        measured_omega_motor_left_rad_s=omega_l,
+        measured_omega_motor_right_rad_s=omega_r,
+        encoder_count_left=float(count_l),
+        encoder_count_right=float(count_r),
         gyro_rate_rad_s=meas.gyro_rate_rad_s,
         fix_x_m=float(fix[0]),
         fix_y_m=float(fix[1]),

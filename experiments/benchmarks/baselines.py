@@ -3,7 +3,7 @@
 Each pose controller drops into the same cascade (the experiment's PI wheel loops, DA/amplifier, full plant) on:
 
 - the shipped ``figure8`` and ``figure8_offpath`` experiments;
-- issue 10's untuned scenario: a short line (0.3 m), two opposite 35° arcs (radius 2 m) and a full circle
+- an untuned scenario: a short line (0.3 m), two opposite 35° arcs (radius 2 m) and a full circle
   (radius 1 m) at the default (physical) limits, the vehicle starting 3 cm / 2° off and the true right wheel
   0.8 % larger than the controller thinks (written to a temporary directory as a path and an experiment file).
 
@@ -35,7 +35,7 @@ from agvctl.scenario.experiment import load_experiment, run_experiment
 SHIPPED = Path(__file__).resolve().parents[1]
 
 ISSUE10_PATH = """\
-# issue 10: a short line, two opposite 35° arcs and a full circle, no [limits] (the defaults)
+# an untuned scenario: a short line, two opposite 35° arcs and a full circle, no [limits] (the defaults)
 name = "issue10-line-arcs-circle"
 [[segments]]
 type = "line"

@@ -71,7 +71,7 @@ def main() -> int:
     )
     print(
         f"  MPC whole step                             median {p50:.3f} ms   p99 {p99:.3f} ms   "
-        f"(goals: median <= 0.3 ms (issue 10), p99 <= 2 ms; median over runs)"
+        f"(goals: median <= 0.3 ms, p99 <= 2 ms; median over runs)"
     )
     print(
         f"  tracking                                   rms {m0['tracking_error_rms_m'] * 1e3:.2f} mm   "

@@ -1,7 +1,7 @@
-"""Benchmark of the scenario fuzzer: issue 10's 500 scenarios on local worker processes.
+"""Benchmark of the scenario fuzzer: the acceptance run's 500 scenarios on local worker processes.
 
 Runs ``experiments/fuzz/acceptance.toml`` (500 scenarios; by default only its first controller, the default pose
-controller, as issue 10's speed goal counts) through :func:`agvctl.fuzz.run.fuzz` with ``--jobs`` spawned worker
+controller, as the speed goal counts) through :func:`agvctl.fuzz.run.fuzz` with ``--jobs`` spawned worker
 processes, and prints the wall time, scenarios/s and runs/s, the simulated time per wall second, and where a run's
 time goes (the per-run wall time spent in the workers). Goal: the 500 scenarios in ≤ 4 min with 2 jobs on a
 2-core machine.

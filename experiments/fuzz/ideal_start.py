@@ -1,7 +1,7 @@
 """How far the default controller's start transient is from an ideal one, on the acceptance fuzz scenarios.
 
 Over the 500 acceptance scenarios the MPC's RMS tracking error is decided in the first seconds, while it removes a
-start offset of up to 5 cm and 5° (issue 10). This script bounds what any controller could do there. For every
+start offset of up to 5 cm and 5°. This script bounds what any controller could do there. For every
 ``--every``-th scenario it runs the default controller, then solves an optimal control problem (CasADi, IPOPT): the
 unicycle of eqs 39-43 from the same start pose at rest, its wheel accelerations free within ±``--accel`` (eq 5's
 a_lim by default; the lightest, least frictional plant of the envelope reaches about 1.0 m/s², so ``--accel 1.2``
