@@ -37,7 +37,6 @@ from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
 from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
 from agvctl.controllers.mpc.ltv_qp import QpLayout, constraint_pattern, cost_matrix
 from agvctl.controllers.mpc.matrix_exponential import expm_batch
-from agvctl.controllers.mpc.osqp_steps import solver_steps
 from agvctl.controllers.mpc.shaping import HorizonStep, SetpointWindow
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
@@ -119,7 +118,6 @@ class LtvMpcController(MpcStepper):
 
         A, self._pos_A, self._pos_B = constraint_pattern(layout)
         self._A_data = A.data.copy()
-        self._A_loaded = b""  # the bytes of the values OSQP holds (none yet)
         self._heading_lin = 0.0
         # the entries (position rows, wheel-speed columns) of A_1 … A_{N−1}: where driving with the present heading
         # error shows in the position error (see _solve), ordered by k, row, column
@@ -140,7 +138,10 @@ class LtvMpcController(MpcStepper):
         columns = (np.arange(N)[:, None] * nx + np.arange(2)[None, :]).ravel()
         self._pos_P_position = P.indptr[columns].astype(np.int64)
         assert np.array_equal(P.indices[self._pos_P_position], columns)
-        self._P_loaded = P.data.tobytes()
+        # the entries that vary from step to step, and the values OSQP holds of them (none yet: NaN differs from all)
+        self._A_varying = np.unique(np.concatenate([self._pos_A, self._pos_B])).astype(np.int64)
+        self._A_held = np.full(self._A_varying.size, np.nan)
+        self._P_held = np.full(self._pos_P_position.size, np.nan)
         self._q = np.zeros(n_z)
         self._l = np.zeros(n_rows)
         self._u = np.zeros(n_rows)
@@ -167,7 +168,6 @@ class LtvMpcController(MpcStepper):
             },
         )
         # at rest the problem above is the zero problem: A's varying entries are set at reset
-        self._steps = solver_steps(self._solver)
 
     def _precompute(self, g: HorizonReference) -> None:
         """The discrete A_j, B_j of every interval of the reference, and the bound/cost data as flat arrays so
@@ -335,13 +335,13 @@ class LtvMpcController(MpcStepper):
         qu[:-1] -= r[1:]
         qu *= 2.0 * c.weight_input_rate
 
-        solver = self._steps
-        solver.update_data_vec(q=q, l=lo, u=hi)
+        solver = self._solver
+        solver.update(q=q, l=lo, u=hi)
         self._load_matrices(k)
-        solver.solve()
-        z = solver.solution.x
-        if solver.info.status_val not in _ACCEPTED or not math.isfinite(float(z.sum())):
-            solver.warm_start(self._zeros_z, self._zeros_y)  # do not start the next solve from garbage
+        result = solver.solve(raise_error=False)
+        z = result.x
+        if result.info.status_val not in _ACCEPTED or not math.isfinite(float(z.sum())):
+            solver.warm_start(x=self._zeros_z, y=self._zeros_y)  # do not start the next solve from garbage
             return None
         seq = g.feedforward_m_s[k : k + N] + z[iU:iS].reshape(N, 2)
         np.minimum(seq, v_max, out=seq)
@@ -372,17 +372,20 @@ class LtvMpcController(MpcStepper):
             hi[rc : rc + 2 * (N - 1)] = _INF
 
     def _load_matrices(self, k: int) -> None:
-        """Give OSQP this step's P (the position weights of the window) and A (set in ``_A_data`` by the step),
-        only where they changed: an unchanged pair keeps OSQP's factorisation, about a third of a step."""
+        """Give OSQP this step's varying entries of P (the position weights of the window) and of A (set in
+        ``_A_data`` by the step), only when they changed: an unchanged pair keeps OSQP's factorisation, which on a
+        straight or a constant arc is most steps."""
         N, p_data = self.config.horizon, self._P_data
         p_data[self._pos_P_position] = (self._position_weights[k + 1 : k + N + 1] * self._horizon_scale).ravel()
-        loaded_p, loaded_a = p_data.tobytes(), self._A_data.tobytes()
-        if loaded_p == self._P_loaded and loaded_a == self._A_loaded:
+        p_new, a_new = p_data[self._pos_P_position], self._A_data[self._A_varying]
+        p_changed, a_changed = not np.array_equal(p_new, self._P_held), not np.array_equal(a_new, self._A_held)
+        if not (p_changed or a_changed):
             return
-        self._steps.update_data_mat(
-            P_x=p_data if loaded_p != self._P_loaded else None,
-            P_i=None,
-            A_x=self._A_data if loaded_a != self._A_loaded else None,
-            A_i=None,
-        )
-        self._P_loaded, self._A_loaded = loaded_p, loaded_a
+        update: dict[str, FloatArray | NDArray[np.int64]] = {}
+        if p_changed:
+            update.update(Px=p_new, Px_idx=self._pos_P_position)
+            self._P_held = p_new
+        if a_changed:
+            update.update(Ax=a_new, Ax_idx=self._A_varying)
+            self._A_held = a_new
+        self._solver.update(**update)

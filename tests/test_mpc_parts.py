@@ -1,0 +1,272 @@
+"""The MPC's parts, each against its contract: the reference governor, the reachable-setpoint window, the rules of
+motion and the command shaper, the end-of-path supervisor with its docking planner, and the QP's layout."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from agvctl.controllers.mpc.config import MpcConfig, lead_factor_s, resolved_config
+from agvctl.controllers.mpc.docking import Docking, DockingConfig, EndOfPath
+from agvctl.controllers.mpc.governor import ReferenceGovernor
+from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
+from agvctl.controllers.mpc.ltv_qp import QpLayout, constraint_pattern, cost_matrix
+from agvctl.controllers.mpc.shaping import (
+    CommandShaper,
+    HorizonStep,
+    NoBackingAtStart,
+    ReachWindow,
+    SetpointWindow,
+    TowardTurningPoint,
+)
+from agvctl.feasibility import WheelReach
+from agvctl.params import VehicleParams
+from agvctl.planning import PathLimits, PathSpec, plan
+from agvctl.planning.reference import Reference
+from agvctl.planning.spec import LineSegment, TurnSegment
+
+CONFIG = resolved_config(MpcConfig())
+
+
+@pytest.fixture(scope="module")
+def straight(vehicle: VehicleParams) -> Reference:
+    """A 2 m line from the origin along x."""
+    return plan(PathSpec(segments=(LineSegment(length_m=2.0),), name="straight"), vehicle)
+
+
+@pytest.fixture(scope="module")
+def turn(vehicle: VehicleParams) -> Reference:
+    """A quarter turn in place at the origin."""
+    return plan(PathSpec(segments=(TurnSegment(angle_deg=90.0),), name="turn"), vehicle)
+
+
+def grid_of(reference: Reference, vehicle: VehicleParams) -> HorizonReference:
+    return HorizonReference(reference, CONFIG, vehicle.control.sample_period_s)
+
+
+def on_reference(grid: HorizonReference, k: int) -> np.ndarray:
+    return np.array([grid.x_m[k], grid.y_m[k], grid.theta_rad[k]])
+
+
+# -- the reference governor ------------------------------------------------------------------------------------
+
+
+def test_governed_clock_is_the_loops_clock_while_the_vehicle_keeps_up(
+    straight: Reference, vehicle: VehicleParams
+) -> None:
+    T = vehicle.control.sample_period_s
+    grid = grid_of(straight, vehicle)
+    governor = ReferenceGovernor(CONFIG, vehicle.wheels.separation_m)
+    for n in range(40):
+        k = governor.advance(grid, n * T, on_reference(grid, n + 1))  # the vehicle a sample ahead: no lag
+        assert k == n and governor.fraction == 0.0
+
+
+def test_governed_clock_waits_for_a_vehicle_beyond_the_stop_lag(straight: Reference, vehicle: VehicleParams) -> None:
+    T = vehicle.control.sample_period_s
+    grid = grid_of(straight, vehicle)
+    governor = ReferenceGovernor(CONFIG, vehicle.wheels.separation_m)
+    start = np.zeros(3)  # the vehicle never leaves the start
+    clocks = [governor.advance(grid, n * T, start) + governor.fraction for n in range(100)]
+    assert clocks[-1] - clocks[-2] < 1e-6 and clocks[-1] < 50  # held, far behind t/T_s = 99
+    lag_at_hold = governor.lag_m(grid, clocks[-1] + 1.0, start)
+    assert lag_at_hold == pytest.approx(CONFIG.governor_lag_stop_m, abs=1e-3)  # where the lag reaches the stop
+
+
+def test_governed_clock_catches_up_but_never_runs_ahead(straight: Reference, vehicle: VehicleParams) -> None:
+    T = vehicle.control.sample_period_s
+    grid = grid_of(straight, vehicle)
+    governor = ReferenceGovernor(CONFIG, vehicle.wheels.separation_m)
+    for n in range(30):  # held at the start
+        governor.advance(grid, n * T, np.zeros(3))
+    behind = governor.clock
+    steps = []
+    for n in range(30, 200):  # the vehicle teleported onto the reference point ahead of the clock: no lag
+        before = governor.clock
+        governor.advance(grid, n * T, on_reference(grid, min(int(before) + 2, grid.n_points - 1)))
+        steps.append(governor.clock - before)
+        assert governor.clock <= grid.window_start(n * T)
+    assert behind < 30 and max(steps) == pytest.approx(CONFIG.governor_catch_up)
+    assert governor.clock == grid.window_start(199 * T)  # caught up
+
+
+def test_governor_off_is_the_loops_clock(straight: Reference, vehicle: VehicleParams) -> None:
+    T = vehicle.control.sample_period_s
+    grid = grid_of(straight, vehicle)
+    governor = ReferenceGovernor(resolved_config(MpcConfig(reference_governor=False)), vehicle.wheels.separation_m)
+    assert [governor.advance(grid, n * T, np.zeros(3)) for n in range(50)] == list(range(50))
+
+
+def test_lag_in_a_turn_in_place_is_the_heading_lag_as_wheel_arc(turn: Reference, vehicle: VehicleParams) -> None:
+    grid = grid_of(turn, vehicle)
+    governor = ReferenceGovernor(CONFIG, vehicle.wheels.separation_m)
+    k = int(np.argmax(np.abs(grid.yaw_rate_rad_s)))
+    assert turning_in_place(float(grid.yaw_rate_rad_s[k]), float(grid.speed_m_s[k]), vehicle.wheels.separation_m)
+    lagging = on_reference(grid, k) - np.array([0.0, 0.0, 0.1])  # 0.1 rad behind a turn to the left
+    assert governor.lag_m(grid, float(k), lagging) == pytest.approx(0.1 * vehicle.wheels.separation_m / 2)
+    off_point = on_reference(grid, k) + np.array([0.05, 0.0, 0.0])
+    assert governor.lag_m(grid, float(k), off_point) == pytest.approx(0.05)
+
+
+# -- the reachable-setpoint window and the command shaper -------------------------------------------------------
+
+
+def reach_window(vehicle: VehicleParams) -> ReachWindow:
+    T = vehicle.control.sample_period_s
+    return ReachWindow(WheelReach(vehicle), lead_factor_s(CONFIG, T), 0.6)
+
+
+def test_reach_window_holds_the_measured_speed_and_leads_by_what_the_wheel_can_reach(vehicle: VehicleParams) -> None:
+    window = reach_window(vehicle)
+    speeds = np.array([0.2, -0.1])
+    w = window(speeds)
+    assert w is not None
+    assert np.all(w.lower_m_s < speeds) and np.all(speeds < w.upper_m_s)
+    np.testing.assert_allclose(w.upper_m_s - speeds, w.lead_up_m_s)
+    np.testing.assert_allclose(speeds - w.lower_m_s, w.lead_down_m_s)
+    up_l, up_r, down_l, down_r = WheelReach(vehicle).accel_pair_m_s2(0.2, -0.1)
+    factor = lead_factor_s(CONFIG, vehicle.control.sample_period_s)
+    np.testing.assert_allclose(w.lead_up_m_s, [up_l * factor, up_r * factor])
+    np.testing.assert_allclose(w.lead_down_m_s, [down_l * factor, down_r * factor])
+
+
+def test_reach_window_meets_the_speed_box_from_beyond_it_and_refuses_a_broken_measurement(
+    vehicle: VehicleParams,
+) -> None:
+    window = reach_window(vehicle)
+    w = window(np.array([3.0, -3.0]))  # far beyond the 0.6 m/s box
+    assert w is not None and w.lower_m_s[0] <= 0.6 and w.upper_m_s[1] >= -0.6
+    assert window(np.array([math.nan, 0.0])) is None
+    assert window(np.array([0.0, math.inf])) is None
+
+
+def step_on(grid: HorizonReference, k: int, pose: np.ndarray, window: SetpointWindow | None = None) -> HorizonStep:
+    return HorizonStep(grid, k, 0.0, pose, np.zeros(2), window, np.zeros(2), on_main_path=True)
+
+
+def test_no_backing_at_start_keeps_a_forward_mean_and_only_at_the_start(
+    straight: Reference, vehicle: VehicleParams
+) -> None:
+    grid = grid_of(straight, vehicle)
+    rule = NoBackingAtStart(CONFIG.horizon, vehicle.wheels.separation_m, forward_share=0.1)
+    rule.reset(grid)
+    left, right = rule(step_on(grid, 0, np.zeros(3)), -0.2, 0.1)  # backing while turning left
+    assert right - left == pytest.approx(0.3)  # the turn kept
+    assert 0.5 * (left + right) == pytest.approx(0.5 * 0.1 * 0.3)  # the mean raised to the forward share
+    assert rule(step_on(grid, 0, np.zeros(3)), 0.3, 0.4) == (0.3, 0.4)  # forward already: untouched
+    far = int(np.argmax(grid.travel_m > 0.5))
+    assert rule(step_on(grid, far, on_reference(grid, far)), -0.2, 0.1) == (-0.2, 0.1)  # past the start
+    docking = HorizonStep(grid, 0, 0.0, np.zeros(3), np.zeros(2), None, np.zeros(2), on_main_path=False)
+    assert rule(docking, -0.2, 0.1) == (-0.2, 0.1)  # a docking manoeuvre may back up
+
+
+def test_toward_turning_point_drops_only_a_mean_speed_away_from_it(turn: Reference, vehicle: VehicleParams) -> None:
+    grid = grid_of(turn, vehicle)
+    rule = TowardTurningPoint(vehicle.wheels.separation_m)
+    k = int(np.argmax(np.abs(grid.yaw_rate_rad_s)))
+    point = on_reference(grid, k)
+    heading = np.array([math.cos(point[2]), math.sin(point[2]), 0.0])
+    beyond = point + 0.05 * heading  # past the point along the heading: forward carries it further away
+    assert rule(step_on(grid, k, beyond), -0.1, 0.3) == pytest.approx((-0.2, 0.2))
+    assert rule(step_on(grid, k, beyond), -0.3, 0.1) == (-0.3, 0.1)  # backward brings it back: kept
+    short = point - 0.05 * heading
+    assert rule(step_on(grid, k, short), -0.1, 0.3) == (-0.1, 0.3)
+
+
+def test_command_shaper_applies_window_and_rate_limit_and_remembers_the_command(
+    straight: Reference, vehicle: VehicleParams
+) -> None:
+    grid = grid_of(straight, vehicle)
+    shaper = CommandShaper((), max_wheel_speed_m_s=0.6, max_step_m_s=0.02)
+    shaper.reset(grid)
+    window = SetpointWindow(np.array([-0.05, -0.05]), np.array([0.05, 0.01]), np.full(2, 0.05), np.full(2, 0.05))
+    previous = shaper.previous(np.zeros(2), window)
+    step = HorizonStep(grid, 0, 0.0, np.zeros(3), np.zeros(2), window, previous, on_main_path=True)
+    left, right = shaper(step, 0.5, 0.5)
+    assert left == pytest.approx(0.02)  # the rate limit binds first
+    assert right == pytest.approx(0.01)  # the window binds first
+    np.testing.assert_allclose(shaper.previous(np.zeros(2), window), [0.02, 0.01])
+    far_window = SetpointWindow(np.array([0.3, 0.3]), np.array([0.4, 0.4]), np.full(2, 0.05), np.full(2, 0.05))
+    np.testing.assert_allclose(shaper.previous(np.full(2, 0.35), far_window), [0.28, 0.28])  # pulled to reach
+
+
+# -- the end of the path and docking ---------------------------------------------------------------------------
+
+
+def test_end_of_path_is_done_on_the_end_and_docks_from_beside_it(straight: Reference, vehicle: VehicleParams) -> None:
+    T = vehicle.control.sample_period_s
+    end = EndOfPath(Docking(vehicle, DockingConfig()), T)
+    end.reset(straight)
+    final = straight.final_pose
+    on_end = np.array([final.x_m, final.y_m, final.theta_rad])
+    assert end.after_step(1.0, 1.0, on_end, np.zeros(2)) is None and not end.done  # the path goes on
+    assert end.after_step(9.0, straight.duration_s, on_end, np.zeros(2)) is None and end.done
+    end.reset(straight)
+    beside = on_end + np.array([0.0, 0.02, 0.0])  # 2 cm to the left of the end, at rest
+    assert end.after_step(9.0, straight.duration_s, beside, np.array([0.05, 0.05])) is None  # moving: wait
+    manoeuvre = end.after_step(9.0, straight.duration_s, beside, np.zeros(2))
+    assert manoeuvre is not None and not end.done and not end.on_path
+    assert end.time_offset_s == pytest.approx(9.0 + T)
+    last = manoeuvre.final_pose
+    assert math.hypot(last.x_m - final.x_m, last.y_m - final.y_m) < 1e-9  # it ends at the path's end
+    lengths = manoeuvre.sample([manoeuvre.duration_s]).path_length_m
+    assert 0.3 <= lengths[0] <= 1.0  # back 20·e ≥ 0.15 m and in again
+
+
+def test_docking_is_off_when_disabled_and_stops_after_its_attempts(straight: Reference, vehicle: VehicleParams) -> None:
+    final = straight.final_pose
+    beside = np.array([final.x_m, final.y_m + 0.02, final.theta_rad])
+    off = EndOfPath(Docking(vehicle, DockingConfig(enabled=False)), 0.04)
+    off.reset(straight)
+    assert off.after_step(9.0, straight.duration_s, beside, np.zeros(2)) is None and off.done
+    docking = Docking(vehicle, DockingConfig(attempts=1))
+    docking.reset(straight)
+    assert docking.plan(beside) is not None
+    assert docking.plan(beside) is None and not docking.needed(beside)
+
+
+def test_docking_backs_up_no_further_than_a_curved_end_allows(vehicle: VehicleParams) -> None:
+    from agvctl.planning.spec import ArcSegment
+
+    arc = plan(
+        PathSpec(
+            segments=(LineSegment(length_m=0.5), ArcSegment(radius_m=0.5, angle_deg=90.0)),
+            name="bend",
+            limits=PathLimits(wheel_speed_m_s=0.3, wheel_accel_m_s2=0.5),
+        ),
+        vehicle,
+    )
+    config = DockingConfig(max_deviation_m=0.01)
+    docking = Docking(vehicle, config)
+    docking.reset(arc)
+    final = arc.final_pose
+    normal = np.array([-math.sin(final.theta_rad), math.cos(final.theta_rad), 0.0])
+    manoeuvre = docking.plan(np.array([final.x_m, final.y_m, final.theta_rad]) + 0.02 * normal)
+    assert manoeuvre is not None
+    back_m = 0.5 * float(manoeuvre.sample([manoeuvre.duration_s]).path_length_m[0])
+    assert back_m <= math.sqrt(2.0 * config.max_deviation_m * 2.0) + 1e-9  # L ≤ √(2δ/|κ|), κ = 2 1/m
+
+
+# -- the QP ----------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("wheel_loop", [False, True])
+def test_qp_layout_rows_follow_the_variables_and_the_matrices_fit_it(wheel_loop: bool) -> None:
+    N, nx = 6, (5 if wheel_loop else 3)
+    layout = QpLayout(horizon=N, n_states=nx, wheel_loop=wheel_loop)
+    assert layout.n_variables == N * nx + 2 * N
+    expected_rows = N * nx + 2 * N + 2 * (N - 1) + 2 + (2 * (N - 1) if wheel_loop else 0)
+    assert layout.n_rows == expected_rows
+    A, pos_A, pos_B = constraint_pattern(layout)
+    assert A.shape == (layout.n_rows, layout.n_variables)
+    assert pos_A.size == (N - 1) * nx * nx and pos_B.size == N * nx * 2
+    assert np.all(A.data[pos_B] == 1.0) and np.all(A.data[pos_A] == 0.0)  # placeholders of −B_k and −A_k
+    assert len(set(pos_A) | set(pos_B)) == pos_A.size + pos_B.size
+    P = cost_matrix(resolved_config(MpcConfig(horizon=N)), layout)
+    assert P.shape == (layout.n_variables, layout.n_variables)
+    assert sp.tril(P, k=-1).nnz == 0  # upper triangle, as OSQP takes it
+    full = (P + sp.triu(P, k=1).T).toarray()
+    assert np.all(np.linalg.eigvalsh(full) > -1e-12)  # convex
