@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -71,16 +72,45 @@ def _save(fig: Any, path: Path) -> None:
 def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | Path, title: str = "") -> list[Path]:
     """Write the closed-loop figures of :data:`CLOSED_LOOP_PLOTS` into ``out_dir``; returns their paths."""
     out = Path(out_dir)
-    t = log["t_s"]
+    figures: list[tuple[str, Callable[[], Any]]] = [
+        ("path.png", lambda: _path_figure(log)),
+        ("tracking_error.png", lambda: _tracking_error_figure(log)),
+        ("path_error.png", lambda: _path_error_figure(log)),
+        ("wheel_speeds.png", lambda: _wheel_speed_figure(log)),
+        ("da.png", lambda: _da_figure(log, vehicle)),
+        (
+            "currents.png",
+            lambda: _both_sides_figure(
+                log, "current_{side}_a", vehicle.amplifier.current_limit_a, "limit", "armature current [A]"
+            ),
+        ),
+        (
+            "wheel_accel.png",
+            lambda: _both_sides_figure(
+                log,
+                "wheel_accel_{side}_m_s2",
+                vehicle.derived.accel_limit_m_s2,
+                "a_lim (eq 5)",
+                "wheel acceleration [m/s²]",
+            ),
+        ),
+        ("solve_time.png", lambda: _solve_time_figure(log)),
+    ]
+    if np.any(np.isfinite(log["est_sigma_x_m"])):
+        figures.append(("estimate.png", lambda: _estimate_figure(log)))
     written: list[Path] = []
-
-    def finish(fig: Any, name: str) -> None:
+    for name, build in figures:
+        fig = build()
         if title:
             fig.suptitle(title)
         fig.tight_layout()
         _save(fig, out / name)
         written.append(out / name)
+    return written
 
+
+def _path_figure(log: SimLog) -> Any:
+    """The vehicle's path (and its estimate, where it differs) against the reference."""
     fig, ax = _subplots(figsize=(6.5, 6))
     ax.plot(log["ref_x_m"], log["ref_y_m"], "k--", lw=1, label="reference")
     ax.plot(log["x_m"], log["y_m"], "C0", lw=1.5, label="vehicle (true)")
@@ -90,8 +120,12 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
     ax.set(xlabel="x [m]", ylabel="y [m]", aspect="equal", title="path")
     ax.legend(loc="best")
     ax.grid(alpha=0.3)
-    finish(fig, "path.png")
+    return fig
 
+
+def _tracking_error_figure(log: SimLog) -> Any:
+    """Position and heading error against the time-indexed reference."""
+    t = log["t_s"]
     fig, (a1, a2) = _subplots(2, 1, figsize=(8, 5), sharex=True)
     a1.plot(t, log["position_error_m"] * 100, "C3")
     a1.set(ylabel="position error [cm]")
@@ -99,9 +133,12 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
     a2.set(xlabel="t [s]", ylabel="heading error [°]")
     for a in (a1, a2):
         a.grid(alpha=0.3)
-    finish(fig, "tracking_error.png")
-    finish(_path_error_figure(log), "path_error.png")
+    return fig
 
+
+def _wheel_speed_figure(log: SimLog) -> Any:
+    """Each wheel's reference, setpoint and measured speed."""
+    t = log["t_s"]
     fig, axes = _subplots(2, 1, figsize=(8, 5), sharex=True)
     for a, side in zip(axes, ("left", "right"), strict=True):
         a.plot(t, log[f"ref_wheel_speed_{side}_m_s"], "k--", lw=1, label="reference")
@@ -111,8 +148,12 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
         a.grid(alpha=0.3)
     axes[0].legend(loc="best", fontsize=8)
     axes[-1].set(xlabel="t [s]")
-    finish(fig, "wheel_speeds.png")
+    return fig
 
+
+def _da_figure(log: SimLog, vehicle: VehicleParams) -> Any:
+    """The DA converter's output voltages and codes against its range."""
+    t = log["t_s"]
     fig, (a1, a2) = _subplots(2, 1, figsize=(8, 5), sharex=True)
     alpha = vehicle.da.volts_per_code
     for side, c in (("left", "C0"), ("right", "C1")):
@@ -128,30 +169,25 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
     a1.set(ylabel="DA output [V]")
     a2.set(ylabel="DA code", xlabel="t [s]")
     a1.legend(loc="best", fontsize=8)
-    finish(fig, "da.png")
+    return fig
 
-    def both_sides_against(column: str, bound: float, bound_label: str, ylabel: str, name: str) -> None:
-        fig, ax = _subplots(figsize=(8, 3.5))
-        for side, c in (("left", "C0"), ("right", "C1")):
-            ax.plot(t, log[column.format(side=side)], color=c, lw=1, label=side)
-        ax.axhline(bound, color="r", ls=":", lw=1, label=bound_label)
-        ax.axhline(-bound, color="r", ls=":", lw=1)
-        ax.set(xlabel="t [s]", ylabel=ylabel)
-        ax.legend(loc="best", fontsize=8)
-        ax.grid(alpha=0.3)
-        finish(fig, name)
 
-    both_sides_against(
-        "current_{side}_a", vehicle.amplifier.current_limit_a, "limit", "armature current [A]", "currents.png"
-    )
-    both_sides_against(
-        "wheel_accel_{side}_m_s2",
-        vehicle.derived.accel_limit_m_s2,
-        "a_lim (eq 5)",
-        "wheel acceleration [m/s²]",
-        "wheel_accel.png",
-    )
+def _both_sides_figure(log: SimLog, column: str, bound: float, bound_label: str, ylabel: str) -> Any:
+    """``column`` (with ``{side}``) for both wheels against ±``bound``."""
+    t = log["t_s"]
+    fig, ax = _subplots(figsize=(8, 3.5))
+    for side, c in (("left", "C0"), ("right", "C1")):
+        ax.plot(t, log[column.format(side=side)], color=c, lw=1, label=side)
+    ax.axhline(bound, color="r", ls=":", lw=1, label=bound_label)
+    ax.axhline(-bound, color="r", ls=":", lw=1)
+    ax.set(xlabel="t [s]", ylabel=ylabel)
+    ax.legend(loc="best", fontsize=8)
+    ax.grid(alpha=0.3)
+    return fig
 
+
+def _solve_time_figure(log: SimLog) -> Any:
+    """The pose controller's step times: their histogram, median and 99th percentile."""
     fig, ax = _subplots(figsize=(6, 3.5))
     ms = log["solve_time_s"][:-1] * 1e3
     ax.hist(ms, bins=50, color="C0")
@@ -160,10 +196,7 @@ def save_closed_loop_plots(log: SimLog, vehicle: VehicleParams, out_dir: str | P
     ax.axvline(p99, color="r", ls="--", lw=1, label=f"p99 {p99:.2f} ms")
     ax.set(xlabel="pose-controller step time [ms]", ylabel="samples")
     ax.legend(loc="best", fontsize=8)
-    finish(fig, "solve_time.png")
-    if np.any(np.isfinite(log["est_sigma_x_m"])):
-        finish(_estimate_figure(log), "estimate.png")
-    return written
+    return fig
 
 
 def _path_error_figure(log: SimLog) -> Any:

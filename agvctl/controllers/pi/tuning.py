@@ -282,6 +282,65 @@ def _spec_excess(
     return best
 
 
+_Candidate = tuple[PIGains, LoopMargins, LoopMargins]
+
+
+def _candidate(
+    plants: tuple[control.TransferFunction, ...],
+    chain: float,
+    wc: float,
+    pm_design: float,
+    ts: float,
+    spec: TuningSpec,
+    grid: int,
+) -> _Candidate | None:
+    """A PI with crossover ``wc`` meeting ``spec`` on both wheels' models (the fastest worst-side crossover of the
+    designs on each side), or None."""
+    best = None
+    for plant in plants:  # design on each side's model, keep one that suits both
+        gains = _pi_for_crossover(plant, chain, wc, pm_design, ts)
+        if gains is None:
+            continue
+        m = [loop_margins(*loop_polynomials(gains, p, chain), ts, grid_points=grid) for p in plants]
+        meets = all(x.phase_margin_deg >= spec.phase_margin_deg and x.gain_margin_db >= spec.gain_margin_db for x in m)
+        if meets and (best is None or min(x.crossover_rad_s for x in m) > min(x.crossover_rad_s for x in best[1:])):
+            best = (gains, m[0], m[1])
+    return best
+
+
+def _fastest_crossover(
+    plants: tuple[control.TransferFunction, ...], chain: float, pm_design: float, ts: float, spec: TuningSpec
+) -> float:
+    """The fastest crossover at which a PI meets ``spec`` on both wheels: a log-spaced scan, then Brent's method
+    between the last feasible point and the next. Raises :class:`ConfigError` when none does."""
+    w_nyq = math.pi / ts
+    scan = np.geomspace(w_nyq * 1e-4, w_nyq * (1 - 1e-6), 160)
+    feasible = [
+        _candidate(plants, chain, float(wc), pm_design, ts, spec, _SEARCH_GRID_POINTS) is not None for wc in scan
+    ]
+    if not any(feasible):
+        raise ConfigError(
+            SPEC_SOURCE,
+            "phase_margin_deg",
+            f"no PI gives phase margin >= {spec.phase_margin_deg:g} deg and gain margin >= "
+            f"{spec.gain_margin_db:g} dB on this vehicle's wheel loop at any crossover up to Nyquist "
+            f"({w_nyq:.4g} rad/s)",
+        )
+
+    def excess(wc: float) -> float:
+        return _spec_excess(plants, chain, wc, pm_design, ts, spec)
+
+    last = max(i for i, ok in enumerate(feasible) if ok)
+    lo = float(scan[last])
+    hi = float(scan[last + 1]) if last + 1 < len(scan) else w_nyq
+    if not excess(hi) < 0:  # feasible (or undefined) up to the Nyquist frequency: the last scanned point
+        return lo
+    max_wc = float(brentq(excess, lo, hi, xtol=_CROSSOVER_XTOL_RAD_S, rtol=_CROSSOVER_RTOL))
+    if excess(max_wc) < 0:  # Brent's answer lies within its tolerance of the boundary: take the feasible side
+        max_wc -= 2.0 * (_CROSSOVER_XTOL_RAD_S + _CROSSOVER_RTOL * max_wc)
+    return max_wc
+
+
 def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningResult:
     """Design the wheel-speed PI for ``spec`` (default: PM >= 60°, GM >= 10 dB, fastest crossover).
 
@@ -294,46 +353,7 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
     chain = chain_gain(vehicle)
     w_nyq = math.pi / ts
     pm_design = spec.phase_margin_deg + _PM_DESIGN_EXTRA_DEG
-
-    def candidate(wc: float, grid: int) -> tuple[PIGains, LoopMargins, LoopMargins] | None:
-        """A PI with crossover ``wc`` meeting the spec on both wheels, or None."""
-        best = None
-        for plant in plants:  # design on each side's model, keep one that suits both
-            gains = _pi_for_crossover(plant, chain, wc, pm_design, ts)
-            if gains is None:
-                continue
-            m = [loop_margins(*loop_polynomials(gains, p, chain), ts, grid_points=grid) for p in plants]
-            meets = all(
-                x.phase_margin_deg >= spec.phase_margin_deg and x.gain_margin_db >= spec.gain_margin_db for x in m
-            )
-            if meets and (best is None or min(x.crossover_rad_s for x in m) > min(x.crossover_rad_s for x in best[1:])):
-                best = (gains, m[0], m[1])
-        return best
-
-    def excess(wc: float) -> float:
-        return _spec_excess(plants, chain, wc, pm_design, ts, spec)
-
-    # the fastest feasible crossover: scan (log-spaced), then Brent's method between the last feasible point and
-    # the next
-    scan = np.geomspace(w_nyq * 1e-4, w_nyq * (1 - 1e-6), 160)
-    feasible = [candidate(float(wc), _SEARCH_GRID_POINTS) is not None for wc in scan]
-    if not any(feasible):
-        raise ConfigError(
-            SPEC_SOURCE,
-            "phase_margin_deg",
-            f"no PI gives phase margin >= {spec.phase_margin_deg:g} deg and gain margin >= "
-            f"{spec.gain_margin_db:g} dB on this vehicle's wheel loop at any crossover up to Nyquist "
-            f"({w_nyq:.4g} rad/s)",
-        )
-    last = max(i for i, ok in enumerate(feasible) if ok)
-    lo = float(scan[last])
-    hi = float(scan[last + 1]) if last + 1 < len(scan) else w_nyq
-    if not excess(hi) < 0:  # feasible (or undefined) up to the Nyquist frequency: the last scanned point
-        max_wc = lo
-    else:
-        max_wc = float(brentq(excess, lo, hi, xtol=_CROSSOVER_XTOL_RAD_S, rtol=_CROSSOVER_RTOL))
-        if excess(max_wc) < 0:  # Brent's answer lies within its tolerance of the boundary: take the feasible side
-            max_wc -= 2.0 * (_CROSSOVER_XTOL_RAD_S + _CROSSOVER_RTOL * max_wc)
+    max_wc = _fastest_crossover(plants, chain, pm_design, ts, spec)
 
     if spec.crossover_rad_s is None:
         wc_target = max_wc
@@ -345,10 +365,10 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
                 "crossover_rad_s",
                 f"{wc_target:g} rad/s is at or above the Nyquist frequency pi/T_s = {w_nyq:.4g} rad/s",
             )
-    found = candidate(wc_target, GRID_POINTS)
+    found = _candidate(plants, chain, wc_target, pm_design, ts, spec, GRID_POINTS)
     if found is None and spec.crossover_rad_s is None:  # rounding at the boundary: back off slightly
         for shrink in (1 - 1e-6, 1 - 1e-4, 1 - 1e-2):
-            found = candidate(wc_target * shrink, GRID_POINTS)
+            found = _candidate(plants, chain, wc_target * shrink, pm_design, ts, spec, GRID_POINTS)
             if found is not None:
                 break
     if found is None:
