@@ -1,6 +1,6 @@
 """Fast, accurate integration of the full model over zero-order-hold samples.
 
-The scheme, chosen by measurement (see ``experiments/benchmarks/plant.py`` and the README): classical RK4 with a
+The scheme (``docs/decisions/0014-plant-integrator.md``, ``experiments/benchmarks/plant.py``): classical RK4 with a
 fixed number of substeps per sample period, the input held over the sample and every sample boundary a step
 boundary, so no step straddles an input jump. The friction (eqs 2-4) and the current limit are continuous,
 piecewise-smooth functions of the state, which fixed steps handle well; an adaptive solver at rtol 1e-10 is the

@@ -80,8 +80,8 @@ class ControllerSpec:
     """A gains file written by ``agvctl tune --out`` (relative to the experiment); default: tuned on the fly."""
     coulomb_feedforward: bool = True
     """Add the Coulomb-friction voltage τ_c R/k_t to the PI output (ramped in near zero speed). On by default: the
-    wheels then answer small setpoints instead of sitting in the friction until the integrator winds up (over the 500
-    acceptance fuzz scenarios the median RMS tracking error falls 7 % with the MPC and with Ramsete alike)."""
+    wheels then answer small setpoints instead of sitting in the friction until the integrator winds up
+    (``docs/decisions/0009-pi-wheel-loops.md``)."""
     symmetric_braking: bool = False
     """Limit the braking current so that friction-assisted braking decelerates no harder than a_lim."""
     gentle_stop: bool = False

@@ -44,9 +44,8 @@ class MpcConfig:
     reference governor bounds the lag). The world frame weighs both axes alike."""
     turn_in_place_position_scale: float = number(ge=0, default=3.0, doc="position weight scale in turns in place")
     """Where the reference turns in place the path is the turning point, and any translation is off it: the LTV MPC
-    weighs the position error this much more there, alike in every direction (over the 500 acceptance fuzz
-    scenarios, 3 passed one more, with a lower RMS ratio to Ramsete, on seed 10 and on seed 77; 1 let a wheel at its
-    current limit slide the vehicle 11 cm off the point; below 1 was worse, 10 no better)."""
+    weighs the position error this much more there, alike in every direction, so that a wheel at its current limit
+    cannot slide the vehicle off the point (``docs/decisions/0004-path-frame-weights.md``)."""
     weight_heading: float = number(ge=0, default=30.0, doc="on each predicted heading error, 1/rad²")
     weight_terminal_scale: float = number(ge=0, default=1.0, doc="multiplies the pose weights at k = N")
     weight_input: float = number(ge=0, default=0.1, doc="on setpoint minus feed-forward, 1/(m/s)²")
@@ -67,7 +66,7 @@ class MpcConfig:
     """How far a setpoint may lead its wheel, in multiples of what the wheel can follow in one sample
     (:func:`lead_factor_s`). Bounded, so the setpoints never run away from a saturated wheel; above 1, so that the PI
     loop's proportional action can still push a wheel that is heavier or stiffer than the controller's model
-    (measured on the figure-8 with a 35 kg payload: tracking RMS 2.0 mm at 1, 1.45 mm at 2.5)."""
+    (``docs/decisions/0002-saturation-aware-cascade.md``)."""
     docking: DockingConfig = DockingConfig()
     """When and how to dock, stopped beside the end of the path (:mod:`~agvctl.controllers.mpc.docking`): the
     ``[controller.docking]`` table."""
@@ -80,8 +79,8 @@ class MpcConfig:
     """Behind the loop's clock and within ``governor_lag_start_m`` of the reference, the governed clock runs up to
     this much faster than time (the reference's speed along the path scaled alike), so a delay is made up."""
     max_iterations: int = number(ge=1, default=1000, doc="solver iteration limit per step")
-    """A far-off start (0.3 m, 35°) needs up to about 750 OSQP iterations in its first steps at tolerance 1e-4 (with
-    the heading coupling of the LTV MPC); the steps of a tracking run, tens."""
+    """Enough for the first steps from a far-off start (several hundred OSQP iterations with the heading coupling of
+    the LTV MPC); a tracking step needs tens."""
     tolerance: float = number(gt=0, default=1.0e-3, doc="solver tolerance (OSQP eps_abs/eps_rel, IPOPT tol)")
 
 

@@ -63,11 +63,8 @@ OSQP_SETTINGS: dict[str, Any] = {
 }
 """OSQP settings besides tolerance, iteration and time limits (from the config); the constructor's
 ``osqp_settings`` overrides them. A fixed adaptive-rho interval keeps runs deterministic (OSQP's default
-adapts on measured time). ρ = 1 (default 0.1) halved the iterations of the hardest steps, recovering from a
-0.1 m offset with the rate limits active (measured: at most 120 instead of 205 iterations). Relaxation α = 1.2
-(default 1.6): warm-started tracking steps meet the tolerance at an earlier termination check, 10 iterations
-instead of 24 on the figure-8 closed on the EKF and 8 instead of 17 on the truth, the same tracking (the
-hardest steps take up to 1.5x more; α = 1.0 took 2x and once ran out of iterations in the 500 fuzz scenarios)."""
+adapts on measured time); ρ = 1 and relaxation α = 1.2 need fewer iterations than OSQP's defaults on the hardest
+steps and on warm-started tracking steps (``docs/decisions/0012-osqp.md``)."""
 
 
 class LtvMpcController(MpcStepper):
