@@ -98,15 +98,19 @@ def format_fuzz_report(report: FuzzReport, worst: int = 5) -> str:
         frac, ratio = cmp["a_cross_track_max_le_b_fraction"], cmp["median_rms_ratio"]
         frac_text = "—" if frac is None else f"{100 * frac:.1f} %"
         ratio_text = "—" if ratio is None or not math.isfinite(ratio) else f"{ratio:.3g}"
-        rms_a, rms_b = (_value("tracking_error_rms_m", cmp[k]) for k in ("median_rms_a_m", "median_rms_b_m"))
+        rms_a, rms_b = (_value("cross_track_error_rms_m", cmp[k]) for k in ("median_rms_a_m", "median_rms_b_m"))
+        tol_mm = cmp["tolerance_m"] * 1e3
         lines.append(
-            f"{cmp['a']} vs {cmp['b']}: {cmp['a']}'s max cross-track error ≤ {cmp['b']}'s in {frac_text} of "
-            f"{cmp['scenarios']} scenarios; median RMS tracking error {rms_a} vs {rms_b} (ratio {ratio_text})"
+            f"{cmp['a']} vs {cmp['b']}: {cmp['a']}'s max cross-track error within {tol_mm:g} mm of {cmp['b']}'s or "
+            f"below in {frac_text} of {cmp['scenarios']} scenarios; median cross-track RMS {rms_a} vs {rms_b} "
+            f"(ratio {ratio_text})"
         )
         above = cmp["a_cross_track_max_above_b"]
         if above:
             shown = ", ".join(f"s{spec.seed}_{i:05d}" for i in above[:8]) + (", …" if len(above) > 8 else "")
-            lines.append(f"    {cmp['a']}'s max cross-track error above {cmp['b']}'s in: {shown}")
+            lines.append(
+                f"    {cmp['a']}'s max cross-track error above {cmp['b']}'s by more than {tol_mm:g} mm in: {shown}"
+            )
     return "\n".join(lines)
 
 
