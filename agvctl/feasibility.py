@@ -20,6 +20,7 @@ __all__ = [
     "WheelReach",
     "actuator_headroom",
     "feasible_wheel_limits",
+    "torque_accel_limit_m_s2",
     "wheel_accel_reach_m_s2",
 ]
 
@@ -173,3 +174,23 @@ def actuator_headroom(
         worst_i = max(worst_i, float(np.max(np.abs(current), initial=0.0)) / i_max)
         worst_u = max(worst_u, float(np.max(np.abs(voltage), initial=0.0)) / u_fs)
     return 1.0 - worst_i, 1.0 - worst_u
+
+
+def torque_accel_limit_m_s2(vehicle: VehicleParams) -> float:
+    """The largest rim acceleration the motors' torque at the current limit gives either wheel in any manoeuvre,
+    friction aside (m/s²).
+
+    The coupled dynamics of eqs 58-59 at rest, M ω̇ = k_t i with M = [[J_l + k_ll, k_lr], [k_lr, J_r + k_rr]]
+    (eqs 47-49), are linear in the currents, so the largest |r/N · ω̇| over |i| ≤ I_max lies at a corner: both wheels
+    alike (eq 5's drive, less friction), one wheel alone, or the wheels opposed, which is the largest, since turning
+    in place moves less inertia than driving straight. Only friction helping a wheel brake takes it further (by
+    τ_c r/(J̃ N), eqs 60-61); a wheel past this bound over a whole sample is one slammed against the current limit
+    in reverse, which tracking a planned path never needs.
+    """
+    d, m, w = vehicle.derived, vehicle.motor, vehicle.wheels
+    mass = np.array([[m.left.inertia_kg_m2 + d.k_ll, d.k_lr], [d.k_lr, m.right.inertia_kg_m2 + d.k_rr]])
+    torque = np.array([m.left.torque_constant_n_m_a, m.right.torque_constant_n_m_a]) * vehicle.amplifier.current_limit_a
+    rim = np.array([w.radius_left_m / m.left.gear_ratio, w.radius_right_m / m.right.gear_ratio])
+    corners = np.array([[1.0, 1.0], [1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
+    accel = np.linalg.solve(mass, (corners * torque).T).T * rim
+    return float(np.max(np.abs(accel)))

@@ -74,13 +74,19 @@ class LimitVerdict:
     runs: int
     failed_runs: int
     default: bool = False
+    """Whether the bound is the default gate's (:func:`~agvctl.evaluation.limits.default_limits`)."""
+    reason: str = ""
+    """Why a default bound is what it is."""
 
     @property
     def message(self) -> str:
-        """The limit message; when violated on a Monte Carlo sample, that sample and its parameters too."""
+        """The limit message (with a default's reason); when violated on a Monte Carlo sample, that sample and its
+        parameters too."""
         text = format_limit_message(
             self.limit, self.value, self.bound, self.passed, self.worst_time_s, self.first_time_s
         )
+        if self.default:
+            text += f" (default: {self.reason})"
         if self.passed:
             return text
         if self.sample is not None:
@@ -120,6 +126,7 @@ def worst_run_verdicts(outcomes: Sequence[RunOutcome]) -> list[LimitVerdict]:
                 runs=len(per_run),
                 failed_runs=failed,
                 default=worst.default,
+                reason=worst.reason,
             )
         )
     return verdicts

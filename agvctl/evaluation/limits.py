@@ -1,8 +1,26 @@
-"""The limits a run is judged by: one table (name → metric → series → unit), an experiment's ``[limits]``, and
-their evaluation on a run (value, pass/fail, worst and first times).
+"""The limits a run is judged by: one table (name → metric → series → unit), an experiment's ``[limits]``, the
+default limits of a healthy run, and their evaluation on a run (value, pass/fail, worst and first times).
 
 Adding a limit is one entry in :data:`LIMITS`: the experiment loader validates ``[limits]`` against it, and
 :func:`evaluate_limits` and the messages of ``run`` and ``check`` read it.
+
+**The default gate** (:func:`default_limits`): whatever an experiment's ``[limits]`` leaves out is judged against
+what every healthy run of a planned path keeps, derived from the vehicle and the run's start:
+
+* it ends at the path's end (``final_position_error_m`` 2 cm) facing its final heading (``final_heading_error_deg``
+  2°);
+* it stays on the path (``cross_track_error_max_m``: 10 cm, or the start's own offset from the path plus 5 cm) and
+  never faces against it (``path_heading_error_max_deg`` 90°);
+* every controller step succeeds (``solver_failures`` 0);
+* no wheel accelerates over a sample faster than the motors' torque at the current limit can drive it in any
+  manoeuvre (``wheel_accel_m_s2``, :func:`~agvctl.feasibility.torque_accel_limit_m_s2`, eqs 47-49 and 58-59: 1.31
+  m/s² for the IAU AGV, twice eq 5's a_lim, which assumes both wheels driving alike against friction). Only friction
+  helping a wheel brake in a turn in place takes it further; tracking a planned path never needs that, while a wheel
+  loop slammed from limit to limit does.
+
+An explicit key replaces the default of that key only. The acceleration is the mean over a sample
+(:func:`~agvctl.evaluation.metrics.sample_wheel_accel_m_s2`), not the instant inside one: a wheel breaking away
+from stiction jumps for a few milliseconds whatever the controller does.
 """
 
 from __future__ import annotations
@@ -17,11 +35,22 @@ from numpy.typing import NDArray
 
 from agvctl.config import convert_value, did_you_mean, join_key
 from agvctl.errors import ConfigError
-from agvctl.evaluation.metrics import estimate_heading_error_rad, estimate_position_error_m
+from agvctl.evaluation.metrics import estimate_heading_error_rad, estimate_position_error_m, sample_wheel_accel_m_s2
+from agvctl.feasibility import torque_accel_limit_m_s2
 from agvctl.log import SimLog
 from agvctl.params import VehicleParams
 
-__all__ = ["LIMITS", "Limit", "LimitResult", "LimitsSpec", "all_passed", "evaluate_limits", "format_limit_message"]
+__all__ = [
+    "LIMITS",
+    "DefaultLimit",
+    "Limit",
+    "LimitResult",
+    "LimitsSpec",
+    "all_passed",
+    "default_limits",
+    "evaluate_limits",
+    "format_limit_message",
+]
 
 Series = Callable[[SimLog, float], NDArray[np.float64]]
 
@@ -60,9 +89,7 @@ LIMITS: dict[str, Limit] = {
         "peak",
         "positive",
     ),
-    "wheel_accel_m_s2": Limit(
-        "peak_wheel_accel_m_s2", " m/s²", lambda log, ts: _both(log, "wheel_accel_peak_{}_m_s2"), "peak", "positive"
-    ),
+    "wheel_accel_m_s2": Limit("peak_wheel_accel_m_s2", " m/s²", sample_wheel_accel_m_s2, "peak", "positive"),
     "motor_current_a": Limit(
         "peak_motor_current_a", " A", lambda log, ts: _both(log, "current_peak_{}_a"), "peak", "positive"
     ),
@@ -86,6 +113,13 @@ LIMITS: dict[str, Limit] = {
         "heading_error_max_deg", "°", lambda log, ts: np.degrees(np.abs(log["heading_error_rad"])), "peak", "positive"
     ),
     "final_position_error_m": Limit("final_position_error_m", " m", _position_error, "final", "positive"),
+    "final_heading_error_deg": Limit(
+        "final_heading_error_deg",
+        "°",
+        lambda log, ts: np.degrees(np.abs(log["heading_error_rad"])),
+        "final",
+        "positive",
+    ),
     "cross_track_error_max_m": Limit(
         "cross_track_error_max_m", " m", lambda log, ts: np.asarray(log["cross_track_error_m"]), "peak", "positive"
     ),
@@ -184,13 +218,16 @@ class LimitResult:
     first_time_s: float | None
     """When the signal first went past the bound (None if it never did)."""
     default: bool = False
-    """True when the bound is a default (wheel_accel_m_s2 = the vehicle's a_lim), not set in the file."""
+    """True when the bound is a default of :func:`default_limits`, not set in the file."""
+    reason: str = ""
+    """Why a default bound is what it is (one line; empty for a bound set in the file)."""
 
     @property
     def message(self) -> str:
-        return format_limit_message(
+        text = format_limit_message(
             self.limit, self.value, self.bound, self.passed, self.worst_time_s, self.first_time_s
         )
+        return f"{text} (default: {self.reason})" if self.default else text
 
     def as_dict(self) -> dict[str, object]:
         d = asdict(self)
@@ -214,21 +251,89 @@ def _times(key: str, log: SimLog, bound: float, sample_period_s: float) -> tuple
     return float(t[int(np.argmax(series))]), (None if limit.timing == "rms" else first)
 
 
+@dataclass(frozen=True)
+class DefaultLimit:
+    """A bound of the default gate and why it is what it is."""
+
+    bound: float
+    reason: str
+
+
+CORRIDOR_M = 0.10
+"""The default corridor about the path: a healthy run stays within 10 cm of it."""
+CORRIDOR_BEYOND_START_M = 0.05
+"""A run that starts further off than the corridor may stray this much beyond its start's own offset."""
+
+
+def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimit]:
+    """The default gate for a run of ``vehicle`` (the controller's model) logged in ``log`` (its start's offset from
+    the path sets the corridor): the bound and reason of each default limit (see the module notes), in the order of
+    :data:`LIMITS`."""
+    start_offset_m = abs(float(log["cross_track_error_m"][0])) if len(log) else 0.0
+    if start_offset_m + CORRIDOR_BEYOND_START_M > CORRIDOR_M:
+        corridor = DefaultLimit(
+            start_offset_m + CORRIDOR_BEYOND_START_M, f"the start's offset {start_offset_m:.3g} m from the path + 5 cm"
+        )
+    else:
+        corridor = DefaultLimit(CORRIDOR_M, "stays within 10 cm of the path")
+    torque = torque_accel_limit_m_s2(vehicle)
+    defaults = {
+        "wheel_accel_m_s2": DefaultLimit(
+            torque, "what the motors' torque at the current limit gives a wheel, eqs 58-59"
+        ),
+        "final_position_error_m": DefaultLimit(0.02, "ends within 2 cm of the path's end"),
+        "final_heading_error_deg": DefaultLimit(2.0, "ends facing the path's final heading"),
+        "cross_track_error_max_m": corridor,
+        "path_heading_error_max_deg": DefaultLimit(90.0, "never faces against the path"),
+        "solver_failures": DefaultLimit(0, "every controller step succeeds"),
+    }
+    return {key: defaults[key] for key in LIMITS if key in defaults}
+
+
 def evaluate_limits(
     limits: LimitsSpec, log: SimLog, metrics: dict[str, float], vehicle: VehicleParams, sample_period_s: float
 ) -> list[LimitResult]:
-    """Check every limit that is set, plus the wheel acceleration against a_lim (eq 5) when none is set."""
-    items = limits.items()
-    defaults = set()
-    if "wheel_accel_m_s2" not in limits.bounds:
-        items.append(("wheel_accel_m_s2", vehicle.derived.accel_limit_m_s2))
-        defaults.add("wheel_accel_m_s2")
+    """Check every limit of the default gate and every limit ``limits`` sets (which replaces the default of its key).
+
+    Parameters
+    ----------
+    limits
+        The experiment's ``[limits]``.
+    log, metrics
+        The run's log and its :func:`~agvctl.evaluation.metrics.closed_loop_metrics`.
+    vehicle
+        The controller's vehicle, from which the defaults are derived (:func:`default_limits`).
+    sample_period_s
+        T_s, for the per-sample signals.
+
+    Returns
+    -------
+    list of LimitResult
+        In the order of :data:`LIMITS`; ``default`` marks a bound of the default gate.
+    """
+    defaults = default_limits(vehicle, log)
+    bounds: dict[str, tuple[float, DefaultLimit | None]] = {k: (d.bound, d) for k, d in defaults.items()}
+    bounds.update({key: (bound, None) for key, bound in limits.items()})
     results = []
-    for key, bound in items:
+    for key in LIMITS:
+        if key not in bounds:
+            continue
+        bound, default = bounds[key]
         value = float(metrics[LIMITS[key].metric])
         passed = value <= bound * (1 + 1e-12)
         worst, first = _times(key, log, bound, sample_period_s)
-        results.append(LimitResult(key, bound, value, bool(passed), worst, None if passed else first, key in defaults))
+        results.append(
+            LimitResult(
+                key,
+                bound,
+                value,
+                bool(passed),
+                worst,
+                None if passed else first,
+                default is not None,
+                default.reason if default is not None else "",
+            )
+        )
     return results
 
 

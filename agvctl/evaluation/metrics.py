@@ -13,6 +13,7 @@ from agvctl.log import SimLog
 
 __all__ = [
     "closed_loop_metrics",
+    "sample_wheel_accel_m_s2",
     "estimate_heading_error_rad",
     "estimate_metrics",
     "estimate_position_error_m",
@@ -53,6 +54,14 @@ def time_to_converge_s(t_s: np.ndarray, error_m: np.ndarray, threshold_m: float)
     return float(t_s[last + 1]) if last + 1 < len(t_s) else math.inf
 
 
+def sample_wheel_accel_m_s2(log: SimLog, sample_period_s: float) -> NDArray[np.float64]:
+    """Each sample's larger mean rim acceleration |v(t_k) − v(t_k−1)|/T_s of the two wheels (0 at k = 0): what
+    encoders see and a payload feels over a sample, without the stiction break-away's instants inside it."""
+    speeds = np.column_stack([log["wheel_speed_left_m_s"], log["wheel_speed_right_m_s"]])
+    accel = np.max(np.abs(np.diff(speeds, axis=0)), axis=1) / sample_period_s if len(speeds) > 1 else np.zeros(0)
+    return np.concatenate(([0.0], accel))
+
+
 def _peak_abs(values: np.ndarray) -> float:
     """max |values|; NaN if any value is NaN (a run that diverged), never a silently smaller number."""
     return float(np.max(np.abs(values))) if len(values) else 0.0
@@ -61,7 +70,9 @@ def _peak_abs(values: np.ndarray) -> float:
 def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
     """Tracking, actuator and computation figures of a run (SI units, names carry them).
 
-    Besides the time-indexed tracking error |p(t) − p_d(t)|, the errors against the reference's path separate
+    ``peak_wheel_accel_m_s2`` is the largest mean rim acceleration over a sample
+    (:func:`sample_wheel_accel_m_s2`), ``peak_wheel_accel_instant_m_s2`` the largest within one. Besides the
+    time-indexed tracking error |p(t) − p_d(t)|, the errors against the reference's path separate
     being off the path from being behind the clock (:mod:`agvctl.evaluation.path_metrics`): ``cross_track_error_*_m``
     (distance to the path), ``along_track_lag_max_m`` (the largest |lag| along the path, behind or ahead) and
     ``path_heading_error_max_deg`` (heading against the path's at the nearest point).
@@ -77,6 +88,7 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
         "tracking_error_max_m": float(np.max(err)),
         "heading_error_max_deg": float(np.degrees(np.max(np.abs(log["heading_error_rad"])))),
         "final_position_error_m": float(err[-1]),
+        "final_heading_error_deg": float(np.degrees(abs(log["heading_error_rad"][-1]))),
         "cross_track_error_max_m": _peak_abs(cross),
         "cross_track_error_rms_m": float(np.sqrt(np.mean(cross**2))),
         "along_track_lag_max_m": _peak_abs(log["along_track_lag_m"]),
@@ -84,7 +96,8 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
         "peak_wheel_speed_m_s": float(
             max(np.max(np.abs(log["wheel_speed_left_m_s"])), np.max(np.abs(log["wheel_speed_right_m_s"])))
         ),
-        "peak_wheel_accel_m_s2": float(
+        "peak_wheel_accel_m_s2": _peak_abs(sample_wheel_accel_m_s2(log, result.sample_period_s)),
+        "peak_wheel_accel_instant_m_s2": float(
             max(log.peak_abs("wheel_accel_peak_left_m_s2"), log.peak_abs("wheel_accel_peak_right_m_s2"))
         ),
         "peak_motor_current_a": float(max(log.peak_abs("current_peak_left_a"), log.peak_abs("current_peak_right_a"))),

@@ -84,10 +84,11 @@ def run_fuzz_task(task: FuzzTask) -> FuzzOutcome:
             result = run_experiment(experiment)
             simulated_s = result.n_samples * result.sample_period_s
             metrics = closed_loop_metrics(result)
-            verdicts = evaluate_limits(
-                experiment.spec.limits, result.log, metrics, experiment.controller_vehicle, result.sample_period_s
+            limits = tuple(
+                evaluate_limits(
+                    experiment.spec.limits, result.log, metrics, experiment.controller_vehicle, result.sample_period_s
+                )
             )
-            limits = tuple(r for r in verdicts if not r.default)
             error = _non_finite(result.log, metrics)
         except Exception as exc:  # any crash of a run is a finding, reported with its scenario
             where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None

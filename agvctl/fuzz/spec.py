@@ -31,11 +31,13 @@ heading_max_deg = 5.0
 [controller]                        # more keys for every run's [controller] table (pose comes from controllers)
 coulomb_feedforward = true
 
-[limits]                            # the pass criteria: experiment-file limit keys (replaces the defaults)
-cross_track_error_max_m = 0.10
+[limits]                            # experiment-file limit keys, each replacing the default gate's bound of its key
+cross_track_error_max_m = 0.05
 ```
 
-Without ``[plant]``, the envelope is :data:`DEFAULT_ENVELOPE`; without ``[limits]``, :data:`DEFAULT_FUZZ_LIMITS`.
+Without ``[plant]``, the envelope is :data:`DEFAULT_ENVELOPE`. Every run is judged exactly as ``agvctl check`` judges
+it: the default gate (:func:`~agvctl.evaluation.limits.default_limits`) and the ``[limits]`` keys, each of which
+replaces the default of its key.
 Every problem is a one-line :class:`~agvctl.errors.ConfigError` naming the file and key, before anything runs.
 """
 
@@ -57,7 +59,6 @@ from agvctl.scenario.spec import ControllerSpec
 
 __all__ = [
     "DEFAULT_ENVELOPE",
-    "DEFAULT_FUZZ_LIMITS",
     "FuzzSpec",
     "PathGenSpec",
     "StartSpec",
@@ -81,13 +82,6 @@ DEFAULT_ENVELOPE: dict[str, Range] = {
 }
 """The declared plant envelope: each value drawn uniformly in nominal · (1 + [low, high]), each side on its own
 (the generator keeps stiction ≥ Coulomb friction, see :mod:`agvctl.fuzz.generate`)."""
-
-DEFAULT_FUZZ_LIMITS: dict[str, float] = {
-    "cross_track_error_max_m": 0.10,
-    "final_position_error_m": 0.02,
-    "path_heading_error_max_deg": 90.0,
-}
-"""The default pass criteria: on the path within 10 cm, at its end within 2 cm, never turned around."""
 
 
 def _ordered(
@@ -205,7 +199,7 @@ class FuzzSpec:
     start: StartSpec = dataclasses.field(default_factory=StartSpec)
     plant: dict[str, Range] = dataclasses.field(default_factory=lambda: dict(DEFAULT_ENVELOPE))
     controller: dict[str, Any] = dataclasses.field(default_factory=dict)
-    limits: LimitsSpec = dataclasses.field(default_factory=lambda: LimitsSpec(dict(DEFAULT_FUZZ_LIMITS)))
+    limits: LimitsSpec = dataclasses.field(default_factory=LimitsSpec)
     source: str = dataclasses.field(default="<fuzz>", metadata={"derived": True})
 
     @classmethod
