@@ -1,8 +1,10 @@
 """Vehicle parameters (the report's appendix A) and the constants derived from them.
 
-* :mod:`agvctl.params.schema` — the vehicle file's tables as frozen dataclasses, and :func:`load_vehicle`.
-* :mod:`agvctl.params.derived` — the derived constants (eqs 5, 47-51, 60-64), each from the equation it names;
-  ``vehicle.derived`` computes them once per parameter set.
+* :mod:`agvctl.params.schema` — the vehicle file's tables as frozen dataclasses, :func:`load_vehicle`, and
+  :func:`derive`, which computes a vehicle's derived constants (eqs 5, 47-51, 60-64) once per parameter set
+  (``vehicle.derived``).
+* :mod:`agvctl.params.derived` — the equations of the derived constants, for numbers and CasADi symbols alike,
+  and their records. It knows nothing of the tables.
 """
 
 from agvctl.params.derived import (
@@ -10,10 +12,7 @@ from agvctl.params.derived import (
     SideConstants,
     center_of_mass_from_scales,
     coupling_constants,
-    derive,
     equivalent_inertias,
-    inertia_from_dimensions,
-    inertia_rotation_point,
     motor_damping,
 )
 from agvctl.params.schema import (
@@ -30,6 +29,9 @@ from agvctl.params.schema import (
     VehicleParams,
     WheelParams,
     default_vehicle_path,
+    derive,
+    inertia_from_dimensions,
+    inertia_rotation_point,
     load_vehicle,
 )
 

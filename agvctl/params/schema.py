@@ -1,10 +1,11 @@
-"""The vehicle file's schema (the report's appendix A): one frozen dataclass per table, and the loader.
+"""The vehicle file's schema (the report's appendix A): one frozen dataclass per table, the loader, and the
+derived constants of a vehicle.
 
 A vehicle file is TOML with the tables ``frame``, ``battery``, ``body``, ``wheels``, ``motor`` (with optional
 ``motor.left`` / ``motor.right`` overrides), ``amplifier``, ``da``, ``friction_model``, ``control`` and
 ``sensors``; see ``agvctl/vehicles/iau_agv.toml``. :func:`load_vehicle` reads one (or the default), applies
-``--set`` style overrides and returns a frozen :class:`VehicleParams`; its :attr:`VehicleParams.derived` are the
-constants of :mod:`agvctl.params.derived`.
+``--set`` style overrides and returns a frozen :class:`VehicleParams`; :func:`derive` computes its
+:attr:`VehicleParams.derived` by the equations of :mod:`agvctl.params.derived`.
 
 Units are SI throughout and are part of every key's name.
 """
@@ -12,6 +13,7 @@ Units are SI throughout and are part of every key's name.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -30,7 +32,13 @@ from agvctl.config import (
     to_dict,
 )
 from agvctl.errors import ConfigError
-from agvctl.params.derived import DerivedConstants, derive
+from agvctl.params.derived import (
+    DerivedConstants,
+    SideConstants,
+    coupling_constants,
+    equivalent_inertias,
+    motor_damping,
+)
 
 __all__ = [
     "AmplifierParams",
@@ -46,6 +54,9 @@ __all__ = [
     "VehicleParams",
     "WheelParams",
     "default_vehicle_path",
+    "derive",
+    "inertia_from_dimensions",
+    "inertia_rotation_point",
     "load_vehicle",
 ]
 
@@ -297,6 +308,87 @@ class VehicleParams:
         pairs = [parse_override(o, source) if isinstance(o, str) else o for o in overrides]
         raw = apply_overrides(to_dict(self), pairs, VehicleParams, source)
         return build(VehicleParams, raw, source=source)
+
+
+# -- the derived constants ----------------------------------------------------------------------------------------
+
+
+def inertia_from_dimensions(frame: FrameParams, battery: BatteryParams) -> float:
+    """Moment of inertia about the point of rotation from the frame and battery dimensions, eq 64.
+
+    I = M_f (l² + w²)/12 + M_f (l/2 − l_of)² + M_b (l_b² + w_b²)/12: frame mass spread over its floor, battery
+    mass over its bottom sheet and centred above the point of rotation. 5.46 kg m² for the IAU AGV.
+    """
+    m_f, length, w, l_of = frame.mass_kg, frame.length_m, frame.width_m, frame.front_to_rotation_point_m
+    m_b, l_b, w_b = battery.mass_kg, battery.length_m, battery.width_m
+    i_frame = m_f * (length**2 + w**2) / 12.0 + m_f * (length / 2.0 - l_of) ** 2  # eq 64, I_f
+    i_battery = m_b * (l_b**2 + w_b**2) / 12.0  # eq 64, I_b
+    return i_frame + i_battery
+
+
+def inertia_rotation_point(body: BodyParams) -> float:
+    """I + M h², the inertia about the point of rotation used by eqs 16-28 (README, model note 6)."""
+    if body.inertia_about == "rotation_point":
+        return body.inertia_kg_m2  # the table's 5.46 kg m² is about O: it already is I + M h²
+    return body.inertia_kg_m2 + body.mass_kg * body.com_behind_axle_m**2  # literal eq 12: I about the CoM
+
+
+def _full_scale_amplifier_voltage(v: VehicleParams) -> float:
+    """Amplifier output at the DA's largest code: min(k_pow · v_DA(code_max), u_max)."""
+    v_da = v.da.mid_v + v.da.code_max * v.da.volts_per_code
+    return min(v.amplifier.gain * abs(v_da), v.amplifier.voltage_limit_v)
+
+
+@functools.lru_cache(maxsize=256)
+def derive(v: VehicleParams) -> DerivedConstants:
+    """Compute the derived constants of a vehicle (cached per parameter set)."""
+    M, h, b = v.body.mass_kg, v.body.com_behind_axle_m, v.wheels.separation_m
+    r_l, r_r = v.wheels.radius_left_m, v.wheels.radius_right_m
+    ml, mr = v.motor.left, v.motor.right
+    n_l, n_r = ml.gear_ratio, mr.gear_ratio
+    i_o = inertia_rotation_point(v.body)
+    k_ll, k_rr, k_lr, k_llr, k_lrr = coupling_constants(M, i_o, h, b, r_l, r_r, n_l, n_r)
+    j_eq_l, j_eq_r = equivalent_inertias(ml.inertia_kg_m2, mr.inertia_kg_m2, k_ll, k_rr, k_lr)
+    u_full = _full_scale_amplifier_voltage(v)
+
+    def side(m: MotorParams, r: float, j_eq: float) -> SideConstants:
+        damping = motor_damping(
+            m.voltage_constant_v_s_rad, m.torque_constant_n_m_a, m.resistance_ohm, m.viscous_friction_n_m_s_rad
+        )
+        p_gain = v.friction_model.p_factor * damping  # eq 62: P = p_factor (k_e k_t + f_m R)/R
+        omega_max = max(0.0, (m.torque_constant_n_m_a * u_full / m.resistance_ohm - m.coulomb_friction_n_m) / damping)
+        j_tot = m.inertia_kg_m2 + 0.5 * M * r**2 / m.gear_ratio**2  # eq 5
+        a_lim = (
+            (v.amplifier.current_limit_a * m.torque_constant_n_m_a - m.coulomb_friction_n_m) / j_tot * r / m.gear_ratio
+        )
+        return SideConstants(
+            radius_m=r,
+            inertia_equivalent_kg_m2=j_eq,
+            damping_n_m_s_rad=damping,
+            friction_gain_p=p_gain,
+            mechanical_time_constant_s=j_eq / damping,
+            max_motor_speed_rad_s=omega_max,
+            max_wheel_speed_m_s=omega_max * r / m.gear_ratio,
+            breakaway_amplifier_voltage_v=m.stiction_n_m * m.resistance_ohm / m.torque_constant_n_m_a,
+            accel_limit_m_s2=a_lim,
+        )
+
+    left, right = side(ml, r_l, j_eq_l), side(mr, r_r, j_eq_r)
+    return DerivedConstants(
+        inertia_from_dimensions_kg_m2=inertia_from_dimensions(v.frame, v.battery),
+        inertia_rotation_point_kg_m2=i_o,
+        k_ll=k_ll,
+        k_rr=k_rr,
+        k_lr=k_lr,
+        k_llr=k_llr,
+        k_lrr=k_lrr,
+        accel_limit_m_s2=min(left.accel_limit_m_s2, right.accel_limit_m_s2),
+        da_volts_per_bit=v.da.volts_per_code,
+        max_speed_m_s=min(left.max_wheel_speed_m_s, right.max_wheel_speed_m_s),
+        mechanical_time_constant_s=max(left.mechanical_time_constant_s, right.mechanical_time_constant_s),
+        left=left,
+        right=right,
+    )
 
 
 def default_vehicle_path() -> Path:
