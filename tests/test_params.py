@@ -72,3 +72,12 @@ def test_per_side_override_and_unequal_radii():
     assert d.k_rr / d.k_ll == pytest.approx((0.101 / 0.10) ** 2)
     assert d.k_lrr / d.k_llr == pytest.approx(0.101 / 0.10)
     assert math.isfinite(d.max_speed_m_s)
+
+
+def test_rim_per_motor_radian_is_r_over_n():
+    v = load_vehicle(None, ["wheels.radius_right_m=0.1004", "motor.right.gear_ratio=35.5"])
+    assert v.rim_per_motor_rad("left") == 0.10 / 36.0
+    assert v.rim_per_motor_rad("right") == 0.1004 / 35.5
+    q = 2.0 * math.pi / 2000
+    assert v.to_rim("right", q) == q * 0.1004 / 35.5
+    assert v.to_motor("right", 0.3) == 0.3 * 35.5 / 0.1004

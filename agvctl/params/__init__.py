@@ -9,13 +9,17 @@
 
 from agvctl.params.derived import (
     DerivedConstants,
+    Side,
     SideConstants,
     center_of_mass_from_scales,
     coupling_constants,
     equivalent_inertias,
     motor_damping,
+    motor_from_rim,
+    rim_from_motor,
 )
 from agvctl.params.schema import (
+    SIDES,
     AmplifierParams,
     BatteryParams,
     BodyParams,
@@ -46,7 +50,9 @@ __all__ = [
     "FrictionModelParams",
     "MotorPair",
     "MotorParams",
+    "SIDES",
     "SensorParams",
+    "Side",
     "SideConstants",
     "VehicleParams",
     "WheelParams",
@@ -59,4 +65,6 @@ __all__ = [
     "inertia_rotation_point",
     "load_vehicle",
     "motor_damping",
+    "motor_from_rim",
+    "rim_from_motor",
 ]

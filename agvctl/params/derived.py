@@ -12,16 +12,22 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 __all__ = [
     "DerivedConstants",
+    "Side",
     "SideConstants",
     "center_of_mass_from_scales",
     "coupling_constants",
     "equivalent_inertias",
     "motor_damping",
+    "motor_from_rim",
+    "rim_from_motor",
 ]
+
+Side = Literal["left", "right"]
+"""A side of the vehicle: its left or right wheel and motor."""
 
 Num = Any  # a float or a CasADi symbol: the equations below serve both
 
@@ -78,6 +84,21 @@ def motor_damping(k_e: Num, k_t: Num, R: Num, f_m: Num) -> Num:
     return k_e * k_t / R + f_m
 
 
+def rim_from_motor(motor: Num, radius_m: Num, gear_ratio: Num) -> Num:
+    """motor · r/N: a motor-shaft angle (rad), speed (rad/s) or acceleration (rad/s²) as the travel (m), speed (m/s)
+    or acceleration (m/s²) of the wheel's rim (eqs 26, 29). ``motor = 1`` gives r/N, the rim metres per motor
+    radian.
+
+    The product comes first, ``motor * r / N``. Written for numbers and CasADi symbols alike.
+    """
+    return motor * radius_m / gear_ratio
+
+
+def motor_from_rim(rim: Num, radius_m: Num, gear_ratio: Num) -> Num:
+    """rim · N/r: the inverse of :func:`rim_from_motor`, a rim travel, speed or acceleration at the motor shaft."""
+    return rim * gear_ratio / radius_m
+
+
 @dataclass(frozen=True)
 class SideConstants:
     """Constants of one side (motor, gear, wheel)."""
@@ -127,6 +148,9 @@ class DerivedConstants:
     """The larger of the two sides' J̃ R/(k_e k_t + f_m R)."""
     left: SideConstants
     right: SideConstants
+
+    def side(self, name: Side) -> SideConstants:
+        return self.left if name == "left" else self.right
 
     def as_dict(self) -> dict[str, float]:
         """Flat mapping used by ``agvctl params --json``."""

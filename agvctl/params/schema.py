@@ -34,10 +34,13 @@ from agvctl.config import (
 from agvctl.errors import ConfigError
 from agvctl.params.derived import (
     DerivedConstants,
+    Side,
     SideConstants,
     coupling_constants,
     equivalent_inertias,
     motor_damping,
+    motor_from_rim,
+    rim_from_motor,
 )
 
 __all__ = [
@@ -50,6 +53,7 @@ __all__ = [
     "FrictionModelParams",
     "MotorPair",
     "MotorParams",
+    "SIDES",
     "SensorParams",
     "VehicleParams",
     "WheelParams",
@@ -61,6 +65,7 @@ __all__ = [
 ]
 
 InertiaAbout = Literal["rotation_point", "center_of_mass"]
+SIDES: tuple[Side, Side] = ("left", "right")
 
 
 @dataclass(frozen=True)
@@ -182,7 +187,7 @@ class MotorPair:
                 out[side] = diff
         return out
 
-    def side(self, name: Literal["left", "right"]) -> MotorParams:
+    def side(self, name: Side) -> MotorParams:
         return self.left if name == "left" else self.right
 
 
@@ -303,6 +308,22 @@ class VehicleParams:
         """The derived constants (cached)."""
         return derive(self)
 
+    def _radius_m(self, side: Side) -> float:
+        return self.wheels.radius_left_m if side == "left" else self.wheels.radius_right_m
+
+    def to_rim(self, side: Side, motor: float) -> float:
+        """A motor-shaft angle (rad), speed (rad/s) or acceleration of ``side`` at its wheel's rim (m, m/s, m/s²):
+        motor · r/N (:func:`~agvctl.params.derived.rim_from_motor`)."""
+        return float(rim_from_motor(motor, self._radius_m(side), self.motor.side(side).gear_ratio))
+
+    def to_motor(self, side: Side, rim: float) -> float:
+        """A rim travel (m), speed (m/s) or acceleration of ``side`` at its motor shaft: rim · N/r."""
+        return float(motor_from_rim(rim, self._radius_m(side), self.motor.side(side).gear_ratio))
+
+    def rim_per_motor_rad(self, side: Side) -> float:
+        """r/N of ``side`` (m/rad): the rim metres per motor-shaft radian."""
+        return self.to_rim(side, 1.0)
+
     def with_overrides(self, overrides: Iterable[str | tuple[str, Any]], source: str = "--set") -> VehicleParams:
         """A copy with dotted-key overrides applied, e.g. ``["wheels.radius_right_m=0.101"]``."""
         pairs = [parse_override(o, source) if isinstance(o, str) else o for o in overrides]
@@ -358,8 +379,8 @@ def derive(v: VehicleParams) -> DerivedConstants:
         p_gain = v.friction_model.p_factor * damping  # eq 62: P = p_factor (k_e k_t + f_m R)/R
         omega_max = max(0.0, (m.torque_constant_n_m_a * u_full / m.resistance_ohm - m.coulomb_friction_n_m) / damping)
         j_tot = m.inertia_kg_m2 + 0.5 * M * r**2 / m.gear_ratio**2  # eq 5
-        a_lim = (
-            (v.amplifier.current_limit_a * m.torque_constant_n_m_a - m.coulomb_friction_n_m) / j_tot * r / m.gear_ratio
+        a_lim = rim_from_motor(
+            (v.amplifier.current_limit_a * m.torque_constant_n_m_a - m.coulomb_friction_n_m) / j_tot, r, m.gear_ratio
         )
         return SideConstants(
             radius_m=r,
@@ -368,7 +389,7 @@ def derive(v: VehicleParams) -> DerivedConstants:
             friction_gain_p=p_gain,
             mechanical_time_constant_s=j_eq / damping,
             max_motor_speed_rad_s=omega_max,
-            max_wheel_speed_m_s=omega_max * r / m.gear_ratio,
+            max_wheel_speed_m_s=rim_from_motor(omega_max, r, m.gear_ratio),
             breakaway_amplifier_voltage_v=m.stiction_n_m * m.resistance_ohm / m.torque_constant_n_m_a,
             accel_limit_m_s2=a_lim,
         )
