@@ -50,10 +50,10 @@ class _Side:
 
 
 def _sides(vehicle: VehicleParams) -> tuple[_Side, _Side]:
-    w, mass = vehicle.wheels, vehicle.body.mass_kg
+    mass = vehicle.body.mass_kg
     out = []
-    for side, r in zip(SIDES, (w.radius_left_m, w.radius_right_m), strict=True):
-        mp = vehicle.motor.side(side)
+    for side in SIDES:
+        r, mp = vehicle.wheels.side(side).radius_m, vehicle.motor.side(side)
         n = mp.gear_ratio
         out.append(
             _Side(

@@ -3,6 +3,8 @@
 * :mod:`agvctl.params.schema` — the vehicle file's tables as frozen dataclasses, :func:`load_vehicle`, and
   :func:`derive`, which computes a vehicle's derived constants (eqs 5, 47-51, 60-64) once per parameter set
   (``vehicle.derived``).
+* :mod:`agvctl.params.sides` — the tables that come once per side, wheels and motors: common values with
+  ``left`` / ``right`` overrides.
 * :mod:`agvctl.params.derived` — the equations of the derived constants, for numbers and CasADi symbols alike,
   and their records. It knows nothing of the tables.
 """
@@ -19,7 +21,6 @@ from agvctl.params.derived import (
     rim_from_motor,
 )
 from agvctl.params.schema import (
-    SIDES,
     AmplifierParams,
     BatteryParams,
     BodyParams,
@@ -27,17 +28,15 @@ from agvctl.params.schema import (
     DAParams,
     FrameParams,
     FrictionModelParams,
-    MotorPair,
-    MotorParams,
     SensorParams,
     VehicleParams,
-    WheelParams,
     default_vehicle_path,
     derive,
     inertia_from_dimensions,
     inertia_rotation_point,
     load_vehicle,
 )
+from agvctl.params.sides import SIDES, MotorPair, MotorParams, WheelParams, WheelSide
 
 __all__ = [
     "AmplifierParams",
@@ -56,6 +55,7 @@ __all__ = [
     "SideConstants",
     "VehicleParams",
     "WheelParams",
+    "WheelSide",
     "center_of_mass_from_scales",
     "coupling_constants",
     "default_vehicle_path",

@@ -1,11 +1,11 @@
 """The vehicle file's schema (the report's appendix A): one frozen dataclass per table, the loader, and the
 derived constants of a vehicle.
 
-A vehicle file is TOML with the tables ``frame``, ``battery``, ``body``, ``wheels``, ``motor`` (with optional
-``motor.left`` / ``motor.right`` overrides), ``amplifier``, ``da``, ``friction_model``, ``control`` and
-``sensors``; see ``agvctl/vehicles/iau_agv.toml``. :func:`load_vehicle` reads one (or the default), applies
-``--set`` style overrides and returns a frozen :class:`VehicleParams`; :func:`derive` computes its
-:attr:`VehicleParams.derived` by the equations of :mod:`agvctl.params.derived`.
+A vehicle file is TOML with the tables ``frame``, ``battery``, ``body``, ``wheels`` and ``motor`` (each with
+optional ``left`` / ``right`` overrides, :mod:`agvctl.params.sides`), ``amplifier``, ``da``, ``friction_model``,
+``control`` and ``sensors``; see ``agvctl/vehicles/iau_agv.toml``. :func:`load_vehicle` reads one (or the
+default), applies ``--set`` style overrides and returns a frozen :class:`VehicleParams`; :func:`derive` computes
+its :attr:`VehicleParams.derived` by the equations of :mod:`agvctl.params.derived`.
 
 Units are SI throughout and are part of every key's name.
 """
@@ -15,22 +15,12 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from agvctl.config import (
-    apply_overrides,
-    build,
-    convert_value,
-    did_you_mean,
-    join_key,
-    load_toml,
-    number,
-    parse_override,
-    to_dict,
-)
+from agvctl.config import apply_overrides, build, join_key, load_toml, number, parse_override, to_dict
 from agvctl.errors import ConfigError
 from agvctl.params.derived import (
     DerivedConstants,
@@ -42,6 +32,7 @@ from agvctl.params.derived import (
     motor_from_rim,
     rim_from_motor,
 )
+from agvctl.params.sides import MotorPair, MotorParams, WheelParams
 
 __all__ = [
     "AmplifierParams",
@@ -51,12 +42,8 @@ __all__ = [
     "DAParams",
     "FrameParams",
     "FrictionModelParams",
-    "MotorPair",
-    "MotorParams",
-    "SIDES",
     "SensorParams",
     "VehicleParams",
-    "WheelParams",
     "default_vehicle_path",
     "derive",
     "inertia_from_dimensions",
@@ -65,7 +52,6 @@ __all__ = [
 ]
 
 InertiaAbout = Literal["rotation_point", "center_of_mass"]
-SIDES: tuple[Side, Side] = ("left", "right")
 
 
 @dataclass(frozen=True)
@@ -98,97 +84,6 @@ class BodyParams:
     inertia_kg_m2: float = number(gt=0)
     com_behind_axle_m: float = number()
     inertia_about: InertiaAbout = "rotation_point"
-
-
-@dataclass(frozen=True)
-class WheelParams:
-    """Driving wheels: separation b and the two radii r_l, r_r."""
-
-    separation_m: float = number(gt=0)
-    radius_left_m: float = number(gt=0)
-    radius_right_m: float = number(gt=0)
-
-
-@dataclass(frozen=True)
-class MotorParams:
-    """One armature-controlled DC motor with its gear (eqs 1-4, appendix A "Actuator characteristics")."""
-
-    inertia_kg_m2: float = number(gt=0, doc="J")
-    resistance_ohm: float = number(gt=0, doc="R")
-    voltage_constant_v_s_rad: float = number(gt=0, doc="k_e")
-    torque_constant_n_m_a: float = number(gt=0, doc="k_t")
-    viscous_friction_n_m_s_rad: float = number(ge=0, doc="f_m")
-    coulomb_friction_n_m: float = number(ge=0, doc="tau_c")
-    stiction_n_m: float = number(ge=0, doc="tau_s, the break-away torque")
-    gear_ratio: float = number(gt=0, doc="N")
-
-    def validate(self, *, source: str, prefix: str) -> None:
-        if self.coulomb_friction_n_m > self.stiction_n_m:
-            raise ConfigError(
-                source,
-                join_key(prefix, "coulomb_friction_n_m"),
-                f"Coulomb friction {self.coulomb_friction_n_m:g} N m exceeds stiction {self.stiction_n_m:g} N m; "
-                "the break-away torque must be at least the sliding friction",
-            )
-
-
-_MOTOR_KEYS = tuple(f.name for f in dataclasses.fields(MotorParams))
-
-
-@dataclass(frozen=True)
-class MotorPair:
-    """The left and right motors. In a file, ``[motor]`` holds the common values and ``[motor.left]`` /
-    ``[motor.right]`` override any of them for one side."""
-
-    left: MotorParams
-    right: MotorParams
-
-    @classmethod
-    def extra_file_keys(cls) -> dict[str, Any]:
-        return {k: float for k in _MOTOR_KEYS}
-
-    @classmethod
-    def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> MotorPair:
-        allowed = [*_MOTOR_KEYS, "left", "right"]
-        for k in data:
-            if k not in allowed:
-                raise ConfigError(source, join_key(prefix, k), "unknown key" + did_you_mean(k, allowed, [prefix]))
-        meta = {f.name: f.metadata for f in dataclasses.fields(MotorParams)}
-        base = {k: convert_value(float, v, source, join_key(prefix, k), meta[k]) for k, v in data.items() if k in meta}
-        sides: dict[str, MotorParams] = {}
-        for side in ("left", "right"):
-            side_prefix = join_key(prefix, side)
-            override = data.get(side, {})
-            if not isinstance(override, Mapping):
-                raise ConfigError(source, side_prefix, "expected a table")
-            for k in override:
-                if k not in meta:
-                    raise ConfigError(
-                        source, join_key(side_prefix, k), "unknown key" + did_you_mean(k, meta, [side_prefix])
-                    )
-            merged = dict(base)
-            merged.update(
-                {k: convert_value(float, v, source, join_key(side_prefix, k), meta[k]) for k, v in override.items()}
-            )
-            for k in _MOTOR_KEYS:
-                if k not in merged:
-                    raise ConfigError(source, join_key(prefix, k), "missing key")
-            motor = MotorParams(**merged)
-            motor.validate(source=source, prefix=side_prefix if override else prefix)
-            sides[side] = motor
-        return cls(left=sides["left"], right=sides["right"])
-
-    def to_file(self) -> dict[str, Any]:
-        left, right = dataclasses.asdict(self.left), dataclasses.asdict(self.right)
-        out: dict[str, Any] = {k: left[k] for k in _MOTOR_KEYS if left[k] == right[k]}
-        for side, values in (("left", left), ("right", right)):
-            diff = {k: values[k] for k in _MOTOR_KEYS if left[k] != right[k]}
-            if diff:
-                out[side] = diff
-        return out
-
-    def side(self, name: Side) -> MotorParams:
-        return self.left if name == "left" else self.right
 
 
 @dataclass(frozen=True)
@@ -308,24 +203,21 @@ class VehicleParams:
         """The derived constants (cached)."""
         return derive(self)
 
-    def _radius_m(self, side: Side) -> float:
-        return self.wheels.radius_left_m if side == "left" else self.wheels.radius_right_m
-
     def to_rim(self, side: Side, motor: float) -> float:
         """A motor-shaft angle (rad), speed (rad/s) or acceleration of ``side`` at its wheel's rim (m, m/s, m/s²):
         motor · r/N (:func:`~agvctl.params.derived.rim_from_motor`)."""
-        return float(rim_from_motor(motor, self._radius_m(side), self.motor.side(side).gear_ratio))
+        return float(rim_from_motor(motor, self.wheels.side(side).radius_m, self.motor.side(side).gear_ratio))
 
     def to_motor(self, side: Side, rim: float) -> float:
         """A rim travel (m), speed (m/s) or acceleration of ``side`` at its motor shaft: rim · N/r."""
-        return float(motor_from_rim(rim, self._radius_m(side), self.motor.side(side).gear_ratio))
+        return float(motor_from_rim(rim, self.wheels.side(side).radius_m, self.motor.side(side).gear_ratio))
 
     def rim_per_motor_rad(self, side: Side) -> float:
         """r/N of ``side`` (m/rad): the rim metres per motor-shaft radian."""
         return self.to_rim(side, 1.0)
 
     def with_overrides(self, overrides: Iterable[str | tuple[str, Any]], source: str = "--set") -> VehicleParams:
-        """A copy with dotted-key overrides applied, e.g. ``["wheels.radius_right_m=0.101"]``."""
+        """A copy with dotted-key overrides applied, e.g. ``["wheels.right.radius_m=0.101"]``."""
         pairs = [parse_override(o, source) if isinstance(o, str) else o for o in overrides]
         raw = apply_overrides(to_dict(self), pairs, VehicleParams, source)
         return build(VehicleParams, raw, source=source)
@@ -364,7 +256,7 @@ def _full_scale_amplifier_voltage(v: VehicleParams) -> float:
 def derive(v: VehicleParams) -> DerivedConstants:
     """Compute the derived constants of a vehicle (cached per parameter set)."""
     M, h, b = v.body.mass_kg, v.body.com_behind_axle_m, v.wheels.separation_m
-    r_l, r_r = v.wheels.radius_left_m, v.wheels.radius_right_m
+    r_l, r_r = v.wheels.left.radius_m, v.wheels.right.radius_m
     ml, mr = v.motor.left, v.motor.right
     n_l, n_r = ml.gear_ratio, mr.gear_ratio
     i_o = inertia_rotation_point(v.body)

@@ -22,6 +22,7 @@ import casadi as ca
 import numpy as np
 
 from agvctl.params import (
+    SIDES,
     VehicleParams,
     coupling_constants,
     inertia_rotation_point,
@@ -88,10 +89,10 @@ def parameter_vector(vehicle: VehicleParams) -> np.ndarray:
         vehicle.amplifier.current_limit_a,
         vehicle.friction_model.p_factor,
     ]
-    for side, radius in (("left", vehicle.wheels.radius_left_m), ("right", vehicle.wheels.radius_right_m)):
-        m = vehicle.motor.side(side)  # type: ignore[arg-type]
+    for side in SIDES:
+        m = vehicle.motor.side(side)
         values += [
-            radius,
+            vehicle.wheels.side(side).radius_m,
             m.inertia_kg_m2,
             m.resistance_ohm,
             m.voltage_constant_v_s_rad,
