@@ -31,6 +31,7 @@ __all__ = [
     "apply_overrides",
     "build",
     "build_fields",
+    "check_key",
     "convert_value",
     "did_you_mean",
     "dump_toml",
@@ -39,6 +40,7 @@ __all__ = [
     "number",
     "parse_override",
     "read_text",
+    "renamed",
     "to_dict",
 ]
 
@@ -83,7 +85,7 @@ def parse_override(text: str, source: str = "--set") -> tuple[str, Any]:
     key, sep, value_text = text.partition("=")
     key = key.strip()
     if not sep or not key:
-        raise ConfigError(source, text, "expected KEY=VALUE, e.g. wheels.radius_right_m=0.101")
+        raise ConfigError(source, text, "expected KEY=VALUE, e.g. wheels.right.radius_m=0.101")
     value_text = value_text.strip()
     try:
         value = tomllib.loads(f"v = {value_text}")["v"]
@@ -111,6 +113,12 @@ def apply_overrides(
     return result
 
 
+def check_key(schema: type, key: str, source: str) -> None:
+    """Check that the dotted ``key`` names a value of ``schema``: an unknown, renamed or table key raises a
+    :class:`ConfigError` naming ``source`` and the key."""
+    _check_path(schema, key.split("."), source, key)
+
+
 def _deep_copy(raw: Mapping[str, Any]) -> dict[str, Any]:
     return {k: _deep_copy(v) if isinstance(v, Mapping) else v for k, v in raw.items()}
 
@@ -122,6 +130,9 @@ def _check_path(schema: type, parts: list[str], source: str, key: str) -> None:
             raise ConfigError(source, key, f"'{'.'.join(parts[:depth])}' is a value, not a table")
         names = _file_keys(cls)
         if part not in names:
+            new = _renamed_keys(cls).get(part)
+            if new is not None:
+                raise ConfigError(source, key, renamed(".".join([*parts[:depth], new])))
             raise ConfigError(source, key, "unknown key" + did_you_mean(part, names, parts[:depth]))
         cls = names[part]
     if isinstance(cls, type) and dataclasses.is_dataclass(cls):
@@ -140,6 +151,18 @@ def _file_keys(cls: type) -> dict[str, Any]:
     if extra:
         keys.update(extra())
     return keys
+
+
+def _renamed_keys(cls: type) -> dict[str, str]:
+    """Map of a dataclass's former file keys to their current dotted keys, relative to its table (the class's
+    ``renamed_file_keys``)."""
+    names = getattr(cls, "renamed_file_keys", None)
+    return dict(names()) if names else {}
+
+
+def renamed(new_key: str) -> str:
+    """The problem of a key that has a new name: ``renamed; use <new_key>``."""
+    return f"renamed; use {new_key}"
 
 
 def did_you_mean(word: str, choices: Iterable[str], prefix: list[str]) -> str:

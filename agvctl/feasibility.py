@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvctl.actuator import full_scale_voltage_v
-from agvctl.params import VehicleParams
+from agvctl.params import SIDES, VehicleParams
 
 __all__ = [
     "CURRENT_HEADROOM",
@@ -51,13 +51,14 @@ class _Side:
 
 
 def _sides(vehicle: VehicleParams) -> tuple[_Side, _Side]:
-    w, m, mass = vehicle.wheels, vehicle.motor, vehicle.body.mass_kg
+    mass = vehicle.body.mass_kg
     out = []
-    for r, mp in ((w.radius_left_m, m.left), (w.radius_right_m, m.right)):
+    for side in SIDES:
+        r, mp = vehicle.wheels.side(side).radius_m, vehicle.motor.side(side)
         n = mp.gear_ratio
         out.append(
             _Side(
-                r / n,
+                vehicle.rim_per_motor_rad(side),
                 mp.inertia_kg_m2 + 0.5 * mass * r**2 / n**2,  # eq 5
                 mp.torque_constant_n_m_a,
                 mp.voltage_constant_v_s_rad,

@@ -67,7 +67,7 @@ def main() -> int:
     args = ap.parse_args()
 
     v = load_vehicle()
-    ts, r, n, b = v.control.sample_period_s, v.wheels.radius_left_m, v.motor.left.gear_ratio, v.wheels.separation_m
+    ts, r, n, b = v.control.sample_period_s, v.wheels.left.radius_m, v.motor.left.gear_ratio, v.wheels.separation_m
     da = profile(ts)
     t = np.arange(len(da) + 1) * ts
     u = Actuator(v).apply(da).motor_voltage_v  # the same motor voltages into every model

@@ -22,14 +22,11 @@ def _modules() -> dict[str, Path]:
 
 
 def _imports(path: Path, name: str, modules: dict[str, Path]) -> set[str]:
-    """The agvctl modules ``name`` imports anywhere in its body, functions included (``from pkg import sub``
-    counts ``pkg.sub``). Imports under ``if TYPE_CHECKING:`` are for annotations only and never run, so they
-    don't count (params.derived names the schema's types that way)."""
+    """The agvctl modules ``name`` imports anywhere in its body, functions and ``if TYPE_CHECKING:`` blocks
+    included (``from pkg import sub`` counts ``pkg.sub``)."""
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found: set[str] = set()
     tree = ast.parse(path.read_text(encoding="utf-8"))
-    for guard in [n for n in ast.walk(tree) if isinstance(n, ast.If) and ast.unparse(n.test) == "TYPE_CHECKING"]:
-        guard.body = []
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             found.update(alias.name for alias in node.names)

@@ -170,7 +170,7 @@ def test_umbmark_error_model_first_order_signs() -> None:
 def test_umbmark_correction_inverts_the_geometry(vehicle: VehicleParams) -> None:
     """A plant with r_r/r_l = 1.004 and b 0.8 % larger: α and β from its geometry, the end errors from the exact
     model, and the correction returns the truth."""
-    truth = vehicle.with_overrides(["wheels.radius_right_m=0.1004", "wheels.separation_m=0.54432"])
+    truth = vehicle.with_overrides(["wheels.right.radius_m=0.1004", "wheels.separation_m=0.54432"])
     r_mean_true = 0.5 * (0.1 + 0.1004)
     b_eff = 0.54432 * 0.1 / r_mean_true  # in units of the believed mean radius
     alpha = 0.5 * math.pi * (1 - 0.54 / b_eff)  # a corner the odometry counts as 90° turns 90° b̂/b
@@ -187,7 +187,7 @@ def test_umbmark_correction_inverts_the_geometry(vehicle: VehicleParams) -> None
 
 @pytest.mark.slow
 def test_umbmark_reduces_the_return_error_tenfold(vehicle: VehicleParams) -> None:
-    truth = vehicle.with_overrides(["wheels.radius_right_m=0.1005", "wheels.separation_m=0.5454"])
+    truth = vehicle.with_overrides(["wheels.right.radius_m=0.1005", "wheels.separation_m=0.5454"])
     result = simulate_umbmark(truth, vehicle, UmbmarkConfig(side_length_m=4.0, runs_per_direction=3))
     assert result.error_before_m > 0.3  # the 4 m square: tens of cm (see module notes: 2L(β ± α))
     assert result.error_after_m * 10 <= result.error_before_m
@@ -198,7 +198,7 @@ def test_umbmark_reduces_the_return_error_tenfold(vehicle: VehicleParams) -> Non
 
 @pytest.mark.slow
 def test_umbmark_with_noise_reports_honest_errors(vehicle: VehicleParams) -> None:
-    truth = vehicle.with_overrides(["wheels.radius_right_m=0.1005", "wheels.separation_m=0.5454"])
+    truth = vehicle.with_overrides(["wheels.right.radius_m=0.1005", "wheels.separation_m=0.5454"])
     result = simulate_umbmark(truth, vehicle, UmbmarkConfig(side_length_m=2.0), noise_scale=1.0, seed=4)
     c = result.correction
     for e in (c.wheel_radius_ratio, c.separation_m):
@@ -357,7 +357,7 @@ def test_cli_umbmark_log(tmp_path: Path, capsys: pytest.CaptureFixture[str], veh
     assert data["separation_m"]["estimate"] == pytest.approx(0.54 * 0.5 * math.pi / (0.5 * math.pi - 0.01), rel=1e-3)
     assert data["wheel_radius_ratio"]["stderr"] > 0
     v = load_vehicle(out)
-    assert v.wheels.radius_right_m > v.wheels.radius_left_m  # β > 0: the legs curve left, the right wheel is larger
+    assert v.wheels.right.radius_m > v.wheels.left.radius_m  # β > 0: the legs curve left, the right wheel is larger
     assert "UMBmark" in out.read_text().splitlines()[1]
     # the text table
     assert main(["identify", "umbmark", "--log", str(log)]) == 0

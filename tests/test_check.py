@@ -8,8 +8,9 @@ from pathlib import Path
 import pytest
 
 from agvctl.checks.report import TIMING_METRICS
-from agvctl.checks.runner import check_experiments
+from agvctl.checks.runner import check_experiments, monte_carlo_samples
 from agvctl.cli import main
+from agvctl.scenario.experiment import load_experiment
 
 DATA = Path(__file__).resolve().parent / "data"
 
@@ -101,6 +102,14 @@ BASE = 'name = "x"\ntrajectory = "line.toml"\n'
         (BASE + "[controller]\nhorizn = 3\n", "controller.horizn: unknown key (did you mean controller.horizon?)"),
         (BASE + '[plant]\nset = { "wheels.radius_rght_m" = 0.1 }\n', "wheels.radius_rght_m: unknown key"),
         (
+            BASE + '[plant]\nset = { "wheels.radius_left_m" = 0.1 }\n',
+            "plant.set: wheels.radius_left_m: renamed; use wheels.left.radius_m",
+        ),
+        (
+            BASE + '[robustness]\nsamples = 5\n[robustness.spread]\n"wheels.radius_right_m" = 0.01\n',
+            "robustness.spread.wheels.radius_right_m: renamed; use wheels.right.radius_m",
+        ),
+        (
             BASE + '[robustness]\nsamples = 5\n[robustness.spread]\n"motor.coulomb_friction_n_m" = 0.2\n',
             "robustness (sample ",
         ),
@@ -118,6 +127,21 @@ def test_bad_input_exits_2_and_writes_nothing(capsys, tmp_path, text, message):
     assert err.count("\n") == 1 and "Traceback" not in err and message in err, err
     assert str(path) in err
     assert not junit.exists() and not js.exists()
+
+
+def test_monte_carlo_draws_one_side_of_a_shared_value(tmp_path):
+    """The default vehicle has one wheel radius for both sides: ``wheels.left.radius_m`` varies the left one, and
+    ``wheels.radius_m`` the shared one, which the left's own value leaves to the right."""
+    spread = '"wheels.left.radius_m" = 0.01\n"wheels.radius_m" = 0.02\n'
+    path = _bad(tmp_path, BASE + f"[robustness]\nsamples = 3\nseed = 1\n[robustness.spread]\n{spread}", "mc.toml")
+    exp = load_experiment(path)
+    samples = monte_carlo_samples(exp)
+    assert len(samples) == 3
+    for (left_key, left), (common_key, common) in samples:
+        assert (left_key, common_key) == ("wheels.left.radius_m", "wheels.radius_m")
+        v = exp.plant_vehicle.with_overrides([(left_key, left), (common_key, common)])
+        assert (v.wheels.left.radius_m, v.wheels.right.radius_m) == (left, common)
+        assert left != 0.10 and common != 0.10
 
 
 def test_bad_input_in_a_later_file_runs_nothing(capsys, tmp_path):

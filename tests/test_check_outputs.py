@@ -96,7 +96,7 @@ def test_monte_carlo_report_names_the_worst_sample(checked):
         worst = max(range(len(values)), key=values.__getitem__)
         assert verdict["sample"] == samples[worst]["sample"] == worst, verdict["limit"]
         assert verdict["value"] == max(values)
-        assert verdict["parameters"].keys() == {"body.mass_kg", "wheels.radius_right_m"}
+        assert verdict["parameters"].keys() == {"body.mass_kg", "wheels.right.radius_m"}
     tracking = next(v for v in exp["limits"] if v["limit"] == "tracking_error_max_m")
     assert not tracking["passed"] and tracking["failed_runs"] == 4
     assert re.search(rf"; sample {tracking['sample']} of 4 \(4 failed\): body\.mass_kg = ", tracking["message"])

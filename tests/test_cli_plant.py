@@ -40,8 +40,8 @@ def test_params_json_report_figures(capsys):
 
 
 def test_params_table(capsys):
-    code, out, _ = run(capsys, "params", "--set", "wheels.radius_right_m=0.101")
-    assert code == 0 and "wheels.radius_right_m" in out and "0.101" in out and "eq 64" in out
+    code, out, _ = run(capsys, "params", "--set", "wheels.right.radius_m=0.101")
+    assert code == 0 and "wheels.right.radius_m" in out and "0.101" in out and "eq 64" in out
 
 
 def test_simulate_json_and_csv(capsys, tmp_path):
@@ -79,11 +79,13 @@ def test_module_entry_point():
 
 
 BAD_SETS = [
-    ("wheels.radius_rght_m=0.1", "wheels.radius_rght_m", "did you mean wheels.radius_right_m"),
+    ("wheels.left.radius=0.1", "wheels.left.radius", "unknown key (did you mean wheels.left.radius_m?)"),
+    ("wheels.radius_left_m=0.1", "wheels.radius_left_m", "renamed; use wheels.left.radius_m"),
+    ("wheels.radius_right_m=0.1", "wheels.radius_right_m", "renamed; use wheels.right.radius_m"),
     ("body.mass_kg=0", "body.mass_kg", "must be > 0"),
     ("body.mass_kg=-3", "body.mass_kg", "must be > 0"),
     ("motor.resistance_ohm=0", "motor.resistance_ohm", "must be > 0"),
-    ("wheels.radius_left_m=-0.1", "wheels.radius_left_m", "must be > 0"),
+    ("wheels.left.radius_m=-0.1", "wheels.left.radius_m", "must be > 0"),
     ("motor.gear_ratio=0", "motor.gear_ratio", "must be > 0"),
     ("da.bits=0", "da.bits", "must be > 0"),
     ("da.bits=12.5", "da.bits", "expected an integer"),
@@ -123,6 +125,17 @@ def _vehicle_file(tmp_path, text):
         (lambda t: t.replace('name = "IAU AGV"', "name = 3"), "name", "expected a string"),
         (lambda t: t.replace("mass_kg = 85.0", 'mass_kg = "85"'), "body.mass_kg", "expected a number"),
         (lambda t: t.replace("[motor]", "[motor]\n[motor.middle]"), "motor.middle", "unknown key"),
+        (
+            lambda t: t.replace("radius_m = 0.10", "radius_left_m = 0.10"),
+            "wheels.radius_left_m",
+            "renamed; use wheels.left.radius_m",
+        ),
+        (
+            lambda t: t + "\n[wheels.right]\nradius_right_m = 0.10\n",
+            "wheels.right.radius_right_m",
+            "unknown key (did you mean wheels.right.radius_m?)",
+        ),
+        (lambda t: t.replace("radius_m = 0.10", ""), "wheels.radius_m", "missing key"),
         (
             lambda t: t + "\n[motor.right]\nstiction_n_m = 0.01\n",
             "motor.right.coulomb_friction_n_m",

@@ -205,6 +205,10 @@ def test_help_and_only_some_scenarios(tmp_path: Path, capsys: pytest.CaptureFixt
         ('seed = 1\nscenarios = 3\ncontrollers = ["mpc", "nope"]\n', "controllers[1]"),
         ('seed = 1\nscenarios = 3\n[plant]\n"body.mass_kg" = [0.3, -0.1]\n', "plant.body.mass_kg"),
         ('seed = 1\nscenarios = 3\n[plant]\n"body.mass_kgg" = [0.0, 0.1]\n', "plant.body.mass_kgg"),
+        (
+            'seed = 1\nscenarios = 3\n[plant]\n"wheels.radius_left_m" = [0.0, 0.1]\n',
+            "plant.wheels.radius_left_m: renamed; use wheels.left.radius_m",
+        ),
         ("seed = 1\nscenarios = 3\n[paths]\nsegments = [0, 3]\n", "paths.segments"),
         ('seed = 1\nscenarios = 3\n[paths]\nsegment_types = ["line", "spiral"]\n', "paths.segment_types[1]"),
         ("seed = 1\nscenarios = 3\n[limits]\ncross_track_eror_max_m = 0.1\n", "limits.cross_track_eror_max_m"),

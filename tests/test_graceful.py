@@ -19,7 +19,7 @@ from agvctl.cli import main
 from agvctl.controllers.mpc.config import MpcConfig, lead_factor_s
 from agvctl.evaluation.path_metrics import path_errors
 from agvctl.feasibility import HeadroomWarning, WheelReach
-from agvctl.params import load_vehicle
+from agvctl.params import SIDES, load_vehicle
 from agvctl.planning import load_path, plan
 from agvctl.scenario.experiment import load_experiment, run_experiment
 
@@ -112,7 +112,7 @@ def test_setpoints_never_run_away_from_the_wheels(tmp_path):
     config = exp.spec.controller.pose_settings
     assert isinstance(config, MpcConfig)
     lead = lead_factor_s(config, exp.controller_vehicle.control.sample_period_s)
-    rim = np.array([exp.controller_vehicle.wheels.radius_left_m, exp.controller_vehicle.wheels.radius_right_m]) / 36.0
+    rim = np.array([exp.controller_vehicle.rim_per_motor_rad(side) for side in SIDES])
     measured = np.column_stack([log["omega_motor_left_rad_s"], log["omega_motor_right_rad_s"]]) * rim
     setpoint = np.column_stack([log["setpoint_wheel_speed_left_m_s"], log["setpoint_wheel_speed_right_m_s"]])
     up, down = WheelReach(exp.controller_vehicle).accel_m_s2(measured)

@@ -229,7 +229,15 @@ def _leaf_keys(node: dict[str, Any], prefix: str = "") -> list[str]:
     return out
 
 
-VEHICLE_KEYS = _leaf_keys(VEHICLE_DOC) + ["motor.left.gear_ratio", "motor.right.stiction_n_m", "motor", "wheels"]
+VEHICLE_KEYS = _leaf_keys(VEHICLE_DOC) + [
+    "motor.left.gear_ratio",
+    "motor.right.stiction_n_m",
+    "motor",
+    "wheels",
+    "wheels.left.radius_m",
+    "wheels.right",
+    "wheels.radius_left_m",
+]
 override_values = numbers.map(lambda v: toml_value(v)) | st.text(max_size=8) | values.map(toml_value)
 overrides = st.tuples(
     st.sampled_from(VEHICLE_KEYS) | st.text(max_size=8), st.sampled_from(["=", "", " = "]), override_values
@@ -239,7 +247,7 @@ overrides = st.tuples(
 @LOADERS
 @given(sets=st.lists(overrides, max_size=3))
 @example(sets=["motor.resistance_ohm=1e-300"])
-@example(sets=["wheels.radius_left_m=1e308"])
+@example(sets=["wheels.left.radius_m=1e308"])
 def test_vehicle_overrides(sets: list[str]) -> None:
     assert_clean(lambda: [parse_override(s) for s in sets], "--set")
     vehicle = assert_clean(lambda: load_vehicle(None, sets), str(VEHICLE_FILE), "--set")

@@ -4,6 +4,7 @@ import math
 
 import pytest
 
+from agvctl.config import to_dict
 from agvctl.params import center_of_mass_from_scales, inertia_from_dimensions, load_vehicle
 
 
@@ -66,9 +67,33 @@ def test_inertia_about_center_of_mass_adds_m_h2():
 
 
 def test_per_side_override_and_unequal_radii():
-    v = load_vehicle(None, ["motor.left.coulomb_friction_n_m=0.05", "wheels.radius_right_m=0.101"])
+    v = load_vehicle(None, ["motor.left.coulomb_friction_n_m=0.05", "wheels.right.radius_m=0.101"])
     assert v.motor.left.coulomb_friction_n_m == 0.05 and v.motor.right.coulomb_friction_n_m == 0.065
     d = v.derived
     assert d.k_rr / d.k_ll == pytest.approx((0.101 / 0.10) ** 2)
     assert d.k_lrr / d.k_llr == pytest.approx(0.101 / 0.10)
     assert math.isfinite(d.max_speed_m_s)
+
+
+def test_wheel_radius_per_side_and_common():
+    """``wheels.radius_m`` sets both sides, ``wheels.left.radius_m`` one; written back, a shared radius is the
+    common key and different radii are the sides' tables."""
+    v = load_vehicle()
+    assert v.wheels.left.radius_m == v.wheels.right.radius_m == 0.10
+    assert v.wheels.side("right") is v.wheels.right
+    assert to_dict(v)["wheels"] == {"separation_m": 0.54, "radius_m": 0.10}
+    both = v.with_overrides(["wheels.radius_m=0.12"])
+    assert both.wheels.left.radius_m == both.wheels.right.radius_m == 0.12
+    left = v.with_overrides(["wheels.left.radius_m=0.101"])
+    assert (left.wheels.left.radius_m, left.wheels.right.radius_m) == (0.101, 0.10)
+    assert to_dict(left)["wheels"] == {"separation_m": 0.54, "left": {"radius_m": 0.101}, "right": {"radius_m": 0.10}}
+    assert left.with_overrides([]) == left
+
+
+def test_rim_per_motor_radian_is_r_over_n():
+    v = load_vehicle(None, ["wheels.right.radius_m=0.1004", "motor.right.gear_ratio=35.5"])
+    assert v.rim_per_motor_rad("left") == 0.10 / 36.0
+    assert v.rim_per_motor_rad("right") == 0.1004 / 35.5
+    q = 2.0 * math.pi / 2000
+    assert v.to_rim("right", q) == q * 0.1004 / 35.5
+    assert v.to_motor("right", 0.3) == 0.3 * 35.5 / 0.1004

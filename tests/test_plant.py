@@ -153,7 +153,7 @@ def test_spin_in_place_drifts_back_under_centrifugal_load(vehicle):
 
 def test_batch_equals_single_runs():
     base = load_vehicle()
-    variants = [base, base.with_overrides(["wheels.radius_right_m=0.101"]), base.with_overrides(["body.mass_kg=120"])]
+    variants = [base, base.with_overrides(["wheels.right.radius_m=0.101"]), base.with_overrides(["body.mass_kg=120"])]
     da = held((2.0, 3.0, 2.0), (1.0, -1.0, 1.0))
     logs = simulate_batch(variants, da)
     for v, log in zip(variants, logs, strict=True):
@@ -164,7 +164,7 @@ def test_batch_equals_single_runs():
 
 
 def test_unequal_radii_curve_toward_smaller_wheel(vehicle):
-    v = vehicle.with_overrides(["wheels.radius_right_m=0.105"])
+    v = vehicle.with_overrides(["wheels.right.radius_m=0.105"])
     log = simulate_open_loop(v, held((4.0, 3.0, 3.0))).log
     assert log["theta_rad"][-1] > 0.01  # a bigger right wheel turns the vehicle left (eq 40)
 

@@ -24,10 +24,11 @@ from typing import Any, Literal, TypeVar
 import numpy as np
 
 from agvctl.checks.report import CheckReport, ExperimentReport, Overrides, RunOutcome, RunTask, worst_run_verdicts
-from agvctl.config import to_dict
+from agvctl.config import check_key, to_dict
 from agvctl.errors import ConfigError
 from agvctl.evaluation.limits import evaluate_limits
 from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.params import SIDES, VehicleParams
 from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
 
 __all__ = [
@@ -49,7 +50,8 @@ R = TypeVar("R")
 
 
 def _nominal_values(prepared: Experiment, key: str) -> list[tuple[str, float]]:
-    """The plant's nominal value(s) of a dotted key; ``motor.X`` with different sides gives both sides."""
+    """The plant's nominal value(s) of a dotted key; ``motor.X`` or ``wheels.X`` with different sides gives both
+    sides, and one side's key (``wheels.left.radius_m``) that side's value also when the sides share it."""
     data = to_dict(prepared.plant_vehicle)
     node: Any = data
     for part in key.split("."):
@@ -60,14 +62,23 @@ def _nominal_values(prepared: Experiment, key: str) -> list[tuple[str, float]]:
     if isinstance(node, (int, float)) and not isinstance(node, bool):
         return [(key, float(node))]
     parts = key.split(".")
-    if len(parts) == 2 and parts[0] == "motor":
-        sides = [
-            (f"motor.{s}.{parts[1]}", getattr(prepared.plant_vehicle.motor.side(s), parts[1], None))
-            for s in ("left", "right")
-        ]
+    plant = prepared.plant_vehicle
+    pairs = (("motor", plant.motor), ("wheels", plant.wheels))
+    by_side: dict[tuple[str, str], object] = {(table, s): pair.side(s) for table, pair in pairs for s in SIDES}
+    if len(parts) == 3 and (parts[0], parts[1]) in by_side:
+        value = getattr(by_side[parts[0], parts[1]], parts[2], None)
+        if isinstance(value, float):
+            return [(key, value)]
+    if len(parts) == 2 and parts[0] in ("motor", "wheels"):
+        sides = [(f"{parts[0]}.{s}.{parts[1]}", getattr(by_side[parts[0], s], parts[1], None)) for s in SIDES]
         if all(isinstance(v, float) for _k, v in sides):
             return [(k, float(v)) for k, v in sides]  # type: ignore[arg-type]
-    raise ConfigError(prepared.spec.source, f"robustness.spread.{key}", "not a numeric vehicle key")
+    where = f"robustness.spread.{key}"
+    try:
+        check_key(VehicleParams, key, prepared.spec.source)
+    except ConfigError as exc:
+        raise ConfigError(prepared.spec.source, where, exc.problem) from None
+    raise ConfigError(prepared.spec.source, where, "not a numeric vehicle key")
 
 
 def monte_carlo_samples(prepared: Experiment) -> list[Overrides]:

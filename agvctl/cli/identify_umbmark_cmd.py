@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--runs", "", f"must be >= 1 (got {args.runs})")
     nominal = load_vehicle(args.vehicle)
     demo = [
-        f"wheels.radius_right_m={nominal.wheels.radius_left_m * DEMO_UMBMARK_RATIO!r}",
+        f"wheels.right.radius_m={nominal.wheels.left.radius_m * DEMO_UMBMARK_RATIO!r}",
         f"wheels.separation_m={nominal.wheels.separation_m * DEMO_UMBMARK_SEPARATION_FACTOR!r}",
     ]
     believed, truth = vehicles(args, demo)
@@ -142,11 +142,11 @@ def _text_summary(
     )
     lines += table(
         [
-            ("radius_left_m", w.radius_left_m, corr.radius_left_m, corr.radius_left_m.truth),
-            ("radius_right_m", w.radius_right_m, corr.radius_right_m, corr.radius_right_m.truth),
+            ("radius_left_m", w.left.radius_m, corr.radius_left_m, corr.radius_left_m.truth),
+            ("radius_right_m", w.right.radius_m, corr.radius_right_m, corr.radius_right_m.truth),
             (
                 "wheel radius ratio r_r/r_l",
-                w.radius_right_m / w.radius_left_m,
+                w.right.radius_m / w.left.radius_m,
                 corr.wheel_radius_ratio,
                 corr.wheel_radius_ratio.truth,
             ),

@@ -16,5 +16,5 @@ def add_vehicle_options(parser: argparse.ArgumentParser) -> None:
         action="append",
         default=[],
         dest="overrides",
-        help="override one vehicle value by its dotted key, e.g. wheels.radius_right_m=0.101 (repeatable)",
+        help="override one vehicle value by its dotted key, e.g. wheels.right.radius_m=0.101 (repeatable)",
     )

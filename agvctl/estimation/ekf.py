@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
-from agvctl.params import VehicleParams
+from agvctl.params import SIDES, VehicleParams
 from agvctl.sensing import Measurements, PositionFix, fix_delay_samples
 
 __all__ = ["EkfSettings", "PoseEkf"]
@@ -59,12 +59,10 @@ class PoseEkf:
 
     def __init__(self, vehicle: VehicleParams, settings: EkfSettings | None = None) -> None:
         self.settings = s = settings or EkfSettings()
-        w, m, sens = vehicle.wheels, vehicle.motor, vehicle.sensors
+        sens = vehicle.sensors
         q = 2.0 * math.pi / sens.encoder_counts_per_rev
-        self.metres_per_count = np.array(
-            [q * w.radius_left_m / m.left.gear_ratio, q * w.radius_right_m / m.right.gear_ratio]
-        )
-        self.separation_m = w.separation_m
+        self.metres_per_count = np.array([vehicle.to_rim(side, q) for side in SIDES])
+        self.separation_m = vehicle.wheels.separation_m
         ts = vehicle.control.sample_period_s
         self.sample_period_s = ts
         self._count_var = (self.metres_per_count**2 / 6.0).tolist()  # two latched counts, each uniform over one

@@ -7,7 +7,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.params import VehicleParams
+from agvctl.params import SIDES, VehicleParams
 from agvctl.sensing import Measurements
 
 __all__ = ["OdometryEstimator", "TruthEstimator"]
@@ -33,12 +33,9 @@ class OdometryEstimator:
     "odometry"``): each sample's travel Δn·q·r/N per wheel (eqs 26, 29), eqs 39-43 with the midpoint heading."""
 
     def __init__(self, vehicle: VehicleParams) -> None:
-        w, m = vehicle.wheels, vehicle.motor
         q = 2.0 * math.pi / vehicle.sensors.encoder_counts_per_rev
-        self.metres_per_count = np.array(
-            [q * w.radius_left_m / m.left.gear_ratio, q * w.radius_right_m / m.right.gear_ratio]
-        )
-        self.separation_m = w.separation_m
+        self.metres_per_count = np.array([vehicle.to_rim(side, q) for side in SIDES])
+        self.separation_m = vehicle.wheels.separation_m
         self._pose = np.zeros(3)
         self._previous: NDArray[np.int64] | None = None
 

@@ -32,7 +32,7 @@ from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator
 from agvctl.estimation.ekf import EkfSettings, PoseEkf
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
 from agvctl.log import SimLog
-from agvctl.params import VehicleParams
+from agvctl.params import SIDES, VehicleParams
 from agvctl.sensing import SENSOR_READING_COLUMNS, Measurements, PositionFix, Sensors
 
 __all__ = [
@@ -139,8 +139,7 @@ def estimate_log(log: SimLog, vehicle: VehicleParams, localization: str | PoseEs
     first estimate and fed each row's readings as the loop fed them; ``vehicle`` is the believed one."""
     estimator = ESTIMATORS[localization](vehicle) if isinstance(localization, str) else localization
     estimator.reset(_start(log))
-    w, m = vehicle.wheels, vehicle.motor
-    rim_per_motor = np.array([w.radius_left_m / m.left.gear_ratio, w.radius_right_m / m.right.gear_ratio])
+    rim_per_motor = np.array([vehicle.rim_per_motor_rad(side) for side in SIDES])
     counts, fixes = log_encoder_counts(log), log_fixes(log, vehicle.control.sample_period_s)
     poses = np.column_stack([log["x_m"], log["y_m"], log["theta_rad"]])
     wheel = _pair(log, "measured_omega_motor_{}_rad_s") * rim_per_motor

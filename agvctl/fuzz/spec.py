@@ -25,7 +25,7 @@ offset_max_m = 0.05
 heading_max_deg = 5.0
 
 [plant]                             # relative ranges [low, high] of dotted vehicle keys (replaces the defaults)
-"wheels.radius_left_m" = [-0.01, 0.01]
+"wheels.left.radius_m" = [-0.01, 0.01]
 "body.mass_kg" = [-0.10, 0.30]
 
 [controller]                        # more keys for every run's [controller] table (pose comes from controllers)
@@ -50,7 +50,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from agvctl.config import build, build_fields, convert_value, join_key, load_toml, number
+from agvctl.config import build, build_fields, check_key, convert_value, join_key, load_toml, number
 from agvctl.controllers.registry import POSE_CONTROLLERS
 from agvctl.errors import ConfigError
 from agvctl.evaluation.limits import LimitsSpec
@@ -71,8 +71,8 @@ __all__ = [
 Range = tuple[float, float]
 
 DEFAULT_ENVELOPE: dict[str, Range] = {
-    "wheels.radius_left_m": (-0.01, 0.01),
-    "wheels.radius_right_m": (-0.01, 0.01),
+    "wheels.left.radius_m": (-0.01, 0.01),
+    "wheels.right.radius_m": (-0.01, 0.01),
     "wheels.separation_m": (-0.02, 0.02),
     "body.mass_kg": (-0.10, 0.30),
     "motor.left.coulomb_friction_n_m": (-0.5, 0.5),
@@ -248,6 +248,10 @@ def _check_against_vehicle(spec: FuzzSpec, vehicle: VehicleParams) -> None:
         where = f"plant.{key}"
         nominal = nominal_value(vehicle, key)
         if nominal is None:
+            try:
+                check_key(VehicleParams, key, src)
+            except ConfigError as exc:
+                raise ConfigError(src, where, exc.problem) from None
             raise ConfigError(src, where, "not a numeric vehicle key (e.g. body.mass_kg, motor.left.stiction_n_m)")
         for end in (lo, hi):
             try:

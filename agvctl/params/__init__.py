@@ -1,20 +1,24 @@
 """Vehicle parameters (the report's appendix A) and the constants derived from them.
 
-* :mod:`agvctl.params.schema` — the vehicle file's tables as frozen dataclasses, and :func:`load_vehicle`.
-* :mod:`agvctl.params.derived` — the derived constants (eqs 5, 47-51, 60-64), each from the equation it names;
-  ``vehicle.derived`` computes them once per parameter set.
+* :mod:`agvctl.params.schema` — the vehicle file's tables as frozen dataclasses, :func:`load_vehicle`, and
+  :func:`derive`, which computes a vehicle's derived constants (eqs 5, 47-51, 60-64) once per parameter set
+  (``vehicle.derived``).
+* :mod:`agvctl.params.sides` — the tables that come once per side, wheels and motors: common values with
+  ``left`` / ``right`` overrides.
+* :mod:`agvctl.params.derived` — the equations of the derived constants, for numbers and CasADi symbols alike,
+  and their records. It knows nothing of the tables.
 """
 
 from agvctl.params.derived import (
     DerivedConstants,
+    Side,
     SideConstants,
     center_of_mass_from_scales,
     coupling_constants,
-    derive,
     equivalent_inertias,
-    inertia_from_dimensions,
-    inertia_rotation_point,
     motor_damping,
+    motor_from_rim,
+    rim_from_motor,
 )
 from agvctl.params.schema import (
     AmplifierParams,
@@ -24,14 +28,15 @@ from agvctl.params.schema import (
     DAParams,
     FrameParams,
     FrictionModelParams,
-    MotorPair,
-    MotorParams,
     SensorParams,
     VehicleParams,
-    WheelParams,
     default_vehicle_path,
+    derive,
+    inertia_from_dimensions,
+    inertia_rotation_point,
     load_vehicle,
 )
+from agvctl.params.sides import SIDES, MotorPair, MotorParams, WheelParams, WheelSide
 
 __all__ = [
     "AmplifierParams",
@@ -44,10 +49,13 @@ __all__ = [
     "FrictionModelParams",
     "MotorPair",
     "MotorParams",
+    "SIDES",
     "SensorParams",
+    "Side",
     "SideConstants",
     "VehicleParams",
     "WheelParams",
+    "WheelSide",
     "center_of_mass_from_scales",
     "coupling_constants",
     "default_vehicle_path",
@@ -57,4 +65,6 @@ __all__ = [
     "inertia_rotation_point",
     "load_vehicle",
     "motor_damping",
+    "motor_from_rim",
+    "rim_from_motor",
 ]

@@ -1,48 +1,35 @@
-"""The constants derived from a vehicle's parameters, each from the report's equation it names.
+"""The constants derived from a vehicle's parameters: the report's equations they come from, and the records
+that hold them.
 
-:func:`derive` computes them all for one :class:`~agvctl.params.VehicleParams` (``vehicle.derived`` calls it,
-cached). The equations that the plant also builds symbolically (:func:`coupling_constants`,
-:func:`equivalent_inertias`, :func:`motor_damping`) take plain numbers or CasADi symbols alike, so the model and
-the constants share one definition.
+The equations take plain numbers or CasADi symbols alike, so the plant's symbolic model (:mod:`agvctl.plant.full`)
+and the numeric constants share one definition. :class:`DerivedConstants` holds one vehicle's constants;
+:func:`agvctl.params.schema.derive` fills it from the vehicle's tables (``vehicle.derived`` calls it, cached).
+This module knows nothing of the tables: :mod:`agvctl.params.schema` builds on it.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
-
-if TYPE_CHECKING:  # the schema's types, for annotations only: the schema imports this module
-    from agvctl.params.schema import BatteryParams, BodyParams, FrameParams, MotorParams, VehicleParams
+from typing import Any, Literal
 
 __all__ = [
     "DerivedConstants",
+    "Side",
     "SideConstants",
     "center_of_mass_from_scales",
     "coupling_constants",
-    "derive",
     "equivalent_inertias",
-    "inertia_from_dimensions",
-    "inertia_rotation_point",
     "motor_damping",
+    "motor_from_rim",
+    "rim_from_motor",
 ]
 
+Side = Literal["left", "right"]
+"""A side of the vehicle: its left or right wheel and motor."""
+
 Num = Any  # a float or a CasADi symbol: the equations below serve both
-
-
-def inertia_from_dimensions(frame: FrameParams, battery: BatteryParams) -> float:
-    """Moment of inertia about the point of rotation from the frame and battery dimensions, eq 64.
-
-    I = M_f (l² + w²)/12 + M_f (l/2 − l_of)² + M_b (l_b² + w_b²)/12: frame mass spread over its floor, battery
-    mass over its bottom sheet and centred above the point of rotation. 5.46 kg m² for the IAU AGV.
-    """
-    m_f, length, w, l_of = frame.mass_kg, frame.length_m, frame.width_m, frame.front_to_rotation_point_m
-    m_b, l_b, w_b = battery.mass_kg, battery.length_m, battery.width_m
-    i_frame = m_f * (length**2 + w**2) / 12.0 + m_f * (length / 2.0 - l_of) ** 2  # eq 64, I_f
-    i_battery = m_b * (l_b**2 + w_b**2) / 12.0  # eq 64, I_b
-    return i_frame + i_battery
 
 
 def center_of_mass_from_scales(
@@ -97,11 +84,19 @@ def motor_damping(k_e: Num, k_t: Num, R: Num, f_m: Num) -> Num:
     return k_e * k_t / R + f_m
 
 
-def inertia_rotation_point(body: BodyParams) -> float:
-    """I + M h², the inertia about the point of rotation used by eqs 16-28 (README, model note 6)."""
-    if body.inertia_about == "rotation_point":
-        return body.inertia_kg_m2  # the table's 5.46 kg m² is about O: it already is I + M h²
-    return body.inertia_kg_m2 + body.mass_kg * body.com_behind_axle_m**2  # literal eq 12: I about the CoM
+def rim_from_motor(motor: Num, radius_m: Num, gear_ratio: Num) -> Num:
+    """motor · r/N: a motor-shaft angle (rad), speed (rad/s) or acceleration (rad/s²) as the travel (m), speed (m/s)
+    or acceleration (m/s²) of the wheel's rim (eqs 26, 29). ``motor = 1`` gives r/N, the rim metres per motor
+    radian.
+
+    The product comes first, ``motor * r / N``. Written for numbers and CasADi symbols alike.
+    """
+    return motor * radius_m / gear_ratio
+
+
+def motor_from_rim(rim: Num, radius_m: Num, gear_ratio: Num) -> Num:
+    """rim · N/r: the inverse of :func:`rim_from_motor`, a rim travel, speed or acceleration at the motor shaft."""
+    return rim * gear_ratio / radius_m
 
 
 @dataclass(frozen=True)
@@ -154,6 +149,9 @@ class DerivedConstants:
     left: SideConstants
     right: SideConstants
 
+    def side(self, name: Side) -> SideConstants:
+        return self.left if name == "left" else self.right
+
     def as_dict(self) -> dict[str, float]:
         """Flat mapping used by ``agvctl params --json``."""
         out: dict[str, float] = {k: v for k, v in dataclasses.asdict(self).items() if not isinstance(v, dict)}
@@ -167,61 +165,3 @@ class DerivedConstants:
             out[f"max_wheel_speed_{side}_m_s"] = sc.max_wheel_speed_m_s
             out[f"breakaway_amplifier_voltage_{side}_v"] = sc.breakaway_amplifier_voltage_v
         return out
-
-
-def _full_scale_amplifier_voltage(v: VehicleParams) -> float:
-    """Amplifier output at the DA's largest code: min(k_pow · v_DA(code_max), u_max)."""
-    v_da = v.da.mid_v + v.da.code_max * v.da.volts_per_code
-    return min(v.amplifier.gain * abs(v_da), v.amplifier.voltage_limit_v)
-
-
-@functools.lru_cache(maxsize=256)
-def derive(v: VehicleParams) -> DerivedConstants:
-    """Compute the derived constants of a vehicle (cached per parameter set)."""
-    M, h, b = v.body.mass_kg, v.body.com_behind_axle_m, v.wheels.separation_m
-    r_l, r_r = v.wheels.radius_left_m, v.wheels.radius_right_m
-    ml, mr = v.motor.left, v.motor.right
-    n_l, n_r = ml.gear_ratio, mr.gear_ratio
-    i_o = inertia_rotation_point(v.body)
-    k_ll, k_rr, k_lr, k_llr, k_lrr = coupling_constants(M, i_o, h, b, r_l, r_r, n_l, n_r)
-    j_eq_l, j_eq_r = equivalent_inertias(ml.inertia_kg_m2, mr.inertia_kg_m2, k_ll, k_rr, k_lr)
-    u_full = _full_scale_amplifier_voltage(v)
-
-    def side(m: MotorParams, r: float, j_eq: float) -> SideConstants:
-        damping = motor_damping(
-            m.voltage_constant_v_s_rad, m.torque_constant_n_m_a, m.resistance_ohm, m.viscous_friction_n_m_s_rad
-        )
-        p_gain = v.friction_model.p_factor * damping  # eq 62: P = p_factor (k_e k_t + f_m R)/R
-        omega_max = max(0.0, (m.torque_constant_n_m_a * u_full / m.resistance_ohm - m.coulomb_friction_n_m) / damping)
-        j_tot = m.inertia_kg_m2 + 0.5 * M * r**2 / m.gear_ratio**2  # eq 5
-        a_lim = (
-            (v.amplifier.current_limit_a * m.torque_constant_n_m_a - m.coulomb_friction_n_m) / j_tot * r / m.gear_ratio
-        )
-        return SideConstants(
-            radius_m=r,
-            inertia_equivalent_kg_m2=j_eq,
-            damping_n_m_s_rad=damping,
-            friction_gain_p=p_gain,
-            mechanical_time_constant_s=j_eq / damping,
-            max_motor_speed_rad_s=omega_max,
-            max_wheel_speed_m_s=omega_max * r / m.gear_ratio,
-            breakaway_amplifier_voltage_v=m.stiction_n_m * m.resistance_ohm / m.torque_constant_n_m_a,
-            accel_limit_m_s2=a_lim,
-        )
-
-    left, right = side(ml, r_l, j_eq_l), side(mr, r_r, j_eq_r)
-    return DerivedConstants(
-        inertia_from_dimensions_kg_m2=inertia_from_dimensions(v.frame, v.battery),
-        inertia_rotation_point_kg_m2=i_o,
-        k_ll=k_ll,
-        k_rr=k_rr,
-        k_lr=k_lr,
-        k_llr=k_llr,
-        k_lrr=k_lrr,
-        accel_limit_m_s2=min(left.accel_limit_m_s2, right.accel_limit_m_s2),
-        da_volts_per_bit=v.da.volts_per_code,
-        max_speed_m_s=min(left.max_wheel_speed_m_s, right.max_wheel_speed_m_s),
-        mechanical_time_constant_s=max(left.mechanical_time_constant_s, right.mechanical_time_constant_s),
-        left=left,
-        right=right,
-    )

@@ -1,10 +1,11 @@
-"""The vehicle file's schema (the report's appendix A): one frozen dataclass per table, and the loader.
+"""The vehicle file's schema (the report's appendix A): one frozen dataclass per table, the loader, and the
+derived constants of a vehicle.
 
-A vehicle file is TOML with the tables ``frame``, ``battery``, ``body``, ``wheels``, ``motor`` (with optional
-``motor.left`` / ``motor.right`` overrides), ``amplifier``, ``da``, ``friction_model``, ``control`` and
-``sensors``; see ``agvctl/vehicles/iau_agv.toml``. :func:`load_vehicle` reads one (or the default), applies
-``--set`` style overrides and returns a frozen :class:`VehicleParams`; its :attr:`VehicleParams.derived` are the
-constants of :mod:`agvctl.params.derived`.
+A vehicle file is TOML with the tables ``frame``, ``battery``, ``body``, ``wheels`` and ``motor`` (each with
+optional ``left`` / ``right`` overrides, :mod:`agvctl.params.sides`), ``amplifier``, ``da``, ``friction_model``,
+``control`` and ``sensors``; see ``agvctl/vehicles/iau_agv.toml``. :func:`load_vehicle` reads one (or the
+default), applies ``--set`` style overrides and returns a frozen :class:`VehicleParams`; :func:`derive` computes
+its :attr:`VehicleParams.derived` by the equations of :mod:`agvctl.params.derived`.
 
 Units are SI throughout and are part of every key's name.
 """
@@ -12,25 +13,26 @@ Units are SI throughout and are part of every key's name.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from agvctl.config import (
-    apply_overrides,
-    build,
-    convert_value,
-    did_you_mean,
-    join_key,
-    load_toml,
-    number,
-    parse_override,
-    to_dict,
-)
+from agvctl.config import apply_overrides, build, join_key, load_toml, number, parse_override, to_dict
 from agvctl.errors import ConfigError
-from agvctl.params.derived import DerivedConstants, derive
+from agvctl.params.derived import (
+    DerivedConstants,
+    Side,
+    SideConstants,
+    coupling_constants,
+    equivalent_inertias,
+    motor_damping,
+    motor_from_rim,
+    rim_from_motor,
+)
+from agvctl.params.sides import MotorPair, MotorParams, WheelParams
 
 __all__ = [
     "AmplifierParams",
@@ -40,12 +42,12 @@ __all__ = [
     "DAParams",
     "FrameParams",
     "FrictionModelParams",
-    "MotorPair",
-    "MotorParams",
     "SensorParams",
     "VehicleParams",
-    "WheelParams",
     "default_vehicle_path",
+    "derive",
+    "inertia_from_dimensions",
+    "inertia_rotation_point",
     "load_vehicle",
 ]
 
@@ -82,97 +84,6 @@ class BodyParams:
     inertia_kg_m2: float = number(gt=0)
     com_behind_axle_m: float = number()
     inertia_about: InertiaAbout = "rotation_point"
-
-
-@dataclass(frozen=True)
-class WheelParams:
-    """Driving wheels: separation b and the two radii r_l, r_r."""
-
-    separation_m: float = number(gt=0)
-    radius_left_m: float = number(gt=0)
-    radius_right_m: float = number(gt=0)
-
-
-@dataclass(frozen=True)
-class MotorParams:
-    """One armature-controlled DC motor with its gear (eqs 1-4, appendix A "Actuator characteristics")."""
-
-    inertia_kg_m2: float = number(gt=0, doc="J")
-    resistance_ohm: float = number(gt=0, doc="R")
-    voltage_constant_v_s_rad: float = number(gt=0, doc="k_e")
-    torque_constant_n_m_a: float = number(gt=0, doc="k_t")
-    viscous_friction_n_m_s_rad: float = number(ge=0, doc="f_m")
-    coulomb_friction_n_m: float = number(ge=0, doc="tau_c")
-    stiction_n_m: float = number(ge=0, doc="tau_s, the break-away torque")
-    gear_ratio: float = number(gt=0, doc="N")
-
-    def validate(self, *, source: str, prefix: str) -> None:
-        if self.coulomb_friction_n_m > self.stiction_n_m:
-            raise ConfigError(
-                source,
-                join_key(prefix, "coulomb_friction_n_m"),
-                f"Coulomb friction {self.coulomb_friction_n_m:g} N m exceeds stiction {self.stiction_n_m:g} N m; "
-                "the break-away torque must be at least the sliding friction",
-            )
-
-
-_MOTOR_KEYS = tuple(f.name for f in dataclasses.fields(MotorParams))
-
-
-@dataclass(frozen=True)
-class MotorPair:
-    """The left and right motors. In a file, ``[motor]`` holds the common values and ``[motor.left]`` /
-    ``[motor.right]`` override any of them for one side."""
-
-    left: MotorParams
-    right: MotorParams
-
-    @classmethod
-    def extra_file_keys(cls) -> dict[str, Any]:
-        return {k: float for k in _MOTOR_KEYS}
-
-    @classmethod
-    def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> MotorPair:
-        allowed = [*_MOTOR_KEYS, "left", "right"]
-        for k in data:
-            if k not in allowed:
-                raise ConfigError(source, join_key(prefix, k), "unknown key" + did_you_mean(k, allowed, [prefix]))
-        meta = {f.name: f.metadata for f in dataclasses.fields(MotorParams)}
-        base = {k: convert_value(float, v, source, join_key(prefix, k), meta[k]) for k, v in data.items() if k in meta}
-        sides: dict[str, MotorParams] = {}
-        for side in ("left", "right"):
-            side_prefix = join_key(prefix, side)
-            override = data.get(side, {})
-            if not isinstance(override, Mapping):
-                raise ConfigError(source, side_prefix, "expected a table")
-            for k in override:
-                if k not in meta:
-                    raise ConfigError(
-                        source, join_key(side_prefix, k), "unknown key" + did_you_mean(k, meta, [side_prefix])
-                    )
-            merged = dict(base)
-            merged.update(
-                {k: convert_value(float, v, source, join_key(side_prefix, k), meta[k]) for k, v in override.items()}
-            )
-            for k in _MOTOR_KEYS:
-                if k not in merged:
-                    raise ConfigError(source, join_key(prefix, k), "missing key")
-            motor = MotorParams(**merged)
-            motor.validate(source=source, prefix=side_prefix if override else prefix)
-            sides[side] = motor
-        return cls(left=sides["left"], right=sides["right"])
-
-    def to_file(self) -> dict[str, Any]:
-        left, right = dataclasses.asdict(self.left), dataclasses.asdict(self.right)
-        out: dict[str, Any] = {k: left[k] for k in _MOTOR_KEYS if left[k] == right[k]}
-        for side, values in (("left", left), ("right", right)):
-            diff = {k: values[k] for k in _MOTOR_KEYS if left[k] != right[k]}
-            if diff:
-                out[side] = diff
-        return out
-
-    def side(self, name: Literal["left", "right"]) -> MotorParams:
-        return self.left if name == "left" else self.right
 
 
 @dataclass(frozen=True)
@@ -292,11 +203,105 @@ class VehicleParams:
         """The derived constants (cached)."""
         return derive(self)
 
+    def to_rim(self, side: Side, motor: float) -> float:
+        """A motor-shaft angle (rad), speed (rad/s) or acceleration of ``side`` at its wheel's rim (m, m/s, m/s²):
+        motor · r/N (:func:`~agvctl.params.derived.rim_from_motor`)."""
+        return float(rim_from_motor(motor, self.wheels.side(side).radius_m, self.motor.side(side).gear_ratio))
+
+    def to_motor(self, side: Side, rim: float) -> float:
+        """A rim travel (m), speed (m/s) or acceleration of ``side`` at its motor shaft: rim · N/r."""
+        return float(motor_from_rim(rim, self.wheels.side(side).radius_m, self.motor.side(side).gear_ratio))
+
+    def rim_per_motor_rad(self, side: Side) -> float:
+        """r/N of ``side`` (m/rad): the rim metres per motor-shaft radian."""
+        return self.to_rim(side, 1.0)
+
     def with_overrides(self, overrides: Iterable[str | tuple[str, Any]], source: str = "--set") -> VehicleParams:
-        """A copy with dotted-key overrides applied, e.g. ``["wheels.radius_right_m=0.101"]``."""
+        """A copy with dotted-key overrides applied, e.g. ``["wheels.right.radius_m=0.101"]``."""
         pairs = [parse_override(o, source) if isinstance(o, str) else o for o in overrides]
         raw = apply_overrides(to_dict(self), pairs, VehicleParams, source)
         return build(VehicleParams, raw, source=source)
+
+
+# -- the derived constants ----------------------------------------------------------------------------------------
+
+
+def inertia_from_dimensions(frame: FrameParams, battery: BatteryParams) -> float:
+    """Moment of inertia about the point of rotation from the frame and battery dimensions, eq 64.
+
+    I = M_f (l² + w²)/12 + M_f (l/2 − l_of)² + M_b (l_b² + w_b²)/12: frame mass spread over its floor, battery
+    mass over its bottom sheet and centred above the point of rotation. 5.46 kg m² for the IAU AGV.
+    """
+    m_f, length, w, l_of = frame.mass_kg, frame.length_m, frame.width_m, frame.front_to_rotation_point_m
+    m_b, l_b, w_b = battery.mass_kg, battery.length_m, battery.width_m
+    i_frame = m_f * (length**2 + w**2) / 12.0 + m_f * (length / 2.0 - l_of) ** 2  # eq 64, I_f
+    i_battery = m_b * (l_b**2 + w_b**2) / 12.0  # eq 64, I_b
+    return i_frame + i_battery
+
+
+def inertia_rotation_point(body: BodyParams) -> float:
+    """I + M h², the inertia about the point of rotation used by eqs 16-28 (README, model note 6)."""
+    if body.inertia_about == "rotation_point":
+        return body.inertia_kg_m2  # the table's 5.46 kg m² is about O: it already is I + M h²
+    return body.inertia_kg_m2 + body.mass_kg * body.com_behind_axle_m**2  # literal eq 12: I about the CoM
+
+
+def _full_scale_amplifier_voltage(v: VehicleParams) -> float:
+    """Amplifier output at the DA's largest code: min(k_pow · v_DA(code_max), u_max)."""
+    v_da = v.da.mid_v + v.da.code_max * v.da.volts_per_code
+    return min(v.amplifier.gain * abs(v_da), v.amplifier.voltage_limit_v)
+
+
+@functools.lru_cache(maxsize=256)
+def derive(v: VehicleParams) -> DerivedConstants:
+    """Compute the derived constants of a vehicle (cached per parameter set)."""
+    M, h, b = v.body.mass_kg, v.body.com_behind_axle_m, v.wheels.separation_m
+    r_l, r_r = v.wheels.left.radius_m, v.wheels.right.radius_m
+    ml, mr = v.motor.left, v.motor.right
+    n_l, n_r = ml.gear_ratio, mr.gear_ratio
+    i_o = inertia_rotation_point(v.body)
+    k_ll, k_rr, k_lr, k_llr, k_lrr = coupling_constants(M, i_o, h, b, r_l, r_r, n_l, n_r)
+    j_eq_l, j_eq_r = equivalent_inertias(ml.inertia_kg_m2, mr.inertia_kg_m2, k_ll, k_rr, k_lr)
+    u_full = _full_scale_amplifier_voltage(v)
+
+    def side(m: MotorParams, r: float, j_eq: float) -> SideConstants:
+        damping = motor_damping(
+            m.voltage_constant_v_s_rad, m.torque_constant_n_m_a, m.resistance_ohm, m.viscous_friction_n_m_s_rad
+        )
+        p_gain = v.friction_model.p_factor * damping  # eq 62: P = p_factor (k_e k_t + f_m R)/R
+        omega_max = max(0.0, (m.torque_constant_n_m_a * u_full / m.resistance_ohm - m.coulomb_friction_n_m) / damping)
+        j_tot = m.inertia_kg_m2 + 0.5 * M * r**2 / m.gear_ratio**2  # eq 5
+        a_lim = rim_from_motor(
+            (v.amplifier.current_limit_a * m.torque_constant_n_m_a - m.coulomb_friction_n_m) / j_tot, r, m.gear_ratio
+        )
+        return SideConstants(
+            radius_m=r,
+            inertia_equivalent_kg_m2=j_eq,
+            damping_n_m_s_rad=damping,
+            friction_gain_p=p_gain,
+            mechanical_time_constant_s=j_eq / damping,
+            max_motor_speed_rad_s=omega_max,
+            max_wheel_speed_m_s=rim_from_motor(omega_max, r, m.gear_ratio),
+            breakaway_amplifier_voltage_v=m.stiction_n_m * m.resistance_ohm / m.torque_constant_n_m_a,
+            accel_limit_m_s2=a_lim,
+        )
+
+    left, right = side(ml, r_l, j_eq_l), side(mr, r_r, j_eq_r)
+    return DerivedConstants(
+        inertia_from_dimensions_kg_m2=inertia_from_dimensions(v.frame, v.battery),
+        inertia_rotation_point_kg_m2=i_o,
+        k_ll=k_ll,
+        k_rr=k_rr,
+        k_lr=k_lr,
+        k_llr=k_llr,
+        k_lrr=k_lrr,
+        accel_limit_m_s2=min(left.accel_limit_m_s2, right.accel_limit_m_s2),
+        da_volts_per_bit=v.da.volts_per_code,
+        max_speed_m_s=min(left.max_wheel_speed_m_s, right.max_wheel_speed_m_s),
+        mechanical_time_constant_s=max(left.mechanical_time_constant_s, right.mechanical_time_constant_s),
+        left=left,
+        right=right,
+    )
 
 
 def default_vehicle_path() -> Path:

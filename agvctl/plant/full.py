@@ -21,7 +21,14 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from agvctl.params import VehicleParams, coupling_constants, inertia_rotation_point, motor_damping
+from agvctl.params import (
+    SIDES,
+    VehicleParams,
+    coupling_constants,
+    inertia_rotation_point,
+    motor_damping,
+    rim_from_motor,
+)
 from agvctl.plant.friction import friction_torque, motor_speed
 
 __all__ = [
@@ -82,10 +89,10 @@ def parameter_vector(vehicle: VehicleParams) -> np.ndarray:
         vehicle.amplifier.current_limit_a,
         vehicle.friction_model.p_factor,
     ]
-    for side, radius in (("left", vehicle.wheels.radius_left_m), ("right", vehicle.wheels.radius_right_m)):
-        m = vehicle.motor.side(side)  # type: ignore[arg-type]
+    for side in SIDES:
+        m = vehicle.motor.side(side)
         values += [
-            radius,
+            vehicle.wheels.side(side).radius_m,
             m.inertia_kg_m2,
             m.resistance_ohm,
             m.voltage_constant_v_s_rad,
@@ -182,15 +189,15 @@ class FullModel:
         dw_l = (tau_l - k_lr / a_r * tau_r) / (a_l - k_lr**2 / a_r)  # eq 58
         dw_r = (tau_r - k_lr / a_l * tau_l) / (a_r - k_lr**2 / a_l)  # eq 59
 
-        v_l, v_r = L.r * w_l / L.N, Rt.r * w_r / Rt.N  # eqs 26, 29: wheel rim speeds
+        v_l, v_r = rim_from_motor(w_l, L.r, L.N), rim_from_motor(w_r, Rt.r, Rt.N)  # eqs 26, 29: wheel rim speeds
         speed = (v_r + v_l) / 2.0  # eq 39
         yaw_rate = (v_r - v_l) / b  # eq 40
         theta = x[4]
         xdot = ca.vertcat(dw_l, dw_r, speed * ca.cos(theta), speed * ca.sin(theta), yaw_rate)  # eqs 41-43
         # dω_mot/dt = dω̃/dt while sliding, 0 while sticking (eq 2)
         moving = [ca.fabs(w) > 0 for w in omega] if opt.friction else [1.0, 1.0]
-        accel_l = L.r / L.N * dw_l * moving[0]
-        accel_r = Rt.r / Rt.N * dw_r * moving[1]
+        accel_l = rim_from_motor(1.0, L.r, L.N) * dw_l * moving[0]  # r/N · dω_mot/dt
+        accel_r = rim_from_motor(1.0, Rt.r, Rt.N) * dw_r * moving[1]
         aux = ca.vertcat(w_l, w_r, current[0], current[1], limited[0], limited[1], accel_l, accel_r, speed, yaw_rate)
         return xdot, aux
 

@@ -42,7 +42,7 @@ def linear_model(vehicle: VehicleParams) -> control.StateSpace:
 def linear_model_speed_yaw_rate(vehicle: VehicleParams) -> control.StateSpace:
     """Eqs 35-38 with outputs vehicle speed U (m/s) and yaw rate ω (rad/s) by eqs 39-40."""
     A, B = linear_model_matrices(vehicle)
-    r_l, r_r, b = vehicle.wheels.radius_left_m, vehicle.wheels.radius_right_m, vehicle.wheels.separation_m
+    r_l, r_r, b = vehicle.wheels.left.radius_m, vehicle.wheels.right.radius_m, vehicle.wheels.separation_m
     n_l, n_r = vehicle.motor.left.gear_ratio, vehicle.motor.right.gear_ratio
     C = np.array([[r_l / (2 * n_l), r_r / (2 * n_r)], [-r_l / (b * n_l), r_r / (b * n_r)]])  # eqs 39-40, 29
     return control.ss(

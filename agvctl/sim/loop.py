@@ -32,7 +32,7 @@ from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator, consisten
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
 from agvctl.evaluation.path_metrics import path_error_columns
 from agvctl.log import PLANT_LOG_COLUMNS, SimLog
-from agvctl.params import VehicleParams
+from agvctl.params import SIDES, VehicleParams
 from agvctl.planning.reference import Reference, ReferenceSamples
 from agvctl.plant.full import PlantOptions
 from agvctl.sensing import SENSOR_READING_COLUMNS, Measurements, Sensors
@@ -132,8 +132,7 @@ class ClosedLoopResult:
 
 def _rim_per_motor(vehicle: VehicleParams) -> NDArray[np.float64]:
     """r/N per side (m/rad): motor speed (rad/s) to rim speed (m/s)."""
-    w, m = vehicle.wheels, vehicle.motor
-    return np.array([w.radius_left_m / m.left.gear_ratio, w.radius_right_m / m.right.gear_ratio])
+    return np.array([vehicle.rim_per_motor_rad(side) for side in SIDES])
 
 
 class _Delay:

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from agvctl.controllers.base import WheelSpeedController
 from agvctl.controllers.pi.wheel_loop import PIGains, PIWheelController
-from agvctl.params import VehicleParams
+from agvctl.params import SIDES, VehicleParams
 from agvctl.sim.stepper import PlantStepper
 
 __all__ = ["StepMetrics", "WheelStepResult", "step_metrics", "wheel_step_response"]
@@ -140,12 +140,7 @@ def wheel_step_response(
     if not (math.isfinite(duration_s) and duration_s > 0):
         raise ValueError(f"duration_s must be positive (got {duration_s})")
     n = max(1, int(round(duration_s / ts)))
-    setpoint = np.array(
-        [
-            wheel_speed_step_m_s * vehicle.motor.left.gear_ratio / vehicle.wheels.radius_left_m,
-            wheel_speed_step_m_s * vehicle.motor.right.gear_ratio / vehicle.wheels.radius_right_m,
-        ]
-    )
+    setpoint = np.array([vehicle.to_motor(side, wheel_speed_step_m_s) for side in SIDES])
     plant = PlantStepper(vehicle)
     controller.reset()
     for _ in range(n):

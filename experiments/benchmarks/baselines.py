@@ -60,7 +60,7 @@ trajectory = "issue10_path.toml"
 vehicle = "default"
 settle_s = 2.0
 [plant]
-set = { "wheels.radius_right_m" = %r }
+set = { "wheels.right.radius_m" = %r }
 initial_pose = { x_m = 0.0, y_m = -0.03, theta_deg = 2.0 }
 [controller]
 pose = "mpc"
@@ -106,7 +106,7 @@ def main() -> int:
         where = args.keep or Path(tmp)
         where.mkdir(parents=True, exist_ok=True)
         (where / "issue10_path.toml").write_text(ISSUE10_PATH, encoding="utf-8")
-        nominal = load_vehicle().wheels.radius_right_m
+        nominal = load_vehicle().wheels.right.radius_m
         (where / "issue10_untuned.toml").write_text(ISSUE10_EXPERIMENT % (nominal * 1.008), encoding="utf-8")
         cases = [SHIPPED / "figure8.toml", SHIPPED / "figure8_offpath.toml", where / "issue10_untuned.toml"]
         header = (

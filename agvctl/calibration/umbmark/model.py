@@ -72,8 +72,8 @@ class UmbmarkCorrection:
         """``vehicle`` with the corrected wheel radii and wheel base."""
         return vehicle.with_overrides(
             [
-                ("wheels.radius_left_m", self.radius_left_m.estimate),
-                ("wheels.radius_right_m", self.radius_right_m.estimate),
+                ("wheels.left.radius_m", self.radius_left_m.estimate),
+                ("wheels.right.radius_m", self.radius_right_m.estimate),
                 ("wheels.separation_m", self.separation_m.estimate),
             ],
             source="UMBmark correction",
@@ -132,8 +132,8 @@ def _geometry(alpha: float, beta: float, vehicle: VehicleParams, side_length_m: 
     else:
         radius = 0.5 * side_length_m / math.sin(0.5 * beta)  # R = (L/2)/sin(β/2)
         e_d = (radius + 0.5 * separation) / (radius - 0.5 * separation)  # E_d = (R + b/2)/(R − b/2)
-    ratio = w.radius_right_m / w.radius_left_m * e_d
-    mean = 0.5 * (w.radius_left_m + w.radius_right_m)
+    ratio = w.right.radius_m / w.left.radius_m * e_d
+    mean = 0.5 * (w.left.radius_m + w.right.radius_m)
     return np.array([ratio, separation, 2.0 * mean / (ratio + 1.0), 2.0 * mean * ratio / (ratio + 1.0)])
 
 
@@ -196,9 +196,9 @@ def umbmark_correction(
     true_ab: list[float | None] = [None, None]
     if truth is not None:
         tw, bw = truth.wheels, vehicle.wheels
-        mean_believed = 0.5 * (bw.radius_left_m + bw.radius_right_m)
-        mean_true = 0.5 * (tw.radius_left_m + tw.radius_right_m)
-        ratio_true = tw.radius_right_m / tw.radius_left_m
+        mean_believed = 0.5 * (bw.left.radius_m + bw.right.radius_m)
+        mean_true = 0.5 * (tw.left.radius_m + tw.right.radius_m)
+        ratio_true = tw.right.radius_m / tw.left.radius_m
         true_geom = [
             ratio_true,
             tw.separation_m * mean_believed / mean_true,
@@ -207,7 +207,7 @@ def umbmark_correction(
         ]
         alpha_true = 0.5 * math.pi * (1.0 - bw.separation_m / (tw.separation_m * mean_believed / mean_true))
         # a leg the odometry sees straight: s_r/s_l = (r_r/r̂_r)/(r_l/r̂_l); its heading change over L
-        rel = (tw.radius_right_m / bw.radius_right_m) / (tw.radius_left_m / bw.radius_left_m)
+        rel = (tw.right.radius_m / bw.right.radius_m) / (tw.left.radius_m / bw.left.radius_m)
         beta_true = side_length_m * 2.0 * (rel - 1.0) / ((rel + 1.0) * true_geom[1])  # type: ignore[operator]
         true_ab = [alpha_true, beta_true]
 
@@ -220,7 +220,7 @@ def umbmark_correction(
         alpha_first_order_rad=a1,
         beta_first_order_rad=b1,
         wheel_radius_ratio=est(0),
-        diameter_ratio_correction=float(geom[0]) / (vehicle.wheels.radius_right_m / vehicle.wheels.radius_left_m),
+        diameter_ratio_correction=float(geom[0]) / (vehicle.wheels.right.radius_m / vehicle.wheels.left.radius_m),
         separation_m=est(1),
         radius_left_m=est(2),
         radius_right_m=est(3),

@@ -45,7 +45,7 @@ from numpy.typing import NDArray
 from agvctl.actuator import Actuator
 from agvctl.config import build, dump_toml, load_toml, number
 from agvctl.errors import ConfigError
-from agvctl.params import MotorParams, VehicleParams
+from agvctl.params import SIDES, MotorParams, Side, VehicleParams
 
 __all__ = [
     "GainsFile",
@@ -210,7 +210,7 @@ class PISpeedLoop:
         return u
 
 
-def symmetric_braking_current_a(vehicle: VehicleParams, side: str) -> float:
+def symmetric_braking_current_a(vehicle: VehicleParams, side: Side) -> float:
     """The braking current that decelerates a wheel no harder than a_lim (eq 5): (a_lim J̃ N/r − τ_c)/k_t.
 
     Accelerating, the motor torque fights the Coulomb friction and I_max gives at most a_lim. Braking, friction
@@ -220,19 +220,16 @@ def symmetric_braking_current_a(vehicle: VehicleParams, side: str) -> float:
     :class:`PIWheelController` applies it always (``symmetric_braking``) or only in the last sample before a
     wheel stops (``gentle_stop``), so that braking at speed keeps its full authority.
     """
-    m = vehicle.motor.left if side == "left" else vehicle.motor.right
-    r = vehicle.wheels.radius_left_m if side == "left" else vehicle.wheels.radius_right_m
-    j_eq = (vehicle.derived.left if side == "left" else vehicle.derived.right).inertia_equivalent_kg_m2
-    torque = vehicle.derived.accel_limit_m_s2 * j_eq * m.gear_ratio / r - m.coulomb_friction_n_m
+    m = vehicle.motor.side(side)
+    j_eq = vehicle.derived.side(side).inertia_equivalent_kg_m2
+    torque = vehicle.to_motor(side, vehicle.derived.accel_limit_m_s2 * j_eq) - m.coulomb_friction_n_m
     return min(vehicle.amplifier.current_limit_a, max(0.0, torque / m.torque_constant_n_m_a))
 
 
-def gentle_stop_speed_rad_s(vehicle: VehicleParams, side: str) -> float:
+def gentle_stop_speed_rad_s(vehicle: VehicleParams, side: Side) -> float:
     """Below this motor speed a braking wheel is about to stop (and maybe reverse): the speed a_lim removes in
     one sample, a_lim T_s N / r (9.5 rad/s, 2.6 cm/s at the rim, for the IAU AGV)."""
-    m = vehicle.motor.left if side == "left" else vehicle.motor.right
-    r = vehicle.wheels.radius_left_m if side == "left" else vehicle.wheels.radius_right_m
-    return vehicle.derived.accel_limit_m_s2 * vehicle.control.sample_period_s * m.gear_ratio / r
+    return vehicle.to_motor(side, vehicle.derived.accel_limit_m_s2 * vehicle.control.sample_period_s)
 
 
 class PIWheelController:
@@ -275,7 +272,7 @@ class PIWheelController:
                     math.inf if symmetric_braking or not gentle_stop else gentle_stop_speed_rad_s(vehicle, side)
                 ),
             )
-            for side in ("left", "right")
+            for side in SIDES
         )
         self.gains = gains
 

@@ -1,0 +1,174 @@
+"""The vehicle tables that come once per side: the wheels and the motors.
+
+In a file, each is one table of common values whose ``left`` / ``right`` sub-tables override any of them for one
+side: ``[wheels]`` holds ``separation_m`` and the common ``radius_m``, ``[wheels.left]`` a left radius of its own;
+``[motor]`` holds every motor constant, ``[motor.right]`` the right motor's differences. Written back
+(``to_file``), a value both sides share is the common one and a value they differ in goes to the sides' tables.
+In Python both sides are always complete: ``vehicle.wheels.left.radius_m``, ``vehicle.motor.side("right")``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, TypeVar
+
+from agvctl.config import convert_value, did_you_mean, join_key, number, renamed
+from agvctl.errors import ConfigError
+from agvctl.params.derived import Side
+
+__all__ = ["SIDES", "MotorPair", "MotorParams", "WheelParams", "WheelSide"]
+
+SIDES: tuple[Side, Side] = ("left", "right")
+
+T = TypeVar("T")
+
+
+def _sides_from_file(side_cls: type[T], data: Mapping[str, Any], *, source: str, prefix: str) -> tuple[T, T]:
+    """The left and right ``side_cls`` of a pair's file table: the common values of ``side_cls``'s keys in
+    ``data``, each side's table in ``data["left"]`` / ``data["right"]`` overriding them. The pair checks the other
+    keys of its own table."""
+    meta = {f.name: f.metadata for f in dataclasses.fields(side_cls)}  # type: ignore[arg-type]
+    base = {k: convert_value(float, v, source, join_key(prefix, k), meta[k]) for k, v in data.items() if k in meta}
+    sides: list[T] = []
+    for side in SIDES:
+        side_prefix = join_key(prefix, side)
+        override = data.get(side, {})
+        if not isinstance(override, Mapping):
+            raise ConfigError(source, side_prefix, "expected a table")
+        for k in override:
+            if k not in meta:
+                raise ConfigError(
+                    source, join_key(side_prefix, k), "unknown key" + did_you_mean(k, meta, [side_prefix])
+                )
+        merged = dict(base)
+        merged.update(
+            {k: convert_value(float, v, source, join_key(side_prefix, k), meta[k]) for k, v in override.items()}
+        )
+        for k in meta:
+            if k not in merged:
+                raise ConfigError(source, join_key(prefix, k), "missing key")
+        value = side_cls(**merged)
+        check = getattr(value, "validate", None)
+        if check is not None:
+            check(source=source, prefix=side_prefix if override else prefix)
+        sides.append(value)
+    return sides[0], sides[1]
+
+
+def _sides_to_file(left: Any, right: Any) -> dict[str, Any]:
+    """The file form of two sides: the values they share, then each side's table of the values they differ in."""
+    lv, rv = dataclasses.asdict(left), dataclasses.asdict(right)
+    out: dict[str, Any] = {k: lv[k] for k in lv if lv[k] == rv[k]}
+    for side, values in (("left", lv), ("right", rv)):
+        diff = {k: values[k] for k in values if lv[k] != rv[k]}
+        if diff:
+            out[side] = diff
+    return out
+
+
+@dataclass(frozen=True)
+class WheelSide:
+    """One driving wheel: its radius r (r_l or r_r)."""
+
+    radius_m: float = number(gt=0)
+
+
+_WHEEL_SIDE_KEYS = tuple(f.name for f in dataclasses.fields(WheelSide))
+_RENAMED_WHEEL_KEYS = {"radius_left_m": "left.radius_m", "radius_right_m": "right.radius_m"}
+
+
+@dataclass(frozen=True)
+class WheelParams:
+    """The driving wheels: the left and right wheel (radii r_l, r_r) and their separation b. In a file,
+    ``[wheels]`` holds ``separation_m`` and the common ``radius_m``; ``[wheels.left]`` / ``[wheels.right]``
+    override it for one side."""
+
+    left: WheelSide
+    right: WheelSide
+    separation_m: float = number(gt=0)
+
+    @classmethod
+    def extra_file_keys(cls) -> dict[str, Any]:
+        return {k: float for k in _WHEEL_SIDE_KEYS}
+
+    @classmethod
+    def renamed_file_keys(cls) -> dict[str, str]:
+        return dict(_RENAMED_WHEEL_KEYS)
+
+    @classmethod
+    def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> WheelParams:
+        allowed = ["separation_m", *_WHEEL_SIDE_KEYS, "left", "right"]
+        for k in data:
+            if k in _RENAMED_WHEEL_KEYS:
+                raise ConfigError(source, join_key(prefix, k), renamed(join_key(prefix, _RENAMED_WHEEL_KEYS[k])))
+            if k not in allowed:
+                raise ConfigError(source, join_key(prefix, k), "unknown key" + did_you_mean(k, allowed, [prefix]))
+        key = join_key(prefix, "separation_m")
+        if "separation_m" not in data:
+            raise ConfigError(source, key, "missing key")
+        meta = {f.name: f.metadata for f in dataclasses.fields(cls)}
+        separation = convert_value(float, data["separation_m"], source, key, meta["separation_m"])
+        left, right = _sides_from_file(WheelSide, data, source=source, prefix=prefix)
+        return cls(separation_m=separation, left=left, right=right)
+
+    def to_file(self) -> dict[str, Any]:
+        return {"separation_m": self.separation_m, **_sides_to_file(self.left, self.right)}
+
+    def side(self, name: Side) -> WheelSide:
+        return self.left if name == "left" else self.right
+
+
+@dataclass(frozen=True)
+class MotorParams:
+    """One armature-controlled DC motor with its gear (eqs 1-4, appendix A "Actuator characteristics")."""
+
+    inertia_kg_m2: float = number(gt=0, doc="J")
+    resistance_ohm: float = number(gt=0, doc="R")
+    voltage_constant_v_s_rad: float = number(gt=0, doc="k_e")
+    torque_constant_n_m_a: float = number(gt=0, doc="k_t")
+    viscous_friction_n_m_s_rad: float = number(ge=0, doc="f_m")
+    coulomb_friction_n_m: float = number(ge=0, doc="tau_c")
+    stiction_n_m: float = number(ge=0, doc="tau_s, the break-away torque")
+    gear_ratio: float = number(gt=0, doc="N")
+
+    def validate(self, *, source: str, prefix: str) -> None:
+        if self.coulomb_friction_n_m > self.stiction_n_m:
+            raise ConfigError(
+                source,
+                join_key(prefix, "coulomb_friction_n_m"),
+                f"Coulomb friction {self.coulomb_friction_n_m:g} N m exceeds stiction {self.stiction_n_m:g} N m; "
+                "the break-away torque must be at least the sliding friction",
+            )
+
+
+_MOTOR_KEYS = tuple(f.name for f in dataclasses.fields(MotorParams))
+
+
+@dataclass(frozen=True)
+class MotorPair:
+    """The left and right motors. In a file, ``[motor]`` holds the common values and ``[motor.left]`` /
+    ``[motor.right]`` override any of them for one side."""
+
+    left: MotorParams
+    right: MotorParams
+
+    @classmethod
+    def extra_file_keys(cls) -> dict[str, Any]:
+        return {k: float for k in _MOTOR_KEYS}
+
+    @classmethod
+    def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> MotorPair:
+        allowed = [*_MOTOR_KEYS, "left", "right"]
+        for k in data:
+            if k not in allowed:
+                raise ConfigError(source, join_key(prefix, k), "unknown key" + did_you_mean(k, allowed, [prefix]))
+        left, right = _sides_from_file(MotorParams, data, source=source, prefix=prefix)
+        return cls(left=left, right=right)
+
+    def to_file(self) -> dict[str, Any]:
+        return _sides_to_file(self.left, self.right)
+
+    def side(self, name: Side) -> MotorParams:
+        return self.left if name == "left" else self.right
