@@ -188,10 +188,10 @@ def torque_accel_limit_m_s2(vehicle: VehicleParams) -> float:
     τ_c r/(J̃ N), eqs 60-61); a wheel past this bound over a whole sample is one slammed against the current limit
     in reverse, which tracking a planned path never needs.
     """
-    d, m, w = vehicle.derived, vehicle.motor, vehicle.wheels
+    d, m = vehicle.derived, vehicle.motor
     mass = np.array([[m.left.inertia_kg_m2 + d.k_ll, d.k_lr], [d.k_lr, m.right.inertia_kg_m2 + d.k_rr]])
     torque = np.array([m.left.torque_constant_n_m_a, m.right.torque_constant_n_m_a]) * vehicle.amplifier.current_limit_a
-    rim = np.array([w.radius_left_m / m.left.gear_ratio, w.radius_right_m / m.right.gear_ratio])
+    rim = np.array([vehicle.rim_per_motor_rad("left"), vehicle.rim_per_motor_rad("right")])
     corners = np.array([[1.0, 1.0], [1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
     accel = np.linalg.solve(mass, (corners * torque).T).T * rim
     return float(np.max(np.abs(accel)))
