@@ -3,7 +3,9 @@
 Everything is loaded and validated first — every experiment file, every Monte Carlo sample's vehicle — so bad
 input stops the check before anything runs. The runs then go to one ``concurrent.futures`` executor — a worker
 thread, local worker processes or a Dask cluster's — and each returns only its metrics and limit verdicts (the
-report types are in :mod:`agvctl.checks.report`). Samples are drawn in the parent from the experiment's seed, so the
+report types are in :mod:`agvctl.checks.report`). A run that raises — in the product's code or in a user's
+controller — is recorded as that run's error (one line) and every other run still goes; so is a run its worker
+could not return (a worker process that died). Samples are drawn in the parent from the experiment's seed, so the
 same seed gives the same samples and the same physical results on any executor (the computation-time metrics,
 ``solve_time_p99_ms`` and ``deadline_misses``, are measured and so vary from run to run).
 """
@@ -25,7 +27,7 @@ import numpy as np
 
 from agvctl.checks.report import CheckReport, ExperimentReport, Overrides, RunOutcome, RunTask, worst_run_verdicts
 from agvctl.config import to_dict
-from agvctl.errors import ConfigError
+from agvctl.errors import ConfigError, exception_line
 from agvctl.evaluation.limits import evaluate_limits
 from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
@@ -117,7 +119,22 @@ def _prepared(path: str) -> Experiment:
 
 
 def run_task(task: RunTask) -> RunOutcome:
-    """Run one task (in this process). Used by every executor; module-level so it pickles."""
+    """Run one task (in this process). Used by every executor; module-level so it pickles. Never raises for a run
+    that fails: an exception is the outcome's ``error``."""
+    t0 = time.perf_counter()
+    try:
+        return _run(task, t0)
+    except Exception as exc:  # a run that raised is that run's result, reported with its experiment
+        return run_error(task, exc, time.perf_counter() - t0)
+
+
+def run_error(task: RunTask, exc: BaseException, wall_time_s: float = 0.0) -> RunOutcome:
+    """The outcome of a run that could not be completed because of ``exc``."""
+    return RunOutcome(task, {}, (), wall_time_s, error=exception_line(exc))
+
+
+def _run(task: RunTask, t0: float) -> RunOutcome:
+    """The task's run and its verdicts (its plant and sensor noise those of its Monte Carlo sample, if any)."""
     base = _prepared(task.experiment_path)
     prepared = base
     if task.overrides:
@@ -127,7 +144,6 @@ def run_task(task: RunTask) -> RunOutcome:
         spec = prepared.spec
         plant_spec = dataclasses.replace(spec.plant, sensor_seed=spec.plant.sensor_seed + 1 + task.sample)
         prepared = dataclasses.replace(prepared, spec=dataclasses.replace(spec, plant=plant_spec))
-    t0 = time.perf_counter()
     result = run_experiment(prepared)
     metrics = closed_loop_metrics(result)
     limits = evaluate_limits(
@@ -189,15 +205,29 @@ def open_executor(kind: ExecutorKind, jobs: int, scheduler: str | None, n_tasks:
 
 
 def execute(
-    pool: Executor, run: Callable[[T], R], tasks: Sequence[T], progress: Callable[[int, int], None] | None
+    pool: Executor,
+    run: Callable[[T], R],
+    tasks: Sequence[T],
+    progress: Callable[[int, int], None] | None,
+    on_error: Callable[[T, Exception], R] | None = None,
 ) -> list[R]:
-    """``run(task)`` of every task on ``pool``, in the order of ``tasks`` whatever order they finish in; the first
-    error stops all. ``run`` must be a module-level function (it is pickled for worker processes)."""
+    """``run(task)`` of every task on ``pool``, in the order of ``tasks`` whatever order they finish in.
+
+    A task whose future raises (``run`` raised, or its worker died or could not send the result back) gives
+    ``on_error(task, exception)`` when that is given; without it the first error stops all. ``run`` must be a
+    module-level function (it is pickled for worker processes).
+    """
     futures = [pool.submit(run, task) for task in tasks]
+    task_of = dict(zip(futures, tasks, strict=True))
     outcomes: dict[Future[R], R] = {}
     try:
         for done, future in enumerate(as_completed(futures), start=1):
-            outcomes[future] = future.result()
+            try:
+                outcomes[future] = future.result()
+            except Exception as exc:
+                if on_error is None:
+                    raise
+                outcomes[future] = on_error(task_of[future], exc)
             if progress:
                 progress(done, len(futures))
     finally:
@@ -228,10 +258,25 @@ def check_experiments(
     progress
         Called as ``progress(done, total)`` in this thread after each run.
 
-    Raises :class:`ConfigError` on bad input before any run. Local workers are spawned processes, which import the
-    calling script again: from a script, call this under ``if __name__ == "__main__":``.
+    Returns
+    -------
+    CheckReport
+        Every experiment's verdicts and runs. A run that raised (say a user's pose controller) is recorded with its
+        error, one line (:attr:`RunOutcome.error`); its experiment then fails (``completed`` False) and every other
+        run is still run and reported.
+
+    Raises
+    ------
+    ConfigError
+        On bad input, before any run: no experiment at all, a file or key that cannot be used, an invalid Monte
+        Carlo sample.
+
+    Local workers are spawned processes, which import the calling script again: from a script, call this under
+    ``if __name__ == "__main__":``.
     """
     t0 = time.perf_counter()
+    if not paths:
+        raise ConfigError("check_experiments", "paths", "give at least one experiment file (got none)")
     jobs = resolved_jobs(jobs, executor)
     experiments: list[Experiment] = []
     tasks_of: list[list[RunTask]] = []
@@ -244,7 +289,7 @@ def check_experiments(
         tasks_of.append(tasks)
     all_tasks = [t for ts in tasks_of for t in ts]
     with open_executor(executor, jobs, scheduler, len(all_tasks)) as pool:
-        outcomes = execute(pool, run_task, all_tasks, progress)
+        outcomes = execute(pool, run_task, all_tasks, progress, on_error=run_error)
     report = CheckReport()
     pos = 0
     for exp, path, tasks in zip(experiments, paths, tasks_of, strict=True):

@@ -1,7 +1,9 @@
 """``agvctl fuzz``: random scenarios through the closed loop with one or more pose controllers, against limits.
 
 Exit 0 when every run of every controller passes, 1 when any fails (its files are written out, ready for
-``agvctl run``), 2 on bad input (one line naming the file and key; nothing is run).
+``agvctl run``), 2 on bad input (one line naming the file and key; nothing is run), 3 when any run could not be
+completed — it raised, or its log or metrics hold a non-finite value — reported as an ``<error>`` in the JUnit XML
+and an ``error`` in the JSON, every other run still reported (as ``agvctl check``'s 3; it wins over 1).
 """
 
 from __future__ import annotations
@@ -35,7 +37,8 @@ def register(sub: Any) -> None:
         description="Draw random scenarios from a fuzz configuration's seed (paths of lines, arcs and turns; default "
         "or explicit limits; a plant within an envelope; an off-path start), run each with every pose controller "
         "listed, report per controller and write every failing scenario as a ready-to-run experiment file. "
-        "Exit 0 when all pass, 1 when any fails, 2 on bad input.",
+        "Exit 0 when all pass, 1 when any fails, 2 on bad input, 3 when any run could not be completed "
+        "(it raised or broke down numerically: a JUnit <error>; wins over 1).",
     )
     p.add_argument("config", metavar="FUZZ.toml")
     p.add_argument("--out", metavar="DIR", help="output directory (default: out/fuzz/<name>)")
@@ -184,4 +187,6 @@ def run(args: argparse.Namespace) -> int:
             f"wrote {n_fail} failing runs as experiment files in {out_dir / 'failures'}; "
             f"reproduce one with: agvctl run {out_dir / 'failures' / first}"
         )
+    if any(o.error is not None for o in report.outcomes):
+        return 3
     return 0 if report.passed else 1
