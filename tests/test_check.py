@@ -28,7 +28,7 @@ def test_impossible_limit_fails_with_junit_failure(capsys, tmp_path):
     root = ET.parse(junit).getroot()
     assert root.tag == "testsuites" and root.get("failures") == "1"
     cases = {c.get("name"): c for c in root.iter("testcase")}
-    assert set(cases) == {"tracking_error_max_m", "motor_current_a", "wheel_accel_m_s2"}
+    assert set(cases) == {"tracking_error_max_m", "motor_current_a", "wheel_accel_m_s2", "non_finite_commands"}
     failure = cases["tracking_error_max_m"].find("failure")
     assert failure is not None
     msg = failure.get("message")

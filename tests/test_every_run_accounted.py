@@ -160,3 +160,23 @@ def test_a_fuzz_run_that_raises_is_an_error_and_exits_3(
     errors = [r["error"] for r in runs if r["controller"] == gives_up]
     assert all(e.startswith("RuntimeError: the user's controller gave up (at ") for e in errors)
     assert all(r["error"] is None for r in runs if r["controller"] == "ramsete")
+
+
+class CommandsNaN(GivesUp):
+    """A user's pose controller whose commands turn NaN half a second into the run."""
+
+    def update(self, t_s: float, pose: object, wheel_speed_m_s: object) -> PoseCommand:
+        return PoseCommand(float("nan") if t_s > 0.5 else 0.0, 0.0)
+
+
+def test_a_non_finite_command_fails_check_as_a_named_limit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setitem(POSE_CONTROLLERS, "nan", PoseControllerKind(CommandsNaN, None, "NaN"))
+    exp = _experiment(tmp_path, "nan", '[controller]\npose = "nan"\n')
+    junit = tmp_path / "r.xml"
+    assert main(["check", str(exp), "--junit", str(junit), "--jobs", "1"]) == 1
+    assert "FAIL  non_finite_commands: " in capsys.readouterr().out
+    cases = {c.get("name"): c for c in ET.parse(junit).getroot().iter("testcase")}
+    failure = cases["non_finite_commands"].find("failure")
+    assert failure is not None and "VIOLATED" in (failure.get("message") or "")

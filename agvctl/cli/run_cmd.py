@@ -63,6 +63,7 @@ def format_summary(summary: dict[str, Any]) -> str:
     lines.append(
         f"  pose controller   {p50:.3f} ms median, {p99:.3f} ms p99, "
         f"{m['solver_failures']} failures, {m['deadline_misses']} deadline misses"
+        + (f", {m['non_finite_commands']} NaN or infinite commands" if m.get("non_finite_commands") else "")
     )
     if m.get("estimate_error_max_m"):  # an estimator other than the truth
         est_rms, est_max = m["estimate_error_rms_m"] * 1e3, m["estimate_error_max_m"] * 1e3

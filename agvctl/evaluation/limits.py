@@ -17,11 +17,24 @@ from numpy.typing import NDArray
 
 from agvctl.config import convert_value, did_you_mean, join_key
 from agvctl.errors import ConfigError
-from agvctl.evaluation.metrics import estimate_heading_error_rad, estimate_position_error_m
+from agvctl.evaluation.metrics import (
+    NON_FINITE_COMMAND_STATUS,
+    estimate_heading_error_rad,
+    estimate_position_error_m,
+)
 from agvctl.log import SimLog
 from agvctl.params import VehicleParams
 
-__all__ = ["LIMITS", "Limit", "LimitResult", "LimitsSpec", "all_passed", "evaluate_limits", "format_limit_message"]
+__all__ = [
+    "DEFAULT_LIMITS",
+    "LIMITS",
+    "Limit",
+    "LimitResult",
+    "LimitsSpec",
+    "all_passed",
+    "evaluate_limits",
+    "format_limit_message",
+]
 
 Series = Callable[[SimLog, float], NDArray[np.float64]]
 
@@ -120,6 +133,13 @@ LIMITS: dict[str, Limit] = {
     "solver_failures": Limit(
         "solver_failures", "", lambda log, ts: np.asarray(log["solver_status"] > 0), "events", "count"
     ),
+    "non_finite_commands": Limit(
+        "non_finite_commands",
+        "",
+        lambda log, ts: np.asarray(log["solver_status"] == NON_FINITE_COMMAND_STATUS),
+        "events",
+        "count",
+    ),
 }
 """Every limit an experiment's ``[limits]`` table may set, in the order they are reported."""
 
@@ -214,15 +234,20 @@ def _times(key: str, log: SimLog, bound: float, sample_period_s: float) -> tuple
     return float(t[int(np.argmax(series))]), (None if limit.timing == "rms" else first)
 
 
+DEFAULT_LIMITS = ("wheel_accel_m_s2", "non_finite_commands")
+"""The limits every run is checked against even when its file does not set them (the default gate): the wheel
+acceleration against the vehicle's a_lim (eq 5), and no NaN or infinite pose-controller command (bound 0)."""
+
+
 def evaluate_limits(
     limits: LimitsSpec, log: SimLog, metrics: dict[str, float], vehicle: VehicleParams, sample_period_s: float
 ) -> list[LimitResult]:
-    """Check every limit that is set, plus the wheel acceleration against a_lim (eq 5) when none is set."""
+    """Check every limit that is set, plus each of :data:`DEFAULT_LIMITS` that is not (after them, in that order;
+    their results are marked ``default``)."""
     items = limits.items()
-    defaults = set()
-    if "wheel_accel_m_s2" not in limits.bounds:
-        items.append(("wheel_accel_m_s2", vehicle.derived.accel_limit_m_s2))
-        defaults.add("wheel_accel_m_s2")
+    default_bounds = {"wheel_accel_m_s2": vehicle.derived.accel_limit_m_s2, "non_finite_commands": 0.0}
+    defaults = {key for key in DEFAULT_LIMITS if key not in limits.bounds}
+    items += [(key, default_bounds[key]) for key in DEFAULT_LIMITS if key in defaults]
     results = []
     for key, bound in items:
         value = float(metrics[LIMITS[key].metric])

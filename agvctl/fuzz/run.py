@@ -5,11 +5,12 @@
 of ``agvctl check`` (:func:`agvctl.checks.runner.open_executor`: a worker thread, spawned local processes or a
 Dask cluster). A worker writes the files into a temporary directory, loads them with
 :func:`~agvctl.scenario.experiment.load_experiment` — exactly what ``agvctl run`` does with the written-out file — runs
-the closed loop and returns the metrics and the verdicts of the configuration's limits (the default a_lim check
-of ``agvctl check`` is not a fuzz criterion). A run that raises, or whose log or metrics hold a non-finite value,
-is an error with its one-line reason (an ``<error>`` in the JUnit XML, exit code 3 from ``agvctl fuzz``, as for
-``agvctl check``), never an exception out of the fuzzer; so is a run its worker could not return. Results do not
-depend on the number of jobs or the executor (the measured solve times excepted).
+the closed loop and returns the metrics and the verdicts of the configuration's limits and of the default
+``non_finite_commands`` check (the default a_lim check of ``agvctl check`` is not a fuzz criterion). A run that
+raises, or whose log or metrics hold a non-finite value, is an error with its one-line reason (an ``<error>`` in
+the JUnit XML, exit code 3 from ``agvctl fuzz``, as for ``agvctl check``), never an exception out of the fuzzer;
+so is a run its worker could not return. Results do not depend on the number of jobs or the executor (the
+measured solve times excepted).
 
 The report and its statistics are :class:`~agvctl.fuzz.report.FuzzReport`::
 
@@ -93,7 +94,7 @@ def run_fuzz_task(task: FuzzTask) -> FuzzOutcome:
             verdicts = evaluate_limits(
                 experiment.spec.limits, result.log, metrics, experiment.controller_vehicle, result.sample_period_s
             )
-            limits = tuple(r for r in verdicts if not r.default)
+            limits = tuple(r for r in verdicts if not (r.default and r.limit == "wheel_accel_m_s2"))
             error = _non_finite(result.log, metrics)
         except Exception as exc:  # any crash of a run is a finding, reported with its scenario
             error = exception_line(exc)
