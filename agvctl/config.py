@@ -31,6 +31,7 @@ __all__ = [
     "apply_overrides",
     "build",
     "build_fields",
+    "check_plain_name",
     "convert_value",
     "did_you_mean",
     "dump_toml",
@@ -56,6 +57,18 @@ def number(
     if default is dataclasses.MISSING:
         return dataclasses.field(metadata=metadata)
     return dataclasses.field(default=default, metadata=metadata)
+
+
+def check_plain_name(name: str, source: str, key: str, folder: str) -> None:
+    """Refuse a ``name`` that is not one plain folder name: empty, ``.`` or ``..``, holding ``/``, ``\\`` or a
+    control character. Names become default output folders and file names (``folder`` says which, e.g.
+    ``out/<name>``), which must stay under their root whatever the file says."""
+    if name in ("", ".", "..") or any(c in "/\\" or not c.isprintable() for c in name):
+        raise ConfigError(
+            source,
+            key,
+            f"must be a plain name, usable as the folder {folder}: no '/' or '\\', not '.' or '..' (got {name!r})",
+        )
 
 
 def read_text(path: str | Path) -> str:
