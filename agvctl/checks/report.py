@@ -217,6 +217,11 @@ class CheckReport:
         return all(e.completed for e in self.experiments)
 
     @property
+    def monte_carlo(self) -> bool:
+        """Whether any experiment has Monte Carlo samples."""
+        return any(e.monte_carlo for e in self.experiments)
+
+    @property
     def runs_errored(self) -> int:
         """How many runs could not be completed."""
         return sum(len(e.errors) for e in self.experiments)

@@ -20,6 +20,7 @@ import os
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor, as_completed
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, TypeVar
 
@@ -33,9 +34,11 @@ from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
 
 __all__ = [
+    "CheckWork",
     "ExecutorKind",
     "check_experiments",
     "execute",
+    "load_check",
     "monte_carlo_samples",
     "open_executor",
     "resolved_jobs",
@@ -236,8 +239,45 @@ def execute(
     return [outcomes[f] for f in futures]
 
 
+@dataclass(frozen=True)
+class CheckWork:
+    """The experiments of a check, loaded and validated, and their runs (one per Monte Carlo sample, or the
+    nominal one): what :func:`check_experiments` runs."""
+
+    paths: tuple[str, ...]
+    experiments: tuple[Experiment, ...]
+    tasks: tuple[tuple[RunTask, ...], ...]
+
+    @property
+    def input_files(self) -> list[Path]:
+        """Every file the check reads: each experiment file and the files it names."""
+        return [f for exp in self.experiments for f in exp.input_files]
+
+
+def load_check(paths: Sequence[str | Path]) -> CheckWork:
+    """Load and validate every experiment and draw its Monte Carlo samples, before anything runs.
+
+    Raises
+    ------
+    ConfigError
+        No experiment at all, a file or key that cannot be used, or a sample that gives an invalid vehicle.
+    """
+    if not paths:
+        raise ConfigError("check_experiments", "paths", "give at least one experiment file (got none)")
+    experiments: list[Experiment] = []
+    tasks_of: list[tuple[RunTask, ...]] = []
+    for path in paths:
+        exp = load_experiment(path)
+        key = str(Path(path).resolve())
+        samples = monte_carlo_samples(exp)
+        tasks = [RunTask(key, i, s) for i, s in enumerate(samples)] if samples else [RunTask(key, None, ())]
+        experiments.append(exp)
+        tasks_of.append(tuple(tasks))
+    return CheckWork(tuple(str(p) for p in paths), tuple(experiments), tuple(tasks_of))
+
+
 def check_experiments(
-    paths: Sequence[str | Path],
+    paths: Sequence[str | Path] | CheckWork,
     *,
     jobs: int | None = None,
     executor: ExecutorKind = "local",
@@ -249,7 +289,7 @@ def check_experiments(
     Parameters
     ----------
     paths
-        Experiment files.
+        Experiment files, or the :class:`CheckWork` of :func:`load_check` (loaded already).
     jobs
         Local worker processes (default: all cores); with one job, or one run in all, the runs go one after another
         in a worker thread of this process. With ``executor="dask"`` and no scheduler: the local cluster's workers.
@@ -275,28 +315,18 @@ def check_experiments(
     ``if __name__ == "__main__":``.
     """
     t0 = time.perf_counter()
-    if not paths:
-        raise ConfigError("check_experiments", "paths", "give at least one experiment file (got none)")
+    work = paths if isinstance(paths, CheckWork) else load_check(paths)
     jobs = resolved_jobs(jobs, executor)
-    experiments: list[Experiment] = []
-    tasks_of: list[list[RunTask]] = []
-    for path in paths:
-        exp = load_experiment(path)
-        key = str(Path(path).resolve())
-        samples = monte_carlo_samples(exp)
-        tasks = [RunTask(key, i, s) for i, s in enumerate(samples)] if samples else [RunTask(key, None, ())]
-        experiments.append(exp)
-        tasks_of.append(tasks)
-    all_tasks = [t for ts in tasks_of for t in ts]
+    all_tasks = [t for ts in work.tasks for t in ts]
     with open_executor(executor, jobs, scheduler, len(all_tasks)) as pool:
         outcomes = execute(pool, run_task, all_tasks, progress, on_error=run_error)
     report = CheckReport()
     pos = 0
-    for exp, path, tasks in zip(experiments, paths, tasks_of, strict=True):
+    for exp, path, tasks in zip(work.experiments, work.paths, work.tasks, strict=True):
         mine = outcomes[pos : pos + len(tasks)]
         pos += len(tasks)
         wall_time_s = sum(o.wall_time_s for o in mine)
         verdicts = worst_run_verdicts(mine)
-        report.experiments.append(ExperimentReport(exp.spec.name, str(path), verdicts, mine, wall_time_s))
+        report.experiments.append(ExperimentReport(exp.spec.name, path, verdicts, mine, wall_time_s))
     report.wall_time_s = time.perf_counter() - t0
     return report

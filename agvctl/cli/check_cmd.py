@@ -20,7 +20,8 @@ from typing import Any
 
 from agvctl.checks.junit import junit_xml
 from agvctl.checks.report import CheckReport
-from agvctl.checks.runner import check_experiments
+from agvctl.checks.runner import check_experiments, load_check
+from agvctl.cli.outputs import Output, check_outputs, writing
 from agvctl.cli.progress import ProgressBar
 from agvctl.errors import ConfigError
 from agvctl.fileio import write_text
@@ -91,14 +92,16 @@ def format_report(report: CheckReport) -> str:
 def run(args: argparse.Namespace) -> int:
     if args.scheduler and args.executor != "dask":
         raise ConfigError("--scheduler", "", "only with --executor dask")
-    for name in (args.junit, args.json_out):
-        if name and Path(name).is_dir():
-            raise ConfigError(name, "", "is a directory; expected a file name")
+    work = load_check(args.experiments)  # every file validated, every output checked: then the runs
+    outputs = [Output(flag, Path(name)) for flag, name in (("--junit", args.junit), ("--json", args.json_out)) if name]
+    report_dir = Path(args.report_dir or "out/check")
+    monte_carlo = any(len(tasks) > 1 or tasks[0].sample is not None for tasks in work.tasks)
+    check_outputs(outputs, work.input_files, [("--report-dir", report_dir)] if monte_carlo else [])
     jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
     bar = ProgressBar("check:")
     try:
         report = check_experiments(
-            args.experiments,
+            work,
             jobs=jobs,
             executor=args.executor,
             scheduler=args.scheduler,
@@ -107,15 +110,13 @@ def run(args: argparse.Namespace) -> int:
     finally:
         bar.close()
     # everything is computed before anything is written
-    outputs: dict[str, str] = {}
-    if args.junit:
-        outputs[args.junit] = junit_xml(report)
-    if args.json_out:
-        outputs[args.json_out] = json.dumps(report.as_dict(), indent=2) + "\n"
-    for path, text in outputs.items():
-        write_text(path, text)
-    if any(e.monte_carlo for e in report.experiments):
-        save_metric_histograms(report, Path(args.report_dir or "out/check"))
+    texts = {"--junit": junit_xml(report), "--json": json.dumps(report.as_dict(), indent=2) + "\n"}
+    for out in outputs:
+        with writing(out.flag, out.path):
+            write_text(out.path, texts[out.flag])
+    if report.monte_carlo:
+        with writing("--report-dir", report_dir):
+            save_metric_histograms(report, report_dir)
     print(format_report(report))
     return exit_code(report)
 

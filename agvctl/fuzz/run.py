@@ -43,7 +43,7 @@ from agvctl.params import load_vehicle
 from agvctl.scenario.experiment import load_experiment, run_experiment
 from agvctl.sim.loop import SENSOR_NAN_COLUMNS
 
-__all__ = ["FuzzRun", "fuzz", "fuzz_tasks", "run_fuzz_task"]
+__all__ = ["FuzzRun", "fuzz", "fuzz_tasks", "run_fuzz", "run_fuzz_task"]
 
 _MAY_BE_INFINITE = frozenset({"time_to_2cm_s"})
 """Metrics for which infinity is a value (never within 2 cm), not a numerical failure."""
@@ -181,8 +181,24 @@ def fuzz(
     import the calling script again).
     """
     t0 = time.perf_counter()
-    jobs = resolved_jobs(jobs, executor)
     work = fuzz_tasks(spec, scenarios)
+    return run_fuzz(work, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress, t0=t0)
+
+
+def run_fuzz(
+    work: FuzzRun,
+    *,
+    jobs: int | None = None,
+    executor: ExecutorKind = "local",
+    scheduler: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    t0: float | None = None,
+) -> FuzzReport:
+    """Run the tasks of :func:`fuzz_tasks` (drawn already, so their files can be checked first): :func:`fuzz`'s
+    second half, with its options; ``t0``, a :func:`time.perf_counter` reading, starts the report's wall time."""
+    t0 = time.perf_counter() if t0 is None else t0
+    jobs = resolved_jobs(jobs, executor)
+    spec = work.spec
     with open_executor(executor, jobs, scheduler, len(work.tasks)) as pool:
         outcomes = execute(pool, run_fuzz_task, work.tasks, progress, on_error=_lost_run)
     return FuzzReport(spec, work.tasks, outcomes, time.perf_counter() - t0)

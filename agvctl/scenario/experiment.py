@@ -39,7 +39,7 @@ from agvctl.config import build, load_toml
 from agvctl.controllers.base import PoseController, WheelSpeedController
 from agvctl.controllers.registry import POSE_CONTROLLERS, WheelLoops, design_wheel_loops
 from agvctl.errors import ConfigError
-from agvctl.params import VehicleParams, load_vehicle
+from agvctl.params import VehicleParams, default_vehicle_path, load_vehicle
 from agvctl.planning import PathSpec, load_path, plan
 from agvctl.planning.reference import Reference
 from agvctl.scenario.spec import ExperimentSpec
@@ -64,6 +64,17 @@ class Experiment:
     """The PI wheel-speed loops (gains designed or from the gains file)."""
     path: PathSpec | None = None
     """The trajectory file, validated (its explicit limits; None for an experiment built without one)."""
+
+    @property
+    def input_files(self) -> tuple[Path, ...]:
+        """The files the experiment is read from: its own, its trajectory, its vehicle (the shipped one by default)
+        and its gains file, if any — what a command must never write over."""
+        spec = self.spec
+        files = [Path(spec.source), spec.resolve(spec.trajectory)]
+        files.append(default_vehicle_path() if spec.vehicle == "default" else spec.resolve(spec.vehicle))
+        if spec.controller.pi_gains is not None:
+            files.append(spec.resolve(spec.controller.pi_gains))
+        return tuple(files)
 
 
 def load_experiment(path: str | Path) -> Experiment:
