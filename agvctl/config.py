@@ -83,12 +83,15 @@ def read_text(path: str | Path) -> str:
 
 
 def load_toml(path: str | Path) -> dict[str, Any]:
-    """Read a TOML file; an unreadable or malformed file raises a one-line :class:`ConfigError`."""
+    """Read a TOML file; an unreadable or malformed file (values nested too deeply for the parser among it)
+    raises a one-line :class:`ConfigError`."""
     text = read_text(path)
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(str(path), "", f"malformed TOML: {exc}") from None
+    except RecursionError:  # the parser recurses once per level of nested arrays or inline tables
+        raise ConfigError(str(path), "", "malformed TOML: values nested too deeply") from None
 
 
 def parse_override(text: str, source: str = "--set") -> tuple[str, Any]:
@@ -102,6 +105,8 @@ def parse_override(text: str, source: str = "--set") -> tuple[str, Any]:
         value = tomllib.loads(f"v = {value_text}")["v"]
     except tomllib.TOMLDecodeError:
         value = value_text
+    except RecursionError:
+        raise ConfigError(source, key, "value nested too deeply") from None
     return key, value
 
 

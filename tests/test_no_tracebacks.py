@@ -1,5 +1,5 @@
 """Input the package cannot use is one line naming the file or flag and the key, exit 2, nothing written — never
-a traceback: a vehicle that cannot move under default limits."""
+a traceback: a vehicle that cannot move under default limits, TOML nested too deeply for the parser."""
 
 from __future__ import annotations
 
@@ -78,3 +78,35 @@ def test_run_and_check_with_a_vehicle_that_cannot_move_are_one_line(
     assert code == 2 and out == ""
     _one_line(err, "limits.wheel_speed_m_s: no default for this vehicle: the vehicle cannot move", "voltage_limit_v")
     assert _files(tmp_path) == before
+
+
+# -- TOML nested too deeply ----------------------------------------------------------------------------------------
+
+DEEP = "[" * 3000 + "]" * 3000
+
+
+@pytest.mark.parametrize(
+    ("argv", "file_text"),
+    [
+        (["check", "{f}", "--junit", "{d}/r.xml"], f'name = "x"\ntrajectory = "t.toml"\na = {DEEP}\n'),
+        (["plan", "{f}"], f"a = {DEEP}\n"),
+        (["params", "--vehicle", "{f}"], f"a = {DEEP}\n"),
+        (["fuzz", "{f}", "--out", "{d}/out"], "seed = 1\nscenarios = 1\nc = " + "{a = " * 600 + "1" + "}" * 600),
+    ],
+    ids=["check", "plan", "params", "fuzz"],
+)
+def test_toml_nested_too_deeply_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], file_text: str
+) -> None:
+    path = tmp_path / "deep.toml"
+    path.write_text(file_text)
+    code, out, err = run(capsys, *(a.format(f=path, d=tmp_path) for a in argv))
+    assert code == 2 and out == ""
+    _one_line(err, f"agvctl: {path}: malformed TOML: values nested too deeply")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["deep.toml"]
+
+
+def test_a_set_value_nested_too_deeply_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = run(capsys, "params", "--set", f"body.mass_kg={DEEP}")
+    assert code == 2 and out == ""
+    _one_line(err, "agvctl: --set: body.mass_kg: value nested too deeply")
