@@ -1,8 +1,10 @@
 """Input the package cannot use is one line naming the file or flag and the key, exit 2, nothing written — never
-a traceback: a vehicle that cannot move under default limits, TOML nested too deeply for the parser."""
+a traceback: a vehicle that cannot move under default limits, TOML nested too deeply for the parser, a settling time
+that would never end."""
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import pytest
@@ -12,6 +14,7 @@ from agvctl.errors import ConfigError
 from agvctl.params import default_vehicle_path, load_vehicle
 from agvctl.planning import load_path, plan
 
+ROOT = Path(__file__).resolve().parent.parent
 NO_LIMITS = 'name = "no_limits"\n[[segments]]\ntype = "line"\nlength_m = 1.0\n'
 
 
@@ -110,3 +113,16 @@ def test_a_set_value_nested_too_deeply_is_one_line(capsys: pytest.CaptureFixture
     code, out, err = run(capsys, "params", "--set", f"body.mass_kg={DEEP}")
     assert code == 2 and out == ""
     _one_line(err, "agvctl: --set: body.mass_kg: value nested too deeply")
+
+
+# -- a settling time that never ends ---------------------------------------------------------------------------------
+
+
+def test_a_settling_time_beyond_ten_minutes_is_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    shutil.copy(ROOT / "trajectories" / "line.toml", tmp_path / "line.toml")
+    exp = tmp_path / "e.toml"
+    exp.write_text('name = "e"\ntrajectory = "line.toml"\nsettle_s = 1e9\n')
+    code, out, err = run(capsys, "check", exp, "--junit", tmp_path / "r.xml", "--jobs", "1")
+    assert code == 2 and out == ""
+    _one_line(err, f"agvctl: {exp}: settle_s: must be <= 600 (got 1e+09)")
+    assert not (tmp_path / "r.xml").exists()

@@ -4,7 +4,7 @@
 name = "figure8"
 trajectory = "../trajectories/figure8.toml"     # relative to this file
 vehicle = "default"                             # or a vehicle TOML path (relative to this file)
-settle_s = 2.0                                  # extra time after the reference ends
+settle_s = 2.0                                  # extra time after the reference ends (<= 600 s)
 [plant]                                         # the simulated truth may differ from the controller's model
 set = { "wheels.radius_right_m" = 0.1005, "motor.coulomb_friction_n_m" = 0.08, "motor.stiction_n_m" = 0.09 }
 initial_pose = { x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }

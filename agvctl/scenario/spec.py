@@ -190,7 +190,9 @@ class ExperimentSpec:
     and ``agvctl check`` names its histograms after it, always under their folder."""
     trajectory: str
     vehicle: str = "default"
-    settle_s: float = number(ge=0, default=2.0)
+    settle_s: float = number(
+        ge=0, le=600.0, default=2.0, doc="at most 600 s, as in a fuzz configuration: the run keeps every sample"
+    )
     plant: PlantSpec = dataclasses.field(default_factory=PlantSpec)
     controller: ControllerSpec = dataclasses.field(default_factory=ControllerSpec)
     limits: LimitsSpec = dataclasses.field(default_factory=LimitsSpec)
