@@ -5,9 +5,11 @@ bad input."""
 from __future__ import annotations
 
 import json
+import multiprocessing
+import os
 import shutil
 import xml.etree.ElementTree as ET
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -127,6 +129,16 @@ def test_a_task_whose_worker_raises_is_given_to_on_error() -> None:
     with ThreadPoolExecutor(max_workers=1) as pool:
         out = execute(pool, run, [0, 1, 2], None, on_error=lambda task, exc: f"{task}: {exc}")
     assert out == ["ran 0", "1: worker lost", "ran 2"]
+
+
+def _dies(task: int) -> int:
+    os._exit(1)  # a worker process that dies (a segfault in a solver, the OOM killer)
+
+
+def test_runs_whose_worker_process_died_are_accounted_for() -> None:
+    with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        out = execute(pool, _dies, [0, 1], None, on_error=lambda task, exc: f"{task}: {type(exc).__name__}")
+    assert out == ["0: BrokenProcessPool", "1: BrokenProcessPool"]
 
 
 def test_checking_no_experiment_is_bad_input() -> None:
