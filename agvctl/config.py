@@ -32,6 +32,7 @@ __all__ = [
     "build",
     "build_fields",
     "check_key",
+    "check_plain_name",
     "convert_value",
     "did_you_mean",
     "dump_toml",
@@ -60,6 +61,18 @@ def number(
     return dataclasses.field(default=default, metadata=metadata)
 
 
+def check_plain_name(name: str, source: str, key: str, folder: str) -> None:
+    """Refuse a ``name`` that is not one plain folder name: empty, ``.`` or ``..``, holding ``/``, ``\\`` or a
+    control character. Names become default output folders and file names (``folder`` says which, e.g.
+    ``out/<name>``), which must stay under their root whatever the file says."""
+    if name in ("", ".", "..") or any(c in "/\\" or not c.isprintable() for c in name):
+        raise ConfigError(
+            source,
+            key,
+            f"must be a plain name, usable as the folder {folder}: no '/' or '\\', not '.' or '..' (got {name!r})",
+        )
+
+
 def read_text(path: str | Path) -> str:
     """A UTF-8 text file's contents; a missing or unreadable file raises a one-line :class:`ConfigError`."""
     path = Path(path)
@@ -72,12 +85,15 @@ def read_text(path: str | Path) -> str:
 
 
 def load_toml(path: str | Path) -> dict[str, Any]:
-    """Read a TOML file; an unreadable or malformed file raises a one-line :class:`ConfigError`."""
+    """Read a TOML file; an unreadable or malformed file (values nested too deeply for the parser among it)
+    raises a one-line :class:`ConfigError`."""
     text = read_text(path)
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(str(path), "", f"malformed TOML: {exc}") from None
+    except RecursionError:  # the parser recurses once per level of nested arrays or inline tables
+        raise ConfigError(str(path), "", "malformed TOML: values nested too deeply") from None
 
 
 def parse_override(text: str, source: str = "--set") -> tuple[str, Any]:
@@ -91,6 +107,8 @@ def parse_override(text: str, source: str = "--set") -> tuple[str, Any]:
         value = tomllib.loads(f"v = {value_text}")["v"]
     except tomllib.TOMLDecodeError:
         value = value_text
+    except RecursionError:
+        raise ConfigError(source, key, "value nested too deeply") from None
     return key, value
 
 

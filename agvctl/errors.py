@@ -1,10 +1,13 @@
-"""Exceptions raised by agvctl.
+"""Exceptions raised by agvctl, and the one line a report gives an exception.
 
 Every error a user can cause with a file or a flag is a :class:`ConfigError`; its message is one line of the form
 ``"<file>: <key.path>: <problem>"`` and the CLI prints it as is and exits with code 2.
 """
 
 from __future__ import annotations
+
+import traceback
+from pathlib import Path
 
 
 class AgvctlError(Exception):
@@ -29,3 +32,12 @@ class ConfigError(AgvctlError, ValueError):
 
 class PlanningError(AgvctlError):
     """A trajectory could not be planned within the limits."""
+
+
+def exception_line(exc: BaseException, limit: int = 300) -> str:
+    """``"RuntimeError: boom (at my_controller.py:12)"``: an exception's type, message and innermost frame on one
+    line (at most ``limit`` characters), as the reports of ``check`` and ``fuzz`` name a run that raised."""
+    frames = traceback.extract_tb(exc.__traceback__) if exc.__traceback__ else []
+    at = f" (at {Path(frames[-1].filename).name}:{frames[-1].lineno})" if frames else ""
+    text = " ".join(f"{type(exc).__name__}: {exc}{at}".split())
+    return text if len(text) <= limit else text[: limit - 1] + "…"

@@ -20,6 +20,7 @@ __all__ = [
     "WheelReach",
     "actuator_headroom",
     "feasible_wheel_limits",
+    "no_default_limit_reasons",
     "torque_accel_limit_m_s2",
     "wheel_accel_reach_m_s2",
 ]
@@ -155,6 +156,47 @@ def feasible_wheel_limits(
         accels.append(a)
         speeds.append(max(omega, 0.0) * s.r_over_n)
     return FeasibleLimits(min(speeds), min(accels), current_headroom, voltage_headroom)
+
+
+def _full_scale_source(vehicle: VehicleParams) -> str:
+    """The vehicle keys that set the full-scale motor voltage u_fs = min(k_pow · v_DA(code_max), u_max)."""
+    amp, da = vehicle.amplifier, vehicle.da
+    if amp.voltage_limit_v <= amp.gain * abs(da.mid_v + da.code_max * da.volts_per_code):
+        return f"amplifier.voltage_limit_v = {amp.voltage_limit_v:g} V"
+    return f"da.max_v = {da.max_v:g} V through amplifier.gain = {amp.gain:g}"
+
+
+def no_default_limit_reasons(vehicle: VehicleParams, limits: FeasibleLimits) -> dict[str, str]:
+    """Why a limit of :func:`feasible_wheel_limits` is zero — the vehicle cannot move, or not with the headroom —
+    by the path-file key it is the default of (``wheel_speed_m_s``, ``wheel_accel_m_s2``), naming the vehicle keys
+    behind it; empty when both are positive."""
+    reasons: dict[str, str] = {}
+    u_fs, i_max = full_scale_voltage_v(vehicle), vehicle.amplifier.current_limit_a
+    sides = _sides(vehicle)
+    if limits.wheel_accel_m_s2 <= 0:
+        share = 1.0 - limits.current_headroom
+        torque = min(share * i_max * s.k_t for s in sides)
+        tau_c = max(s.tau_c for s in sides)
+        reasons["wheel_accel_m_s2"] = (
+            f"the wheels cannot accelerate: {share:.0%} of the current limit (amplifier.current_limit_a = "
+            f"{i_max:g} A) gives {torque:.3g} N·m, not above the Coulomb friction {tau_c:.3g} N·m"
+        )
+    if limits.wheel_speed_m_s <= 0:
+        breakaway = max(s.tau_s * s.resistance / s.k_t for s in sides)
+        u_share, i_share = 1.0 - limits.voltage_headroom, 1.0 - limits.current_headroom
+        r_i = max(s.resistance for s in sides) * i_share * i_max
+        if u_fs < breakaway:
+            why = (
+                f"the vehicle cannot move: its full-scale motor voltage {u_fs:.3g} V ({_full_scale_source(vehicle)})"
+                f" is below the break-away voltage τ_s R/k_t = {breakaway:.3g} V"
+            )
+        else:
+            why = (
+                f"{u_share:.0%} of the full-scale motor voltage {u_fs:.3g} V ({_full_scale_source(vehicle)}) is used "
+                f"up by R·i = {r_i:.3g} V at the default acceleration ({i_share:.0%} of I_max): none is left for speed"
+            )
+        reasons["wheel_speed_m_s"] = why
+    return reasons
 
 
 def actuator_headroom(

@@ -12,7 +12,10 @@ from agvctl.plots import save_closed_loop_plots
 from agvctl.scenario.experiment import Experiment
 from agvctl.sim.loop import ClosedLoopResult
 
-__all__ = ["write_run_outputs"]
+__all__ = ["RUN_FILES", "write_run_outputs"]
+
+RUN_FILES = ("log.csv", "summary.json", "experiment.toml", "plant_vehicle.toml")
+"""The files :func:`write_run_outputs` writes into the output directory besides the plots."""
 
 
 def write_run_outputs(

@@ -30,7 +30,9 @@ def test_impossible_limit_fails_with_junit_failure(capsys, tmp_path):
     assert root.tag == "testsuites" and root.get("failures") == "1"
     cases = {c.get("name"): c for c in root.iter("testcase")}
     assert {"tracking_error_max_m", "motor_current_a", "wheel_accel_m_s2"} <= set(cases)
-    assert {"final_position_error_m", "cross_track_error_max_m"} <= set(cases)  # the default gate's limits too
+    assert {"final_position_error_m", "cross_track_error_max_m", "non_finite_commands"} <= set(
+        cases
+    )  # the default gate's limits too
     failure = cases["tracking_error_max_m"].find("failure")
     assert failure is not None
     msg = failure.get("message")

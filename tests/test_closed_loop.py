@@ -80,6 +80,42 @@ def test_forced_solver_failure_completes_with_failures_counted():
     assert not summary["passed"]  # the experiment's solver_failures = 0 limit catches it
 
 
+class NonFinite:
+    """A pose controller that commands a useful speed, then NaN on the left and infinity on the right."""
+
+    def reset(self, reference):
+        del reference
+
+    def update(self, t_s, pose, wheel_speed_m_s):
+        from agvctl.controllers.base import PoseCommand
+
+        bad = t_s >= 1.0
+        return PoseCommand(float("nan") if bad else 0.1, float("inf") if bad else 0.1)
+
+
+def test_a_non_finite_command_is_a_controller_failure_and_fails_the_default_gate(tmp_path):
+    """No [limits] at all: the default gate still fails the run, the wheel loops get a stop, not a silent 0 V."""
+    (tmp_path / "e.toml").write_text(
+        f'name = "e"\ntrajectory = "{(EXPERIMENTS.parent / "trajectories" / "line.toml").as_posix()}"\n'
+    )
+    exp = load_experiment(tmp_path / "e.toml")
+    result = run_experiment(exp, pose_controller=NonFinite())
+    log, metrics = result.log, closed_loop_metrics(result)
+    bad = log["t_s"] >= 1.0 - 1e-9
+    assert metrics["non_finite_commands"] == int(np.sum(bad)) > 0
+    assert metrics["solver_failures"] == result.solver_failures >= metrics["non_finite_commands"]
+    assert np.all(log["solver_status"][bad] == 3) and np.all(log["solver_status"][~bad] == 0)
+    for side in ("left", "right"):
+        assert np.all(log[f"setpoint_wheel_speed_{side}_m_s"][bad] == 0.0)
+        assert np.all(np.isfinite(log[f"da_command_{side}_v"]))
+    summary = run_summary(exp, result)
+    assert not summary["passed"]
+    verdict = next(r for r in summary["limits"] if r["limit"] == "non_finite_commands")
+    assert verdict["default"] and not verdict["passed"] and verdict["value"] == metrics["non_finite_commands"]
+    assert verdict["first_time_s"] == pytest.approx(1.0)
+    assert "non_finite_commands" in verdict["message"] and "VIOLATED" in verdict["message"]
+
+
 def test_one_sample_compute_delay_acts_a_sample_later():
     exp = load_experiment(EXPERIMENTS / "line.toml")
     now = run_experiment(exp)

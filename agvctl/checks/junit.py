@@ -68,11 +68,22 @@ def junit_suites(name: str, suites: Sequence[JUnitSuite], time_s: float) -> str:
 
 def junit_xml(report: CheckReport) -> str:
     """The check report as JUnit XML: one test suite per experiment, one test case per limit; a violated limit is
-    a ``<failure>`` whose ``message`` is the limit message."""
+    a ``<failure>`` whose ``message`` is the limit message. A run that could not be completed is a test case of
+    its own, ``run`` (``run (sample i)`` for a Monte Carlo sample), with an ``<error>`` whose ``message`` is the
+    run's error."""
     suites = []
     for exp in report.experiments:
-        each = exp.wall_time_s / max(1, len(exp.verdicts))
+        each = exp.wall_time_s / max(1, len(exp.verdicts) + len(exp.errors))
         cases = [
+            JUnitCase(
+                f"agvctl.check.{exp.name}",
+                "run" if o.task.sample is None else f"run (sample {o.task.sample})",
+                each,
+                error=o.error,
+            )
+            for o in exp.errors
+        ]
+        cases += [
             JUnitCase(
                 f"agvctl.check.{exp.name}",
                 v.limit,

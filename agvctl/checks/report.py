@@ -3,6 +3,8 @@
 These are plain data, apart from how they are computed (:mod:`agvctl.checks.runner`) and written
 (:mod:`agvctl.checks.junit`, ``as_dict`` for JSON). A limit's verdict over several runs (the nominal run, or every
 Monte Carlo sample) is decided by the worst run: the one with the largest value, since every limit is an upper bound.
+A run that raised has no metrics: it is recorded with its error, its experiment fails as an error (not a limit
+violation), and the verdicts are those of the experiment's other runs.
 """
 
 from __future__ import annotations
@@ -48,12 +50,15 @@ class RunTask:
 
 @dataclass(frozen=True)
 class RunOutcome:
-    """What a run sends back: metrics and limit verdicts (no log)."""
+    """What a run sends back: metrics and limit verdicts (no log), or why it could not be completed."""
 
     task: RunTask
     metrics: dict[str, float]
     limits: tuple[LimitResult, ...]
     wall_time_s: float
+    error: str | None = None
+    """Why the run could not be completed: the exception's type, message and innermost frame, on one line (no
+    metrics nor limits then); None for a completed run."""
 
 
 @dataclass(frozen=True)
@@ -104,15 +109,19 @@ def worst_run_verdicts(outcomes: Sequence[RunOutcome]) -> list[LimitVerdict]:
     """One verdict per limit over the runs of one experiment, each naming the run with the largest (worst) value.
 
     The limit fails when any run fails; among failed runs the worst is also one that exceeded the bound, so the
-    verdict's value, times and sample are those of a violating run.
+    verdict's value, times and sample are those of a violating run. Runs that could not be completed have no
+    values and are left out (no verdicts when none was completed).
     """
+    completed = [o for o in outcomes if o.error is None]
+    if not completed:
+        return []
     verdicts = []
-    for idx, first in enumerate(outcomes[0].limits):
-        per_run = [o.limits[idx] for o in outcomes]
+    for idx, first in enumerate(completed[0].limits):
+        per_run = [o.limits[idx] for o in completed]
         worst_i = int(np.argmax([r.value for r in per_run]))
         worst = per_run[worst_i]
         failed = sum(not r.passed for r in per_run)
-        task = outcomes[worst_i].task
+        task = completed[worst_i].task
         verdicts.append(
             LimitVerdict(
                 limit=first.limit,
@@ -144,8 +153,19 @@ class ExperimentReport:
     """The runs' summed wall time (they may have run in parallel)."""
 
     @property
+    def errors(self) -> list[RunOutcome]:
+        """The runs that could not be completed."""
+        return [o for o in self.outcomes if o.error is not None]
+
+    @property
+    def completed(self) -> bool:
+        """Whether every run was completed."""
+        return not self.errors
+
+    @property
     def passed(self) -> bool:
-        return all(v.passed for v in self.verdicts)
+        """Every run completed and every limit held."""
+        return self.completed and all(v.passed for v in self.verdicts)
 
     @property
     def monte_carlo(self) -> bool:
@@ -174,7 +194,9 @@ class ExperimentReport:
             "experiment": self.name,
             "path": self.path,
             "passed": self.passed,
+            "completed": self.completed,
             "runs": len(self.outcomes),
+            "errors": [{"sample": o.task.sample, "error": o.error} for o in self.errors],
             "wall_time_s": self.wall_time_s,
             "limits": [v.as_dict() for v in self.verdicts],
             "metrics": metrics if self.monte_carlo else metrics[0],
@@ -196,9 +218,26 @@ class CheckReport:
     def passed(self) -> bool:
         return all(e.passed for e in self.experiments)
 
+    @property
+    def completed(self) -> bool:
+        """Whether every run of every experiment was completed (none raised)."""
+        return all(e.completed for e in self.experiments)
+
+    @property
+    def monte_carlo(self) -> bool:
+        """Whether any experiment has Monte Carlo samples."""
+        return any(e.monte_carlo for e in self.experiments)
+
+    @property
+    def runs_errored(self) -> int:
+        """How many runs could not be completed."""
+        return sum(len(e.errors) for e in self.experiments)
+
     def as_dict(self) -> dict[str, Any]:
         return {
             "passed": self.passed,
+            "completed": self.completed,
+            "runs_errored": self.runs_errored,
             "wall_time_s": self.wall_time_s,
             "experiments": [e.as_dict() for e in self.experiments],
         }

@@ -3,7 +3,9 @@
 Everything is loaded and validated first — every experiment file, every Monte Carlo sample's vehicle — so bad
 input stops the check before anything runs. The runs then go to one ``concurrent.futures`` executor — a worker
 thread, local worker processes or a Dask cluster's — and each returns only its metrics and limit verdicts (the
-report types are in :mod:`agvctl.checks.report`). Samples are drawn in the parent from the experiment's seed, so the
+report types are in :mod:`agvctl.checks.report`). A run that raises — in the product's code or in a user's
+controller — is recorded as that run's error (one line) and every other run still goes; so is a run its worker
+could not return (a worker process that died). Samples are drawn in the parent from the experiment's seed, so the
 same seed gives the same samples and the same physical results on any executor (the computation-time metrics,
 ``solve_time_p99_ms`` and ``deadline_misses``, are measured and so vary from run to run).
 """
@@ -18,6 +20,7 @@ import os
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor, as_completed
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, TypeVar
 
@@ -25,16 +28,18 @@ import numpy as np
 
 from agvctl.checks.report import CheckReport, ExperimentReport, Overrides, RunOutcome, RunTask, worst_run_verdicts
 from agvctl.config import check_key, to_dict
-from agvctl.errors import ConfigError
+from agvctl.errors import ConfigError, exception_line
 from agvctl.evaluation.limits import evaluate_limits
 from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.params import SIDES, VehicleParams
 from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
 
 __all__ = [
+    "CheckWork",
     "ExecutorKind",
     "check_experiments",
     "execute",
+    "load_check",
     "monte_carlo_samples",
     "open_executor",
     "resolved_jobs",
@@ -128,7 +133,22 @@ def _prepared(path: str) -> Experiment:
 
 
 def run_task(task: RunTask) -> RunOutcome:
-    """Run one task (in this process). Used by every executor; module-level so it pickles."""
+    """Run one task (in this process). Used by every executor; module-level so it pickles. Never raises for a run
+    that fails: an exception is the outcome's ``error``."""
+    t0 = time.perf_counter()
+    try:
+        return _run(task, t0)
+    except Exception as exc:  # a run that raised is that run's result, reported with its experiment
+        return run_error(task, exc, time.perf_counter() - t0)
+
+
+def run_error(task: RunTask, exc: BaseException, wall_time_s: float = 0.0) -> RunOutcome:
+    """The outcome of a run that could not be completed because of ``exc``."""
+    return RunOutcome(task, {}, (), wall_time_s, error=exception_line(exc))
+
+
+def _run(task: RunTask, t0: float) -> RunOutcome:
+    """The task's run and its verdicts (its plant and sensor noise those of its Monte Carlo sample, if any)."""
     base = _prepared(task.experiment_path)
     prepared = base
     if task.overrides:
@@ -138,7 +158,6 @@ def run_task(task: RunTask) -> RunOutcome:
         spec = prepared.spec
         plant_spec = dataclasses.replace(spec.plant, sensor_seed=spec.plant.sensor_seed + 1 + task.sample)
         prepared = dataclasses.replace(prepared, spec=dataclasses.replace(spec, plant=plant_spec))
-    t0 = time.perf_counter()
     result = run_experiment(prepared)
     metrics = closed_loop_metrics(result)
     limits = evaluate_limits(
@@ -200,15 +219,29 @@ def open_executor(kind: ExecutorKind, jobs: int, scheduler: str | None, n_tasks:
 
 
 def execute(
-    pool: Executor, run: Callable[[T], R], tasks: Sequence[T], progress: Callable[[int, int], None] | None
+    pool: Executor,
+    run: Callable[[T], R],
+    tasks: Sequence[T],
+    progress: Callable[[int, int], None] | None,
+    on_error: Callable[[T, Exception], R] | None = None,
 ) -> list[R]:
-    """``run(task)`` of every task on ``pool``, in the order of ``tasks`` whatever order they finish in; the first
-    error stops all. ``run`` must be a module-level function (it is pickled for worker processes)."""
+    """``run(task)`` of every task on ``pool``, in the order of ``tasks`` whatever order they finish in.
+
+    A task whose future raises (``run`` raised, or its worker died or could not send the result back) gives
+    ``on_error(task, exception)`` when that is given; without it the first error stops all. ``run`` must be a
+    module-level function (it is pickled for worker processes).
+    """
     futures = [pool.submit(run, task) for task in tasks]
+    task_of = dict(zip(futures, tasks, strict=True))
     outcomes: dict[Future[R], R] = {}
     try:
         for done, future in enumerate(as_completed(futures), start=1):
-            outcomes[future] = future.result()
+            try:
+                outcomes[future] = future.result()
+            except Exception as exc:
+                if on_error is None:
+                    raise
+                outcomes[future] = on_error(task_of[future], exc)
             if progress:
                 progress(done, len(futures))
     finally:
@@ -217,8 +250,45 @@ def execute(
     return [outcomes[f] for f in futures]
 
 
+@dataclass(frozen=True)
+class CheckWork:
+    """The experiments of a check, loaded and validated, and their runs (one per Monte Carlo sample, or the
+    nominal one): what :func:`check_experiments` runs."""
+
+    paths: tuple[str, ...]
+    experiments: tuple[Experiment, ...]
+    tasks: tuple[tuple[RunTask, ...], ...]
+
+    @property
+    def input_files(self) -> list[Path]:
+        """Every file the check reads: each experiment file and the files it names."""
+        return [f for exp in self.experiments for f in exp.input_files]
+
+
+def load_check(paths: Sequence[str | Path]) -> CheckWork:
+    """Load and validate every experiment and draw its Monte Carlo samples, before anything runs.
+
+    Raises
+    ------
+    ConfigError
+        No experiment at all, a file or key that cannot be used, or a sample that gives an invalid vehicle.
+    """
+    if not paths:
+        raise ConfigError("check_experiments", "paths", "give at least one experiment file (got none)")
+    experiments: list[Experiment] = []
+    tasks_of: list[tuple[RunTask, ...]] = []
+    for path in paths:
+        exp = load_experiment(path)
+        key = str(Path(path).resolve())
+        samples = monte_carlo_samples(exp)
+        tasks = [RunTask(key, i, s) for i, s in enumerate(samples)] if samples else [RunTask(key, None, ())]
+        experiments.append(exp)
+        tasks_of.append(tuple(tasks))
+    return CheckWork(tuple(str(p) for p in paths), tuple(experiments), tuple(tasks_of))
+
+
 def check_experiments(
-    paths: Sequence[str | Path],
+    paths: Sequence[str | Path] | CheckWork,
     *,
     jobs: int | None = None,
     executor: ExecutorKind = "local",
@@ -230,7 +300,7 @@ def check_experiments(
     Parameters
     ----------
     paths
-        Experiment files.
+        Experiment files, or the :class:`CheckWork` of :func:`load_check` (loaded already).
     jobs
         Local worker processes (default: all cores); with one job, or one run in all, the runs go one after another
         in a worker thread of this process. With ``executor="dask"`` and no scheduler: the local cluster's workers.
@@ -239,30 +309,35 @@ def check_experiments(
     progress
         Called as ``progress(done, total)`` in this thread after each run.
 
-    Raises :class:`ConfigError` on bad input before any run. Local workers are spawned processes, which import the
-    calling script again: from a script, call this under ``if __name__ == "__main__":``.
+    Returns
+    -------
+    CheckReport
+        Every experiment's verdicts and runs. A run that raised (say a user's pose controller) is recorded with its
+        error, one line (:attr:`RunOutcome.error`); its experiment then fails (``completed`` False) and every other
+        run is still run and reported.
+
+    Raises
+    ------
+    ConfigError
+        On bad input, before any run: no experiment at all, a file or key that cannot be used, an invalid Monte
+        Carlo sample.
+
+    Local workers are spawned processes, which import the calling script again: from a script, call this under
+    ``if __name__ == "__main__":``.
     """
     t0 = time.perf_counter()
+    work = paths if isinstance(paths, CheckWork) else load_check(paths)
     jobs = resolved_jobs(jobs, executor)
-    experiments: list[Experiment] = []
-    tasks_of: list[list[RunTask]] = []
-    for path in paths:
-        exp = load_experiment(path)
-        key = str(Path(path).resolve())
-        samples = monte_carlo_samples(exp)
-        tasks = [RunTask(key, i, s) for i, s in enumerate(samples)] if samples else [RunTask(key, None, ())]
-        experiments.append(exp)
-        tasks_of.append(tasks)
-    all_tasks = [t for ts in tasks_of for t in ts]
+    all_tasks = [t for ts in work.tasks for t in ts]
     with open_executor(executor, jobs, scheduler, len(all_tasks)) as pool:
-        outcomes = execute(pool, run_task, all_tasks, progress)
+        outcomes = execute(pool, run_task, all_tasks, progress, on_error=run_error)
     report = CheckReport()
     pos = 0
-    for exp, path, tasks in zip(experiments, paths, tasks_of, strict=True):
+    for exp, path, tasks in zip(work.experiments, work.paths, work.tasks, strict=True):
         mine = outcomes[pos : pos + len(tasks)]
         pos += len(tasks)
         wall_time_s = sum(o.wall_time_s for o in mine)
         verdicts = worst_run_verdicts(mine)
-        report.experiments.append(ExperimentReport(exp.spec.name, str(path), verdicts, mine, wall_time_s))
+        report.experiments.append(ExperimentReport(exp.spec.name, path, verdicts, mine, wall_time_s))
     report.wall_time_s = time.perf_counter() - t0
     return report

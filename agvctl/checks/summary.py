@@ -28,6 +28,7 @@ SUMMARY_METRICS = (
     "solve_time_p50_ms",
     "solve_time_p99_ms",
     "solver_failures",
+    "non_finite_commands",
 )
 
 

@@ -1,4 +1,14 @@
-"""``agvctl check``: run experiments and enforce their limits — a CI gate (exit 0 pass, 1 violated, 2 bad input)."""
+"""``agvctl check``: run experiments and enforce their limits — a CI gate.
+
+Every run is accounted for: a run that raises (the product's code or a user's controller) is that experiment's
+error, and every other experiment is still run and reported; the JUnit XML and JSON are always written. Exit codes:
+
+* 0 — every run completed and every limit held;
+* 1 — a limit was violated (every run completed);
+* 2 — bad input: a file, key or flag that cannot be used (one line on stderr; nothing is run, nothing written);
+* 3 — a run could not be completed (it raised): an ``<error>`` in the JUnit XML, ``"completed": false`` in the
+  JSON; this wins over 1.
+"""
 
 from __future__ import annotations
 
@@ -10,11 +20,22 @@ from typing import Any
 
 from agvctl.checks.junit import junit_xml
 from agvctl.checks.report import CheckReport
-from agvctl.checks.runner import check_experiments
+from agvctl.checks.runner import check_experiments, load_check
+from agvctl.cli.outputs import Output, check_outputs, writing
 from agvctl.cli.progress import ProgressBar
 from agvctl.errors import ConfigError
 from agvctl.fileio import write_text
 from agvctl.plots import save_metric_histograms
+
+EXIT_PASSED, EXIT_VIOLATED, EXIT_RUN_ERROR = 0, 1, 3
+"""The exit codes of a check that ran (2, bad input, is the CLI's for every command)."""
+
+EXIT_CODES = """exit codes:
+  0  every run completed and every limit held
+  1  a limit was violated
+  2  bad input (one line on stderr naming the file or flag; nothing is run or written)
+  3  a run could not be completed (it raised): reported as an <error> in the JUnit XML and
+     "completed": false in the JSON, every other run still reported; wins over 1"""
 
 
 def register(sub: Any) -> None:
@@ -22,7 +43,9 @@ def register(sub: Any) -> None:
         "check",
         help="run experiments and enforce their [limits] (CI gate: exit 1 on a violation)",
         description="Run each experiment (and its [robustness] Monte Carlo samples), check every limit, report. "
-        "Exit 0 when every limit holds, 1 when any is violated, 2 on bad input (nothing is run then).",
+        "A run that raises is its experiment's error; every other run is still run and reported.",
+        epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("experiments", nargs="+", metavar="EXPERIMENT.toml")
     p.add_argument("--junit", metavar="FILE", help="write JUnit XML: one test case per experiment and limit")
@@ -40,9 +63,13 @@ def format_report(report: CheckReport) -> str:
     lines = []
     for exp in report.experiments:
         runs = len(exp.outcomes)
-        head = f"{'PASS' if exp.passed else 'FAIL'}  {exp.name}  ({exp.path}"
+        status = "ERROR" if not exp.completed else "PASS" if exp.passed else "FAIL"
+        head = f"{status}  {exp.name}  ({exp.path}"
         head += f", {runs} Monte Carlo samples)" if exp.monte_carlo else ")"
         lines.append(head)
+        for o in exp.errors:
+            which = "the run" if o.task.sample is None else f"sample {o.task.sample}"
+            lines.append(f"    ERROR  {which} could not be completed: {o.error}")
         for v in exp.verdicts:
             lines.append(f"    {'ok  ' if v.passed else 'FAIL'}  {v.message}")
         for name, c in (exp.consistency() or {}).items():
@@ -53,8 +80,10 @@ def format_report(report: CheckReport) -> str:
                 f"chi-square interval of an average over {c['runs']} runs: [{lo:.3g}, {hi:.3g}]) — {verdict}"
             )
     n_fail = sum(not e.passed for e in report.experiments)
+    n_error = sum(not e.completed for e in report.experiments)
+    errors = f" ({n_error} with runs that could not be completed)" if n_error else ""
     lines.append(
-        f"{len(report.experiments) - n_fail} of {len(report.experiments)} experiments passed "
+        f"{len(report.experiments) - n_fail} of {len(report.experiments)} experiments passed{errors} "
         f"in {report.wall_time_s:.1f} s"
     )
     return "\n".join(lines)
@@ -63,14 +92,16 @@ def format_report(report: CheckReport) -> str:
 def run(args: argparse.Namespace) -> int:
     if args.scheduler and args.executor != "dask":
         raise ConfigError("--scheduler", "", "only with --executor dask")
-    for name in (args.junit, args.json_out):
-        if name and Path(name).is_dir():
-            raise ConfigError(name, "", "is a directory; expected a file name")
+    work = load_check(args.experiments)  # every file validated, every output checked: then the runs
+    outputs = [Output(flag, Path(name)) for flag, name in (("--junit", args.junit), ("--json", args.json_out)) if name]
+    report_dir = Path(args.report_dir or "out/check")
+    monte_carlo = any(len(tasks) > 1 or tasks[0].sample is not None for tasks in work.tasks)
+    check_outputs(outputs, work.input_files, [("--report-dir", report_dir)] if monte_carlo else [])
     jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
     bar = ProgressBar("check:")
     try:
         report = check_experiments(
-            args.experiments,
+            work,
             jobs=jobs,
             executor=args.executor,
             scheduler=args.scheduler,
@@ -79,14 +110,19 @@ def run(args: argparse.Namespace) -> int:
     finally:
         bar.close()
     # everything is computed before anything is written
-    outputs: dict[str, str] = {}
-    if args.junit:
-        outputs[args.junit] = junit_xml(report)
-    if args.json_out:
-        outputs[args.json_out] = json.dumps(report.as_dict(), indent=2) + "\n"
-    for path, text in outputs.items():
-        write_text(path, text)
-    if any(e.monte_carlo for e in report.experiments):
-        save_metric_histograms(report, Path(args.report_dir or "out/check"))
+    texts = {"--junit": junit_xml(report), "--json": json.dumps(report.as_dict(), indent=2) + "\n"}
+    for out in outputs:
+        with writing(out.flag, out.path):
+            write_text(out.path, texts[out.flag])
+    if report.monte_carlo:
+        with writing("--report-dir", report_dir):
+            save_metric_histograms(report, report_dir)
     print(format_report(report))
-    return 0 if report.passed else 1
+    return exit_code(report)
+
+
+def exit_code(report: CheckReport) -> int:
+    """3 when a run could not be completed, else 1 when a limit was violated, else 0."""
+    if not report.completed:
+        return EXIT_RUN_ERROR
+    return EXIT_PASSED if report.passed else EXIT_VIOLATED

@@ -1,7 +1,9 @@
 """``agvctl fuzz``: random scenarios through the closed loop with one or more pose controllers, against limits.
 
 Exit 0 when every run of every controller passes, 1 when any fails (its files are written out, ready for
-``agvctl run``), 2 on bad input (one line naming the file and key; nothing is run).
+``agvctl run``), 2 on bad input (one line naming the file and key; nothing is run), 3 when any run could not be
+completed — it raised, or its log or metrics hold a non-finite value — reported as an ``<error>`` in the JUnit XML
+and an ``error`` in the JSON, every other run still reported (as ``agvctl check``'s 3; it wins over 1).
 """
 
 from __future__ import annotations
@@ -15,13 +17,14 @@ import time
 from pathlib import Path
 from typing import Any
 
+from agvctl.checks.runner import resolved_jobs
+from agvctl.cli.outputs import Output, check_outputs, files_in, vehicle_input, writing
 from agvctl.cli.progress import ProgressBar
-from agvctl.cli.run_cmd import check_out_dir
 from agvctl.errors import ConfigError
 from agvctl.evaluation.limits import LIMITS
 from agvctl.fileio import write_text
 from agvctl.fuzz.report import FUZZ_METRICS, FuzzOutcome, FuzzReport
-from agvctl.fuzz.run import fuzz
+from agvctl.fuzz.run import FuzzRun, fuzz_tasks, run_fuzz
 from agvctl.fuzz.spec import load_fuzz_config, override_fuzz_config
 from agvctl.plots import save_fuzz_plot
 
@@ -35,7 +38,8 @@ def register(sub: Any) -> None:
         description="Draw random scenarios from a fuzz configuration's seed (paths of lines, arcs and turns; default "
         "or explicit limits; a plant within an envelope; an off-path start), run each with every pose controller "
         "listed, report per controller and write every failing scenario as a ready-to-run experiment file. "
-        "Exit 0 when all pass, 1 when any fails, 2 on bad input.",
+        "Exit 0 when all pass, 1 when any fails, 2 on bad input, 3 when any run could not be completed "
+        "(it raised or broke down numerically: a JUnit <error>; wins over 1).",
     )
     p.add_argument("config", metavar="FUZZ.toml")
     p.add_argument("--out", metavar="DIR", help="output directory (default: out/fuzz/<name>)")
@@ -146,26 +150,36 @@ def _indices(text: str) -> list[int]:
     return sorted(set(indices))
 
 
+def _check_outputs(args: argparse.Namespace, work: FuzzRun, out_dir: Path) -> None:
+    """Every file the run may write — the summary, the plot, each scenario's files should it fail, the JUnit XML —
+    checked against the configuration and its vehicle before anything runs."""
+    names = ["summary.json", *([] if args.no_plot else ["fuzz.png"])]
+    outputs = files_in("--out", out_dir, names)
+    failures = {name for task in work.tasks for name, _text in task.files}
+    outputs += files_in("--out", out_dir / "failures", sorted(failures))
+    if args.junit:
+        outputs.append(Output("--junit", Path(args.junit)))
+    inputs = [Path(args.config), vehicle_input(work.spec.vehicle)]
+    check_outputs(outputs, inputs, [("--out", out_dir), ("--out", out_dir / "failures")])
+
+
 def run(args: argparse.Namespace) -> int:
     if args.scheduler and args.executor != "dask":
         raise ConfigError("--scheduler", "", "only with --executor dask")
-    if args.junit and Path(args.junit).is_dir():
-        raise ConfigError(args.junit, "", "is a directory; expected a file name")
     spec = load_fuzz_config(args.config)
     controllers = None if args.controllers is None else [c.strip() for c in args.controllers.split(",") if c.strip()]
     spec = override_fuzz_config(spec, seed=args.seed, scenarios=args.scenarios, controllers=controllers)
     only = _indices(args.only) if args.only is not None else None
     out_dir = Path(args.out) if args.out else Path("out") / "fuzz" / spec.name
-    check_out_dir(out_dir)
+    resolved_jobs(args.jobs, args.executor)
+    work = fuzz_tasks(spec, only)
+    _check_outputs(args, work, out_dir)
     jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
     where = f"a Dask cluster ({args.scheduler or 'local'})" if args.executor == "dask" else f"{jobs} local jobs"
-    n_runs = (spec.scenarios if only is None else len(only)) * len(spec.controllers)
-    print(f"fuzz {spec.name}: {n_runs} runs on {where}", file=sys.stderr, flush=True)
+    print(f"fuzz {spec.name}: {len(work.tasks)} runs on {where}", file=sys.stderr, flush=True)
     progress = _Progress()
     try:
-        report = fuzz(
-            spec, jobs=jobs, executor=args.executor, scheduler=args.scheduler, scenarios=only, progress=progress
-        )
+        report = run_fuzz(work, jobs=jobs, executor=args.executor, scheduler=args.scheduler, progress=progress)
     finally:
         progress.close()
     # everything is computed before anything is written
@@ -175,10 +189,12 @@ def run(args: argparse.Namespace) -> int:
     if args.junit:
         texts[Path(args.junit)] = report.junit()
     for path, text in texts.items():
-        write_text(path, text)
+        with writing("--junit" if args.junit and path == Path(args.junit) else "--out", path):
+            write_text(path, text)
     written = [str(out_dir / "summary.json")]
     if not args.no_plot:
-        written.append(str(save_fuzz_plot(report, out_dir / "fuzz.png")))
+        with writing("--out", out_dir / "fuzz.png"):
+            written.append(str(save_fuzz_plot(report, out_dir / "fuzz.png")))
     print(format_fuzz_report(report))
     print(f"wrote {', '.join(written)}" + (f", {args.junit}" if args.junit else ""))
     if failures:
@@ -188,4 +204,6 @@ def run(args: argparse.Namespace) -> int:
             f"wrote {n_fail} failing runs as experiment files in {out_dir / 'failures'}; "
             f"reproduce one with: agvctl run {out_dir / 'failures' / first}"
         )
+    if any(o.error is not None for o in report.outcomes):
+        return 3
     return 0 if report.passed else 1

@@ -8,15 +8,25 @@ import math
 import shlex
 import sys
 from datetime import UTC, datetime
+from pathlib import Path
 
 from agvctl.calibration import Estimate
 from agvctl.cli.options import add_vehicle_options
+from agvctl.cli.outputs import Output, check_outputs, vehicle_input, writing
 from agvctl.config import dump_toml, to_dict
 from agvctl.errors import ConfigError
 from agvctl.fileio import write_text
 from agvctl.params import VehicleParams, load_vehicle
 
-__all__ = ["add_common_options", "check_noise", "command_line", "format_estimate", "table", "vehicles", "write_vehicle"]
+__all__ = [
+    "add_common_options",
+    "check_common",
+    "command_line",
+    "format_estimate",
+    "table",
+    "vehicles",
+    "write_vehicle",
+]
 
 
 def add_common_options(p: argparse.ArgumentParser, simulate_help: str) -> None:
@@ -40,10 +50,18 @@ def command_line() -> str:
     return "agvctl " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:] else "agvctl identify"
 
 
-def check_noise(args: argparse.Namespace) -> None:
-    """``--noise`` must be a finite number >= 0 (:class:`ConfigError` otherwise)."""
+def check_common(args: argparse.Namespace) -> None:
+    """The common options, before anything runs: ``--noise`` a finite number >= 0, ``--seed`` an integer >= 0
+    (numpy's seeds), and the output files (``--out``, ``--save-log``) never an input (``--vehicle``, ``--log``)
+    and writable. A one-line :class:`ConfigError` naming the flag otherwise."""
     if not (math.isfinite(args.noise) and args.noise >= 0):
         raise ConfigError("--noise", "", f"must be >= 0 (got {args.noise:g})")
+    if args.seed is not None and args.seed < 0:
+        raise ConfigError("--seed", "", f"must be >= 0 (got {args.seed})")
+    flags = (("--out", args.out), ("--save-log", getattr(args, "save_log", None)))
+    outputs = [Output(flag, Path(name)) for flag, name in flags if name]
+    log = getattr(args, "log", None)
+    check_outputs(outputs, [vehicle_input(args.vehicle), *([log] if log else [])])
 
 
 def vehicles(args: argparse.Namespace, demo: list[str] | None = None) -> tuple[VehicleParams, VehicleParams | None]:
@@ -73,7 +91,8 @@ def write_vehicle(path: str, vehicle: VehicleParams, how: list[str]) -> None:
     """Write ``vehicle`` as TOML with a header comment saying how it was identified; it must read back."""
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     header = "\n".join([f"Vehicle '{vehicle.name}' with values identified by agvctl ({stamp}):", *how])
-    write_text(path, dump_toml(to_dict(vehicle), header=header) + "\n")
+    with writing("--out", path):
+        write_text(path, dump_toml(to_dict(vehicle), header=header) + "\n")
     load_vehicle(path)  # it must read back
 
 

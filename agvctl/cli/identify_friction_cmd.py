@@ -18,13 +18,14 @@ from agvctl.calibration import (
 from agvctl.calibration.friction import SIDES, SPEED_NOISE_RAD_S
 from agvctl.cli.identify_common import (
     add_common_options,
-    check_noise,
+    check_common,
     command_line,
     format_estimate,
     table,
     vehicles,
     write_vehicle,
 )
+from agvctl.cli.outputs import writing
 from agvctl.errors import ConfigError
 
 __all__ = ["DEMO_FRICTION_TRUTH", "register", "run"]
@@ -71,7 +72,7 @@ def register(isub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Fit the friction (simulated or ``--log``), print it (table or ``--json``), write ``--out``."""
-    check_noise(args)
+    check_common(args)
     if bool(args.log) == bool(args.simulate):
         raise ConfigError("identify friction", "", "give exactly one of --log LOG.csv and --simulate")
     believed, truth = vehicles(args, list(DEMO_FRICTION_TRUTH))
@@ -86,7 +87,8 @@ def run(args: argparse.Namespace) -> int:
         assert truth is not None
         log = simulate_friction_experiment(truth, believed, experiment, noise_scale=args.noise, seed=args.seed)
         if args.save_log:
-            log.write_csv(args.save_log)
+            with writing("--save-log", args.save_log):
+                log.write_csv(args.save_log)
         how = [
             f"friction: simulated experiment, speeds {list(experiment.motor_speeds_rad_s)} rad/s both directions, "
             f"speed noise {args.noise:g} x {SPEED_NOISE_RAD_S:g} rad/s (seed {args.seed})"

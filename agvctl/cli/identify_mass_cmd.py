@@ -8,7 +8,7 @@ from typing import Any
 
 from agvctl.calibration import apply_mass, identify_mass, simulated_scale_readings
 from agvctl.calibration.mass import SCALE_NOISE_KG
-from agvctl.cli.identify_common import add_common_options, check_noise, command_line, table, vehicles, write_vehicle
+from agvctl.cli.identify_common import add_common_options, check_common, command_line, table, vehicles, write_vehicle
 from agvctl.errors import ConfigError
 
 __all__ = ["register", "run"]
@@ -38,7 +38,7 @@ def register(isub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Identify the mass properties, print them (table or ``--json``), write ``--out``."""
-    check_noise(args)
+    check_common(args)
     believed, truth = vehicles(args)
     if args.simulate:
         readings = simulated_scale_readings(truth or believed, noise_scale=args.noise, seed=args.seed)

@@ -16,7 +16,7 @@ from agvctl.calibration import (
     umbmark_correction,
 )
 from agvctl.calibration.umbmark import POSITION_NOISE_M, UmbmarkCorrection
-from agvctl.cli.identify_common import add_common_options, check_noise, command_line, table, vehicles, write_vehicle
+from agvctl.cli.identify_common import add_common_options, check_common, command_line, table, vehicles, write_vehicle
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams, load_vehicle
 
@@ -52,7 +52,7 @@ def register(isub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run UMBmark (simulated or ``--log``), print the correction (table or ``--json``), write ``--out``."""
-    check_noise(args)
+    check_common(args)
     if bool(args.log) == bool(args.simulate):
         raise ConfigError("identify umbmark", "", "give exactly one of --log RUNS.csv and --simulate")
     if not (math.isfinite(args.side_m) and args.side_m > 0):

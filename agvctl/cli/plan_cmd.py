@@ -6,10 +6,11 @@ import argparse
 import json
 import sys
 import warnings
+from pathlib import Path
 from typing import Any
 
 from agvctl.cli.options import add_vehicle_options
-from agvctl.errors import ConfigError
+from agvctl.cli.outputs import Output, check_outputs, vehicle_input, writing
 from agvctl.fileio import atomic_open, write_csv
 from agvctl.params import load_vehicle
 from agvctl.planning import CSV_COLUMNS, HeadroomWarning, PhysicalLimitWarning, Reference, load_path, plan
@@ -69,13 +70,6 @@ def format_summary(summary: dict[str, Any]) -> str:
     )
 
 
-def _write(kind: str, path: str, write: Any) -> None:
-    try:
-        write()
-    except OSError as exc:
-        raise ConfigError(path, "", f"cannot write the {kind}: {exc.strerror or exc}") from None
-
-
 def _write_bytes(path: str, data: bytes) -> None:
     with atomic_open(path, "wb") as fh:
         fh.write(data)
@@ -84,6 +78,8 @@ def _write_bytes(path: str, data: bytes) -> None:
 def run(args: argparse.Namespace) -> int:
     vehicle = load_vehicle(args.vehicle, args.overrides)
     spec = load_path(args.file)
+    outputs = [Output(flag, Path(name)) for flag, name in (("--out", args.out), ("--plot", args.plot)) if name]
+    check_outputs(outputs, [args.file, vehicle_input(args.vehicle)])
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", PhysicalLimitWarning)
         warnings.simplefilter("always", HeadroomWarning)
@@ -98,9 +94,11 @@ def run(args: argparse.Namespace) -> int:
         png = render_reference_png(ref)
     if args.out:
         columns = ref.grid.columns(CSV_COLUMNS)
-        _write("CSV", args.out, lambda: write_csv(args.out, columns))
+        with writing("--out", args.out):
+            write_csv(args.out, columns)
     if png is not None:
-        _write("plot", args.plot, lambda: _write_bytes(args.plot, png))
+        with writing("--plot", args.plot):
+            _write_bytes(args.plot, png)
     print(json.dumps(summary, indent=2) if args.json else format_summary(summary))
     if not args.json:
         print("\n".join(limits_report(ref, spec.limits, vehicle)))

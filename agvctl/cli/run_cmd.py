@@ -8,10 +8,11 @@ from pathlib import Path
 from typing import Any
 
 from agvctl.checks.summary import run_summary
+from agvctl.cli.outputs import check_outputs, files_in, writing
 from agvctl.cli.progress import ProgressBar
-from agvctl.errors import ConfigError
 from agvctl.planning.headroom import limits_report
-from agvctl.reports import write_run_outputs
+from agvctl.plots import CLOSED_LOOP_PLOTS
+from agvctl.reports import RUN_FILES, write_run_outputs
 from agvctl.scenario.experiment import load_experiment, run_experiment
 
 
@@ -63,6 +64,7 @@ def format_summary(summary: dict[str, Any]) -> str:
     lines.append(
         f"  pose controller   {p50:.3f} ms median, {p99:.3f} ms p99, "
         f"{m['solver_failures']} failures, {m['deadline_misses']} deadline misses"
+        + (f", {m['non_finite_commands']} NaN or infinite commands" if m.get("non_finite_commands") else "")
     )
     if m.get("estimate_error_max_m"):  # an estimator other than the truth
         est_rms, est_max = m["estimate_error_rms_m"] * 1e3, m["estimate_error_max_m"] * 1e3
@@ -78,30 +80,20 @@ def format_summary(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def check_out_dir(out_dir: Path) -> None:
-    """Refuse, before anything runs, an output directory that cannot be made: a file at or above it."""
-    for path in (out_dir, *out_dir.parents):
-        if path.exists():
-            if not path.is_dir():
-                raise ConfigError("--out", "", f"{path} exists and is not a directory")
-            return
-
-
 def run(args: argparse.Namespace) -> int:
     experiment = load_experiment(args.experiment)
     name = experiment.spec.name
     out_dir = Path(args.out) if args.out else Path("out") / name
-    check_out_dir(out_dir)
+    names = RUN_FILES if args.no_plot else (*RUN_FILES, *CLOSED_LOOP_PLOTS, "estimate.png")
+    check_outputs(files_in("--out", out_dir, names), experiment.input_files, [("--out", out_dir)])
     bar = ProgressBar(f"{name}:")
     try:
         result = run_experiment(experiment, progress=bar)
     finally:
         bar.close()
     summary = run_summary(experiment, result)
-    try:
+    with writing("--out", out_dir):
         written = write_run_outputs(experiment, result, summary, out_dir, plots=not args.no_plot)
-    except OSError as exc:
-        raise ConfigError(str(exc.filename or out_dir), "", f"cannot write: {exc.strerror or exc}") from None
     if args.json:
         print(json.dumps(summary, indent=2))
     else:

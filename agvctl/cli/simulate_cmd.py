@@ -5,11 +5,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from agvctl.cli.options import add_vehicle_options
+from agvctl.cli.outputs import Output, check_outputs, vehicle_input, writing
 from agvctl.errors import ConfigError
 from agvctl.params import load_vehicle
 from agvctl.sim.open_loop import OpenLoopResult, load_input_profile, sample_count, simulate_open_loop
@@ -63,6 +65,8 @@ def summary(result: OpenLoopResult) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     vehicle = load_vehicle(args.vehicle, args.overrides)
+    outputs = [Output(flag, Path(name)) for flag, name in (("--out", args.out), ("--plot", args.plot)) if name]
+    check_outputs(outputs, [vehicle_input(args.vehicle), *([args.input] if args.input else [])])
     ts = vehicle.control.sample_period_s
     n = sample_count(args.duration, ts)
     if args.input:
@@ -78,11 +82,13 @@ def run(args: argparse.Namespace) -> int:
         da = np.tile([args.da_left, args.da_right], (n, 1))
     result = simulate_open_loop(vehicle, da)
     if args.out:
-        result.log.to_csv(args.out)
+        with writing("--out", args.out):
+            result.log.to_csv(args.out)
     if args.plot:
         from agvctl.plots import save_open_loop_plot  # matplotlib only when asked for
 
-        save_open_loop_plot(result.log, vehicle, args.plot, title=f"{vehicle.name}: open loop")
+        with writing("--plot", args.plot):
+            save_open_loop_plot(result.log, vehicle, args.plot, title=f"{vehicle.name}: open loop")
     data = summary(result)
     if args.json:
         print(json.dumps(data, indent=2))

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from agvctl.cli.options import add_vehicle_options
+from agvctl.cli.outputs import Output, check_outputs, files_in, vehicle_input, writing
 from agvctl.controllers.pi.tuning import (
     SPEC_SOURCE,
     TuningResult,
@@ -34,6 +35,10 @@ _FLAGS = {
     "gain_margin_db": "--gain-margin",
     "crossover_rad_s": "--bandwidth",
 }
+
+
+TUNING_PLOTS = ("bode.png", "nyquist.png", "step.png")
+"""The files ``--plot DIR`` gets (:func:`~agvctl.plots.render_tuning_plots`)."""
 
 
 def register(sub: Any) -> None:
@@ -105,10 +110,9 @@ def run(args: argparse.Namespace) -> int:
     vehicle = load_vehicle(args.vehicle, args.overrides)
     spec = _spec(args)
     plot_dir = Path(args.plot) if args.plot else None
-    if plot_dir is not None and plot_dir.exists() and not plot_dir.is_dir():
-        raise ConfigError("--plot", "", f"{plot_dir} exists and is not a directory")
-    if args.out and Path(args.out).is_dir():
-        raise ConfigError("--out", "", f"{args.out} is a directory; give a file name")
+    outputs = [Output("--out", Path(args.out))] if args.out else []
+    outputs += files_in("--plot", plot_dir, TUNING_PLOTS) if plot_dir is not None else []
+    check_outputs(outputs, [vehicle_input(args.vehicle)], [("--plot", plot_dir)] if plot_dir is not None else [])
     try:
         design = design_pi(vehicle, spec)
     except ConfigError as exc:
@@ -133,15 +137,13 @@ def run(args: argparse.Namespace) -> int:
             f"margins: GM {m.gain_margin_db:.3f} dB, PM {m.phase_margin_deg:.3f} deg, "
             f"crossover {m.crossover_rad_s:.4f} rad/s",
         )
-    try:
-        for name, content in figures.items():
-            assert plot_dir is not None
-            with atomic_open(plot_dir / name, "wb") as fh:
-                fh.write(content)
-        if gains_text is not None:
+    for name, content in figures.items():
+        assert plot_dir is not None
+        with writing("--plot", plot_dir / name), atomic_open(plot_dir / name, "wb") as fh:
+            fh.write(content)
+    if gains_text is not None:
+        with writing("--out", args.out):
             write_text(args.out, gains_text)
-    except OSError as exc:
-        raise ConfigError(str(exc.filename or "output"), "", f"cannot write: {exc.strerror or exc}") from None
 
     if args.json:
         print(json.dumps(data, indent=2))

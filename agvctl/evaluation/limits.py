@@ -35,7 +35,12 @@ from numpy.typing import NDArray
 
 from agvctl.config import convert_value, did_you_mean, join_key
 from agvctl.errors import ConfigError
-from agvctl.evaluation.metrics import estimate_heading_error_rad, estimate_position_error_m, sample_wheel_accel_m_s2
+from agvctl.evaluation.metrics import (
+    NON_FINITE_COMMAND_STATUS,
+    estimate_heading_error_rad,
+    estimate_position_error_m,
+    sample_wheel_accel_m_s2,
+)
 from agvctl.feasibility import torque_accel_limit_m_s2
 from agvctl.log import SimLog
 from agvctl.params import VehicleParams
@@ -153,6 +158,13 @@ LIMITS: dict[str, Limit] = {
     ),
     "solver_failures": Limit(
         "solver_failures", "", lambda log, ts: np.asarray(log["solver_status"] > 0), "events", "count"
+    ),
+    "non_finite_commands": Limit(
+        "non_finite_commands",
+        "",
+        lambda log, ts: np.asarray(log["solver_status"] == NON_FINITE_COMMAND_STATUS),
+        "events",
+        "count",
     ),
 }
 """Every limit an experiment's ``[limits]`` table may set, in the order they are reported."""
@@ -286,6 +298,7 @@ def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimi
         "cross_track_error_max_m": corridor,
         "path_heading_error_max_deg": DefaultLimit(90.0, "never faces against the path"),
         "solver_failures": DefaultLimit(0, "every controller step succeeds"),
+        "non_finite_commands": DefaultLimit(0, "every pose command is a finite number"),
     }
     return {key: defaults[key] for key in LIMITS if key in defaults}
 

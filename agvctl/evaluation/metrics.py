@@ -12,6 +12,7 @@ from agvctl.angles import wrap_angle
 from agvctl.log import SimLog
 
 __all__ = [
+    "NON_FINITE_COMMAND_STATUS",
     "closed_loop_metrics",
     "sample_wheel_accel_m_s2",
     "estimate_heading_error_rad",
@@ -20,6 +21,11 @@ __all__ = [
     "time_to_converge_s",
     "RunRecord",
 ]
+
+
+NON_FINITE_COMMAND_STATUS = 3
+"""The log's ``solver_status`` at a sample whose pose-controller command was NaN or infinite (the wheel loops get
+a stop, 0 m/s, instead): a controller failure, counted in ``solver_failures`` and in ``non_finite_commands``."""
 
 
 class RunRecord(Protocol):
@@ -75,7 +81,8 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
     time-indexed tracking error |p(t) − p_d(t)|, the errors against the reference's path separate
     being off the path from being behind the clock (:mod:`agvctl.evaluation.path_metrics`): ``cross_track_error_*_m``
     (distance to the path), ``along_track_lag_max_m`` (the largest |lag| along the path, behind or ahead) and
-    ``path_heading_error_max_deg`` (heading against the path's at the nearest point).
+    ``path_heading_error_max_deg`` (heading against the path's at the nearest point). ``non_finite_commands`` counts
+    the samples whose pose-controller command was NaN or infinite (also counted in ``solver_failures``).
     """
     log = result.log
     err = log["position_error_m"]
@@ -107,6 +114,7 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
         "solve_time_p99_ms": float(np.percentile(solve_ms, 99)),
         "deadline_misses": int(np.sum(solve_ms > result.sample_period_s * 1e3)),
         "solver_failures": int(result.solver_failures),
+        "non_finite_commands": int(np.sum(log["solver_status"] == NON_FINITE_COMMAND_STATUS)),
         "time_to_2cm_s": time_to_converge_s(log["t_s"], err, 0.02),
         **estimate_metrics(log),
     }

@@ -59,7 +59,7 @@ class FuzzOutcome:
     metrics: dict[str, float]
     """:func:`~agvctl.evaluation.metrics.closed_loop_metrics` (empty if the run crashed)."""
     limits: tuple[LimitResult, ...]
-    """The configuration's limits (not the default a_lim check)."""
+    """The configuration's limits and the default ``non_finite_commands`` check (not the default a_lim check)."""
     error: str | None
     """Why the run crashed or is numerically broken (one line), or None."""
     warnings: tuple[str, ...]

@@ -5,10 +5,12 @@
 of ``agvctl check`` (:func:`agvctl.checks.runner.open_executor`: a worker thread, spawned local processes or a
 Dask cluster). A worker writes the files into a temporary directory, loads them with
 :func:`~agvctl.scenario.experiment.load_experiment` — exactly what ``agvctl run`` does with the written-out file — runs
-the closed loop and returns the metrics and the verdicts of the configuration's limits (the default a_lim check
-of ``agvctl check`` is not a fuzz criterion). A run that raises, or whose log or metrics hold a non-finite value,
-is a failure with its one-line reason, never an exception out of the fuzzer. Results do not depend on the number
-of jobs or the executor (the measured solve times excepted).
+the closed loop and returns the metrics and the verdicts of the gate ``agvctl check`` applies: the default gate
+(:func:`~agvctl.evaluation.limits.default_limits`) with the configuration's limits in place of their defaults. A run
+that raises, or whose log or metrics hold a non-finite value, is an error with its one-line reason (an ``<error>`` in
+the JUnit XML, exit code 3 from ``agvctl fuzz``, as for ``agvctl check``), never an exception out of the fuzzer;
+so is a run its worker could not return. Results do not depend on the number of jobs or the executor (the
+measured solve times excepted).
 
 The report and its statistics are :class:`~agvctl.fuzz.report.FuzzReport`::
 
@@ -22,7 +24,6 @@ from __future__ import annotations
 import math
 import tempfile
 import time
-import traceback
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -31,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from agvctl.checks.runner import ExecutorKind, execute, open_executor, resolved_jobs
+from agvctl.errors import ConfigError, exception_line
 from agvctl.evaluation.limits import LimitResult, evaluate_limits
 from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.fuzz.generate import generate_scenario, scenario_files
@@ -41,7 +43,7 @@ from agvctl.params import load_vehicle
 from agvctl.scenario.experiment import load_experiment, run_experiment
 from agvctl.sim.loop import SENSOR_NAN_COLUMNS
 
-__all__ = ["FuzzRun", "fuzz", "fuzz_tasks", "run_fuzz_task"]
+__all__ = ["FuzzRun", "fuzz", "fuzz_tasks", "run_fuzz", "run_fuzz_task"]
 
 _MAY_BE_INFINITE = frozenset({"time_to_2cm_s"})
 """Metrics for which infinity is a value (never within 2 cm), not a numerical failure."""
@@ -50,6 +52,11 @@ _MAY_BE_INFINITE = frozenset({"time_to_2cm_s"})
 def _one_line(text: str, limit: int = 300) -> str:
     line = " ".join(text.split())
     return line if len(line) <= limit else line[: limit - 1] + "…"
+
+
+def _lost_run(task: FuzzTask, exc: Exception) -> FuzzOutcome:
+    """The outcome of a run whose worker raised instead of returning one (it died, or could not send it back)."""
+    return FuzzOutcome(task.scenario, task.controller, False, {}, (), exception_line(exc), (), 0.0, 0.0)
 
 
 def _non_finite(log: SimLog, metrics: dict[str, float]) -> str | None:
@@ -91,9 +98,7 @@ def run_fuzz_task(task: FuzzTask) -> FuzzOutcome:
             )
             error = _non_finite(result.log, metrics)
         except Exception as exc:  # any crash of a run is a finding, reported with its scenario
-            where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
-            at = f" (at {Path(where.filename).name}:{where.lineno})" if where else ""
-            error = _one_line(f"{type(exc).__name__}: {exc}{at}")
+            error = exception_line(exc)
     notes = tuple(sorted({_one_line(f"{w.category.__name__}: {w.message}") for w in caught}))
     passed = error is None and all(r.passed and not math.isnan(r.value) for r in limits)
     return FuzzOutcome(
@@ -120,9 +125,13 @@ class FuzzRun:
 def fuzz_tasks(spec: FuzzSpec, scenarios: Sequence[int] | None = None) -> FuzzRun:
     """Draw the scenarios (default: ``range(spec.scenarios)``) and make one task per scenario and controller.
 
-    Everything is drawn and validated here, before anything runs; a scenario outside the envelope's valid
-    vehicles raises a one-line :class:`ConfigError`.
+    Everything is drawn and validated here, before anything runs; no scenario at all, a negative index or a
+    scenario outside the envelope's valid vehicles raises a one-line :class:`ConfigError`.
     """
+    if scenarios is not None and not scenarios:
+        raise ConfigError("fuzz", "scenarios", "give at least one scenario index (got none)")
+    if scenarios is not None and min(int(i) for i in scenarios) < 0:
+        raise ConfigError("fuzz", "scenarios", f"scenario indices must be >= 0 (got {min(scenarios)})")
     vehicle = load_vehicle(None if spec.vehicle == "default" else spec.vehicle)
     indices = range(spec.scenarios) if scenarios is None else scenarios
     tasks: list[FuzzTask] = []
@@ -159,12 +168,38 @@ def fuzz(
     progress
         Called as ``progress(done, total)`` in this thread after each run.
 
-    Raises :class:`ConfigError` on bad input before any run. From a script, call this under
-    ``if __name__ == "__main__":`` (local workers are spawned processes, which import the calling script again).
+    Returns
+    -------
+    FuzzReport
+        Every run's outcome; a run that raised or broke down numerically has its one-line ``error``.
+
+    Raises
+    ------
+    ConfigError
+        On bad input, before any run (an empty ``scenarios`` among it).
+
+    From a script, call this under ``if __name__ == "__main__":`` (local workers are spawned processes, which
+    import the calling script again).
     """
     t0 = time.perf_counter()
-    jobs = resolved_jobs(jobs, executor)
     work = fuzz_tasks(spec, scenarios)
+    return run_fuzz(work, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress, t0=t0)
+
+
+def run_fuzz(
+    work: FuzzRun,
+    *,
+    jobs: int | None = None,
+    executor: ExecutorKind = "local",
+    scheduler: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    t0: float | None = None,
+) -> FuzzReport:
+    """Run the tasks of :func:`fuzz_tasks` (drawn already, so their files can be checked first): :func:`fuzz`'s
+    second half, with its options; ``t0``, a :func:`time.perf_counter` reading, starts the report's wall time."""
+    t0 = time.perf_counter() if t0 is None else t0
+    jobs = resolved_jobs(jobs, executor)
+    spec = work.spec
     with open_executor(executor, jobs, scheduler, len(work.tasks)) as pool:
-        outcomes = execute(pool, run_fuzz_task, work.tasks, progress)
+        outcomes = execute(pool, run_fuzz_task, work.tasks, progress, on_error=_lost_run)
     return FuzzReport(spec, work.tasks, outcomes, time.perf_counter() - t0)

@@ -1,7 +1,7 @@
 """The fuzz configuration file (``experiments/fuzz/*.toml``): what scenarios to draw, which controllers, the limits.
 
 ```toml
-name = "acceptance"                 # optional (default: the file's stem)
+name = "acceptance"                 # optional (default: the file's stem); a plain name: out/fuzz/<name>
 seed = 10                           # scenario i of seed s depends on (s, i) alone
 scenarios = 500
 controllers = ["mpc", "ramsete"]    # names of agvctl.controllers.registry.POSE_CONTROLLERS; the first is compared
@@ -50,7 +50,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from agvctl.config import build, build_fields, check_key, convert_value, join_key, load_toml, number
+from agvctl.config import build, build_fields, check_key, check_plain_name, convert_value, join_key, load_toml, number
 from agvctl.controllers.registry import POSE_CONTROLLERS
 from agvctl.errors import ConfigError
 from agvctl.evaluation.limits import LimitsSpec
@@ -277,6 +277,7 @@ def load_fuzz_config(path: str | Path) -> FuzzSpec:
             raise ConfigError(str(path), "vehicle", f"file not found: {resolved}")
         vehicle_path = str(resolved.resolve())
     spec = dataclasses.replace(spec, source=str(path), name=spec.name or path.stem, vehicle=vehicle_path)
+    check_plain_name(spec.name, str(path), "name", "out/fuzz/<name>")
     vehicle = load_vehicle(None if vehicle_path == "default" else vehicle_path)
     _check_against_vehicle(spec, vehicle)
     if not math.isfinite(vehicle.derived.max_speed_m_s):

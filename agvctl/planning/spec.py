@@ -56,6 +56,7 @@ from agvctl.feasibility import (
     HeadroomWarning,
     actuator_headroom,
     feasible_wheel_limits,
+    no_default_limit_reasons,
 )
 from agvctl.params import VehicleParams
 
@@ -283,6 +284,8 @@ def resolve_limits(spec: PathSpec, vehicle: VehicleParams, *, force: bool = Fals
     :class:`ConfigError` naming both values, unless ``force`` is true: then a :class:`PhysicalLimitWarning` is
     issued instead. Explicit limits the actuator can deliver but with less than
     :data:`~agvctl.actuator.MIN_HEADROOM` of current or voltage left get a :class:`~agvctl.actuator.HeadroomWarning`.
+    A limit left to its default when the vehicle has none (it cannot move, or not with the headroom) raises a
+    :class:`ConfigError` naming the vehicle keys why, ``force`` or not.
     """
     top, a_lim = vehicle.derived.max_speed_m_s, vehicle.derived.accel_limit_m_s2
     lim = spec.limits
@@ -306,6 +309,9 @@ def resolve_limits(spec: PathSpec, vehicle: VehicleParams, *, force: bool = Fals
             )
     _warn_headroom(spec, vehicle, skip=over)
     default = feasible_wheel_limits(vehicle)
+    for key, why in no_default_limit_reasons(vehicle, default).items():
+        if getattr(lim, key) is None:
+            raise ConfigError(spec.source, f"limits.{key}", f"no default for this vehicle: {why}")
     jerk = lim.wheel_jerk_m_s3 if lim.wheel_jerk_m_s3 is not None else default_jerk_limit_m_s3(vehicle)
     return WheelLimits(
         wheel_speed_m_s=lim.wheel_speed_m_s if lim.wheel_speed_m_s is not None else default.wheel_speed_m_s,

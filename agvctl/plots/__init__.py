@@ -256,8 +256,9 @@ def save_metric_histograms(report: CheckReport, out_dir: str | Path) -> list[Pat
             "motor_current_a": "peak_motor_current_a",
         }
         limit_of = {alias.get(k, k): b for k, b in bounds.items()}
-        for metric in exp.outcomes[0].metrics:
-            values = np.array([o.metrics[metric] for o in exp.outcomes], dtype=float)
+        completed = [o for o in exp.outcomes if o.error is None]
+        for metric in completed[0].metrics if completed else ():
+            values = np.array([o.metrics[metric] for o in completed], dtype=float)
             values = values[np.isfinite(values)]
             if values.size == 0:
                 continue
@@ -266,7 +267,7 @@ def save_metric_histograms(report: CheckReport, out_dir: str | Path) -> list[Pat
             if metric in limit_of:
                 ax.axvline(limit_of[metric], color="r", ls="--", lw=1.2, label=f"limit {limit_of[metric]:.4g}")
                 ax.legend(fontsize=8)
-            ax.set(xlabel=metric, ylabel="samples", title=f"{exp.name}: {len(exp.outcomes)} samples")
+            ax.set(xlabel=metric, ylabel="samples", title=f"{exp.name}: {len(completed)} samples")
             fig.tight_layout()
             path = out / f"{exp.name}_{metric}.png"
             _save(fig, path)

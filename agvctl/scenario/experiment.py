@@ -4,7 +4,7 @@
 name = "figure8"
 trajectory = "../trajectories/figure8.toml"     # relative to this file
 vehicle = "default"                             # or a vehicle TOML path (relative to this file)
-settle_s = 2.0                                  # extra time after the reference ends
+settle_s = 2.0                                  # extra time after the reference ends (<= 600 s)
 [plant]                                         # the simulated truth may differ from the controller's model
 set = { "wheels.right.radius_m" = 0.1005, "motor.coulomb_friction_n_m" = 0.08, "motor.stiction_n_m" = 0.09 }
 initial_pose = { x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }
@@ -39,7 +39,7 @@ from agvctl.config import build, load_toml
 from agvctl.controllers.base import PoseController, WheelSpeedController
 from agvctl.controllers.registry import POSE_CONTROLLERS, WheelLoops, design_wheel_loops
 from agvctl.errors import ConfigError
-from agvctl.params import VehicleParams, load_vehicle
+from agvctl.params import VehicleParams, default_vehicle_path, load_vehicle
 from agvctl.planning import PathSpec, load_path, plan
 from agvctl.planning.reference import Reference
 from agvctl.scenario.spec import ExperimentSpec
@@ -64,6 +64,17 @@ class Experiment:
     """The PI wheel-speed loops (gains designed or from the gains file)."""
     path: PathSpec | None = None
     """The trajectory file, validated (its explicit limits; None for an experiment built without one)."""
+
+    @property
+    def input_files(self) -> tuple[Path, ...]:
+        """The files the experiment is read from: its own, its trajectory, its vehicle (the shipped one by default)
+        and its gains file, if any — what a command must never write over."""
+        spec = self.spec
+        files = [Path(spec.source), spec.resolve(spec.trajectory)]
+        files.append(default_vehicle_path() if spec.vehicle == "default" else spec.resolve(spec.vehicle))
+        if spec.controller.pi_gains is not None:
+            files.append(spec.resolve(spec.controller.pi_gains))
+        return tuple(files)
 
 
 def load_experiment(path: str | Path) -> Experiment:

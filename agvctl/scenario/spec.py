@@ -13,7 +13,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from agvctl.config import build, build_fields, convert_value, did_you_mean, join_key, number, to_dict
+from agvctl.config import (
+    build,
+    build_fields,
+    check_plain_name,
+    convert_value,
+    did_you_mean,
+    join_key,
+    number,
+    to_dict,
+)
 from agvctl.controllers.registry import POSE_CONTROLLERS
 from agvctl.errors import ConfigError
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
@@ -177,9 +186,13 @@ class ExperimentSpec:
     """An experiment file, validated. Paths are resolved relative to the file."""
 
     name: str
+    """A plain name (no ``/`` or ``\\``, not ``.`` or ``..``): ``agvctl run`` writes to ``out/<name>`` by default
+    and ``agvctl check`` names its histograms after it, always under their folder."""
     trajectory: str
     vehicle: str = "default"
-    settle_s: float = number(ge=0, default=2.0)
+    settle_s: float = number(
+        ge=0, le=600.0, default=2.0, doc="at most 600 s, as in a fuzz configuration: the run keeps every sample"
+    )
     plant: PlantSpec = dataclasses.field(default_factory=PlantSpec)
     controller: ControllerSpec = dataclasses.field(default_factory=ControllerSpec)
     limits: LimitsSpec = dataclasses.field(default_factory=LimitsSpec)
@@ -189,6 +202,9 @@ class ExperimentSpec:
     @property
     def base_dir(self) -> Path:
         return Path(self.source).parent
+
+    def validate(self, *, source: str, prefix: str) -> None:
+        check_plain_name(self.name, source, join_key(prefix, "name"), "out/<name>")
 
     def resolve(self, relative: str) -> Path:
         path = Path(relative)

@@ -27,9 +27,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
-from agvctl.controllers.base import PoseController, WheelSpeedController
+from agvctl.controllers.base import PoseCommand, PoseController, WheelSpeedController
 from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator, consistency
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
+from agvctl.evaluation.metrics import NON_FINITE_COMMAND_STATUS
 from agvctl.evaluation.path_metrics import path_error_columns
 from agvctl.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.params import SIDES, VehicleParams
@@ -109,7 +110,8 @@ CONTROL_LOG_COLUMNS = (
     *_SENSOR_COLUMNS,
 )
 """Columns the closed loop adds to :data:`~agvctl.log.PLANT_LOG_COLUMNS`. ``solver_status`` is 0 when the
-pose controller solved, 1 for the shifted previous solution, 2 for the reference feed-forward; ``wheel_speed_*``
+pose controller solved, 1 for the shifted previous solution, 2 for the reference feed-forward, 3 for a NaN or
+infinite command (the wheel loops get a stop, 0 m/s, instead; ``setpoint_*`` hold what they got); ``wheel_speed_*``
 are the true rim speeds ω_mot·r/N of the plant. :class:`ClosedLoopResult` adds the errors against the path,
 :data:`~agvctl.evaluation.path_metrics.PATH_LOG_COLUMNS` (cross-track error, along-track lag, path heading error)."""
 
@@ -237,9 +239,9 @@ def run_closed_loop(
         cmd = pose_controller.update(k * ts, est, wheel_meas)
         solve = time.perf_counter() - tc
         n = length.after(k, cmd.reference_done)
-        status = _STATUS_CODE.get(cmd.status, 2)
+        status, commanded = _checked_command(cmd)
         failures += status > 0
-        setpoint = delay(np.array([cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s]))
+        setpoint = delay(commanded)
         sp_motor = setpoint / rim_per_motor
         da_cmd = wheel_controller.update(sp_motor, omega)  # 3. wheel-speed loops
         speeds.applied(da_cmd)
@@ -260,6 +262,16 @@ def run_closed_loop(
     ref = reference.sample(np.arange(n + 1) * ts)
     log = _closed_loop_log(plant.log(), rows, ref, _rim_per_motor(plant_vehicle), reference)
     return ClosedLoopResult(log, reference, wall, setup, failures, n, ts)
+
+
+def _checked_command(cmd: PoseCommand) -> tuple[int, NDArray[np.float64]]:
+    """(solver status code, wheel-speed setpoints in m/s) of a pose controller's command: a NaN or infinite
+    setpoint is a controller failure (:data:`~agvctl.evaluation.metrics.NON_FINITE_COMMAND_STATUS`) and the wheel
+    loops get a stop instead, never a silent 0 V from the DA converter."""
+    setpoint = np.array([cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s], dtype=np.float64)
+    if not np.all(np.isfinite(setpoint)):
+        return NON_FINITE_COMMAND_STATUS, np.zeros(2)
+    return _STATUS_CODE.get(cmd.status, 2), setpoint
 
 
 def _control_row(
