@@ -7,7 +7,7 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent.parent / "agvctl"
 MAX_MODULE_LINES = 450
-MAX_FUNCTION_LINES = 100
+MAX_FUNCTION_LINES = 80
 BEING_SPLIT: frozenset[str] = frozenset()
 """Modules exempt from the length limits (none)."""
 

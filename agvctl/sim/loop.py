@@ -180,6 +180,21 @@ class _RunLength:
         return self.samples
 
 
+def _estimators(
+    vehicle: VehicleParams,
+    localization: str | PoseEstimator,
+    wheel_speed: str | WheelSpeedEstimator,
+    initial_pose: tuple[float, float, float],
+) -> tuple[PoseEstimator, WheelSpeedEstimator]:
+    """The pose and wheel-speed estimators (by registry name, or given) on the controller's ``vehicle``, reset to
+    ``initial_pose`` and to rest."""
+    estimator = ESTIMATORS[localization](vehicle) if isinstance(localization, str) else localization
+    estimator.reset(np.array(initial_pose, dtype=float))
+    speeds = WHEEL_SPEED_ESTIMATORS[wheel_speed](vehicle) if isinstance(wheel_speed, str) else wheel_speed
+    speeds.reset()
+    return estimator, speeds
+
+
 def run_closed_loop(
     *,
     plant_vehicle: VehicleParams,
@@ -214,11 +229,8 @@ def run_closed_loop(
         ref0 = reference.sample(np.zeros(1))
         initial_pose = (float(ref0.x_m[0]), float(ref0.y_m[0]), float(ref0.theta_rad[0]))
     plant = PlantStepper(plant_vehicle, initial_state=[0.0, 0.0, *initial_pose], options=plant_options)
-    estimator = ESTIMATORS[localization](controller_vehicle) if isinstance(localization, str) else localization
-    estimator.reset(np.array(initial_pose, dtype=float))
+    estimator, speeds = _estimators(controller_vehicle, localization, wheel_speed, initial_pose)
     sensors = Sensors(plant_vehicle, seed=sensor_seed)
-    speeds = WHEEL_SPEED_ESTIMATORS[wheel_speed](controller_vehicle) if isinstance(wheel_speed, str) else wheel_speed
-    speeds.reset()
     rim_per_motor = _rim_per_motor(controller_vehicle)  # the controller's belief
     delay = _Delay(compute_delay)
     pose_controller.reset(reference)

@@ -137,6 +137,31 @@ def _geometry(alpha: float, beta: float, vehicle: VehicleParams, side_length_m: 
     return np.array([ratio, separation, 2.0 * mean / (ratio + 1.0), 2.0 * mean * ratio / (ratio + 1.0)])
 
 
+def _truths(
+    truth: VehicleParams | None, vehicle: VehicleParams, side_length_m: float
+) -> tuple[list[float | None], list[float | None]]:
+    """The true (ratio r_r/r_l, wheel base the odometry needs, r_l, r_r) and (α, β) of a simulation whose true
+    vehicle is ``truth`` and believed one ``vehicle``; all None without a truth."""
+    if truth is None:
+        return [None] * 4, [None, None]
+    tw, bw = truth.wheels, vehicle.wheels
+    mean_believed = 0.5 * (bw.left.radius_m + bw.right.radius_m)
+    mean_true = 0.5 * (tw.left.radius_m + tw.right.radius_m)
+    ratio_true = tw.right.radius_m / tw.left.radius_m
+    base_m = tw.separation_m * mean_believed / mean_true
+    true_geom: list[float | None] = [
+        ratio_true,
+        base_m,
+        2.0 * mean_believed / (ratio_true + 1.0),
+        2.0 * mean_believed * ratio_true / (ratio_true + 1.0),
+    ]
+    alpha_true = 0.5 * math.pi * (1.0 - bw.separation_m / base_m)
+    # a leg the odometry sees straight: s_r/s_l = (r_r/r̂_r)/(r_l/r̂_l); its heading change over L
+    rel = (tw.right.radius_m / bw.right.radius_m) / (tw.left.radius_m / bw.left.radius_m)
+    beta_true = side_length_m * 2.0 * (rel - 1.0) / ((rel + 1.0) * base_m)
+    return true_geom, [alpha_true, beta_true]
+
+
 def umbmark_correction(
     cw_errors_m: ArrayLike,
     ccw_errors_m: ArrayLike,
@@ -192,24 +217,7 @@ def umbmark_correction(
     se_p = np.sqrt(np.diag(cov_p))
     se_g = np.sqrt(np.diag(cov_g))
 
-    true_geom: list[float | None] = [None] * 4
-    true_ab: list[float | None] = [None, None]
-    if truth is not None:
-        tw, bw = truth.wheels, vehicle.wheels
-        mean_believed = 0.5 * (bw.left.radius_m + bw.right.radius_m)
-        mean_true = 0.5 * (tw.left.radius_m + tw.right.radius_m)
-        ratio_true = tw.right.radius_m / tw.left.radius_m
-        true_geom = [
-            ratio_true,
-            tw.separation_m * mean_believed / mean_true,
-            2.0 * mean_believed / (ratio_true + 1.0),
-            2.0 * mean_believed * ratio_true / (ratio_true + 1.0),
-        ]
-        alpha_true = 0.5 * math.pi * (1.0 - bw.separation_m / (tw.separation_m * mean_believed / mean_true))
-        # a leg the odometry sees straight: s_r/s_l = (r_r/r̂_r)/(r_l/r̂_l); its heading change over L
-        rel = (tw.right.radius_m / bw.right.radius_m) / (tw.left.radius_m / bw.left.radius_m)
-        beta_true = side_length_m * 2.0 * (rel - 1.0) / ((rel + 1.0) * true_geom[1])  # type: ignore[operator]
-        true_ab = [alpha_true, beta_true]
+    true_geom, true_ab = _truths(truth, vehicle, side_length_m)
 
     def est(i: int) -> Estimate:
         return Estimate(float(geom[i]), float(se_g[i]), true_geom[i])
