@@ -8,26 +8,14 @@ import shutil
 from pathlib import Path
 
 import pytest
+from cli_runs import one_line, run
 
-from agvctl.cli import main
 from agvctl.errors import ConfigError
 from agvctl.params import default_vehicle_path, load_vehicle
 from agvctl.planning import load_path, plan
 
 ROOT = Path(__file__).resolve().parent.parent
 NO_LIMITS = 'name = "no_limits"\n[[segments]]\ntype = "line"\nlength_m = 1.0\n'
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: object) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def _one_line(err: str, *parts: str) -> None:
-    assert err.count("\n") == 1 and "Traceback" not in err, err
-    for part in parts:
-        assert part in err, err
 
 
 def _files(d: Path) -> dict[str, bytes]:
@@ -53,7 +41,7 @@ def test_plan_with_a_vehicle_that_has_no_default_limit_names_the_vehicle_key(
     path.write_text(NO_LIMITS)
     code, out, err = run(capsys, "plan", path, "--set", setting, "--out", tmp_path / "ref.csv")
     assert code == 2 and out == ""
-    _one_line(err, f"agvctl: {path}: limits.{limit}: no default for this vehicle: ", why)
+    one_line(err, f"agvctl: {path}: limits.{limit}: no default for this vehicle: ", why)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.toml"]
 
 
@@ -66,7 +54,7 @@ def test_the_planner_refuses_a_vehicle_that_cannot_move_with_a_config_error(tmp_
 
 
 @pytest.mark.parametrize("command", ["run", "check"])
-def test_run_and_check_with_a_vehicle_that_cannot_move_are_one_line(
+def test_run_and_check_with_a_vehicle_that_cannot_move_areone_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], command: str
 ) -> None:
     text = default_vehicle_path().read_text()
@@ -79,7 +67,7 @@ def test_run_and_check_with_a_vehicle_that_cannot_move_are_one_line(
     extra = ["--out", tmp_path / "out"] if command == "run" else ["--junit", tmp_path / "r.xml", "--jobs", "1"]
     code, out, err = run(capsys, command, exp, *extra)
     assert code == 2 and out == ""
-    _one_line(err, "limits.wheel_speed_m_s: no default for this vehicle: the vehicle cannot move", "voltage_limit_v")
+    one_line(err, "limits.wheel_speed_m_s: no default for this vehicle: the vehicle cannot move", "voltage_limit_v")
     assert _files(tmp_path) == before
 
 
@@ -98,21 +86,21 @@ DEEP = "[" * 3000 + "]" * 3000
     ],
     ids=["check", "plan", "params", "fuzz"],
 )
-def test_toml_nested_too_deeply_is_one_line(
+def test_toml_nested_too_deeply_isone_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], file_text: str
 ) -> None:
     path = tmp_path / "deep.toml"
     path.write_text(file_text)
     code, out, err = run(capsys, *(a.format(f=path, d=tmp_path) for a in argv))
     assert code == 2 and out == ""
-    _one_line(err, f"agvctl: {path}: malformed TOML: values nested too deeply")
+    one_line(err, f"agvctl: {path}: malformed TOML: values nested too deeply")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["deep.toml"]
 
 
-def test_a_set_value_nested_too_deeply_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_set_value_nested_too_deeply_isone_line(capsys: pytest.CaptureFixture[str]) -> None:
     code, out, err = run(capsys, "params", "--set", f"body.mass_kg={DEEP}")
     assert code == 2 and out == ""
-    _one_line(err, "agvctl: --set: body.mass_kg: value nested too deeply")
+    one_line(err, "agvctl: --set: body.mass_kg: value nested too deeply")
 
 
 # -- a settling time that never ends ---------------------------------------------------------------------------------
@@ -124,5 +112,5 @@ def test_a_settling_time_beyond_ten_minutes_is_bad_input(tmp_path: Path, capsys:
     exp.write_text('name = "e"\ntrajectory = "line.toml"\nsettle_s = 1e9\n')
     code, out, err = run(capsys, "check", exp, "--junit", tmp_path / "r.xml", "--jobs", "1")
     assert code == 2 and out == ""
-    _one_line(err, f"agvctl: {exp}: settle_s: must be <= 600 (got 1e+09)")
+    one_line(err, f"agvctl: {exp}: settle_s: must be <= 600 (got 1e+09)")
     assert not (tmp_path / "r.xml").exists()

@@ -10,25 +10,13 @@ import shutil
 from pathlib import Path
 
 import pytest
+from cli_runs import one_line, run
 
 from agvctl import fileio
-from agvctl.cli import main
 from agvctl.params import default_vehicle_path
 
 ROOT = Path(__file__).resolve().parent.parent
 TRAJECTORY = ROOT / "trajectories" / "line.toml"
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: object) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def _one_line(err: str, *parts: str) -> None:
-    assert err.count("\n") == 1 and "Traceback" not in err, err
-    for part in parts:
-        assert part in err, err
 
 
 def _experiment(d: Path, name: str = "ok", file: str = "ok.toml") -> Path:
@@ -56,7 +44,7 @@ def test_an_experiment_name_that_is_not_a_plain_folder_name_is_refused(
     before = _files(tmp_path)
     code, out, err = run(capsys, "run", exp, "--no-plot")
     assert code == 2 and out == ""
-    _one_line(err, str(exp), "name: must be a plain name")
+    one_line(err, str(exp), "name: must be a plain name")
     assert _files(tmp_path) == before and not (work / "out").exists()
     assert not Path("/tmp/agvctl-escaped").exists()
     assert run(capsys, "check", exp, "--jobs", "1")[0] == 2  # the same rule wherever the name is read
@@ -70,7 +58,7 @@ def test_a_fuzz_name_that_is_not_a_plain_folder_name_is_refused(
     monkeypatch.chdir(tmp_path)
     code, _, err = run(capsys, "fuzz", config, "--jobs", "1")
     assert code == 2
-    _one_line(err, str(config), "name: must be a plain name")
+    one_line(err, str(config), "name: must be a plain name")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fz.toml"]
 
 
@@ -128,7 +116,7 @@ def test_an_output_that_is_an_input_of_the_same_command_is_refused(
     before = _files(tmp_path)
     code, out, err = run(capsys, *argv)
     assert code == 2 and out == ""
-    _one_line(err, f"agvctl: {flag}: ", "is an input of this command")
+    one_line(err, f"agvctl: {flag}: ", "is an input of this command")
     assert _files(tmp_path) == before  # the input untouched, nothing else written
 
 
@@ -136,7 +124,7 @@ def test_two_outputs_on_one_file_are_refused(tmp_path: Path, capsys: pytest.Capt
     exp = _experiment(tmp_path)
     code, _, err = run(capsys, "check", exp, "--junit", tmp_path / "r", "--json", tmp_path / "r")
     assert code == 2
-    _one_line(err, "--json: ", "is also written by --junit")
+    one_line(err, "--json: ", "is also written by --junit")
     assert not (tmp_path / "r").exists()
 
 
@@ -156,7 +144,7 @@ def test_an_output_that_cannot_be_written_stops_the_check_before_it_runs(
     before = _files(tmp_path)
     code, out, err = run(capsys, "check", exp, "--junit", "r.xml", "--json", where, "--jobs", "1")
     assert code == 2 and out == ""
-    _one_line(err, f"agvctl: --json: cannot write {where}: {problem}")
+    one_line(err, f"agvctl: --json: cannot write {where}: {problem}")
     assert _files(tmp_path) == before and not (tmp_path / "r.xml").exists()
 
 
@@ -174,7 +162,7 @@ def test_an_error_while_writing_names_the_flag_and_the_users_path(
     monkeypatch.setattr(fileio.os, "replace", disk_full)
     code, _, err = run(capsys, "check", exp, "--json", tmp_path / "r.json", "--jobs", "1")
     assert code == 2
-    _one_line(err, f"agvctl: --json: cannot write {tmp_path / 'r.json'}: No space left on device")
+    one_line(err, f"agvctl: --json: cannot write {tmp_path / 'r.json'}: No space left on device")
     assert ".tmp" not in err
     assert not any(p.name.startswith(".r.json.") for p in tmp_path.iterdir())  # no temporary file left
 
@@ -198,5 +186,5 @@ def test_a_negative_seed_is_refused(procedure: str, tmp_path: Path, capsys: pyte
     out = tmp_path / "v.toml"
     code, printed, err = run(capsys, "identify", procedure, "--simulate", "--seed", "-1", "--out", out)
     assert code == 2 and printed == ""
-    _one_line(err, "agvctl: --seed: must be >= 0 (got -1)")
+    one_line(err, "agvctl: --seed: must be >= 0 (got -1)")
     assert not out.exists()
