@@ -250,6 +250,29 @@ def test_docking_backs_up_no_further_than_a_curved_end_allows(vehicle: VehiclePa
     assert back_m <= math.sqrt(2.0 * config.max_deviation_m * 2.0) + 1e-9  # L ≤ √(2δ/|κ|), κ = 2 1/m
 
 
+def test_docking_undoes_the_final_turns_in_place_the_short_way_round(vehicle: VehicleParams) -> None:
+    turns = plan(
+        PathSpec(
+            segments=(LineSegment(length_m=1.0), TurnSegment(angle_deg=-200.0), TurnSegment(angle_deg=-200.0)),
+            name="line then 400 degrees in place",
+        ),
+        vehicle,
+    )
+    docking = Docking(vehicle, DockingConfig())
+    docking.reset(turns)
+    final = turns.final_pose
+    along = np.array([final.x_m + 0.02, final.y_m, final.theta_rad])  # 2 cm beyond the end of the drive
+    manoeuvre = docking.plan(along)
+    assert manoeuvre is not None
+    theta = manoeuvre.sample(np.linspace(0.0, manoeuvre.duration_s, 400)).theta_rad
+    assert np.max(np.abs(theta - final.theta_rad)) <= math.radians(40.0) + 1e-6  # -400° leaves -40°: undo +40°
+    assert manoeuvre.final_pose.theta_rad == pytest.approx(final.theta_rad, abs=1e-9)
+    full = plan(PathSpec(segments=(LineSegment(length_m=1.0), TurnSegment(angle_deg=360.0)), name="full"), vehicle)
+    docking.reset(full)
+    end = full.final_pose
+    assert not docking.needed(np.array([end.x_m + 0.02, end.y_m, end.theta_rad]))  # facing along the drive again
+
+
 # -- the QP ----------------------------------------------------------------------------------------------------
 
 

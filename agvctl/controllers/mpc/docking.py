@@ -1,16 +1,16 @@
 """Docking: the final approach when a tracking controller stops beside the end of its path.
 
-At the end the reference is at rest, and a vehicle beside it cannot move sideways (eqs 41-43: ẏ = U sin θ in the
-path's frame needs U ≠ 0); a controller linearised about the reference at rest sees no way to remove a lateral error
-there, so it stays. A driver backs up and comes in again. :class:`Docking` decides when and plans that manoeuvre as
-an ordinary reference: once the vehicle has (nearly) stopped at the end with an error across the path's last drive
-above ``tolerance_m`` (or along it, where the path ends with turns in place), a straight line back along that
-drive's final heading and the same line forwards again, slowly (``speed_m_s``, ``accel_m_s2``), ending at the path's
-end pose (where the path ends with turns in place, they are undone first and turned again after); the controller
-tracks it like any reference and removes the error while moving. The distance grows with the error (a heading change
-of about 2·e/L suffices) and shrinks where the path ends on a curve, so that backing straight up stays within
-``max_deviation_m`` of the path's arc (L ≤ √(2δ/|κ|)), and never reaches back beyond the path's last motion. It is
-tried at most ``attempts`` times, and never on a path that only turns in place.
+At the end the reference is at rest, and a vehicle beside it cannot move sideways (eqs 41-43: ẏ = U sin θ in the path's
+frame needs U ≠ 0); a controller linearised about the reference at rest sees no way to remove a lateral error there, so
+it stays. A driver backs up and comes in again. :class:`Docking` decides when and plans that manoeuvre as an ordinary
+reference: once the vehicle has (nearly) stopped at the end with an error across the path's last drive above
+``tolerance_m`` (or along it, where the path ends with turns in place), a straight line back along that drive's final
+heading and the same line forwards again, slowly (``speed_m_s``, ``accel_m_s2``), ending at the path's end pose (where
+the path ends with turns in place, the heading they leave is undone first, the short way round, and turned again after);
+the controller tracks it like any reference and removes the error while moving. The distance grows with the error (a
+heading change of about 2·e/L suffices) and shrinks where the path ends on a curve, so that backing straight up stays
+within ``max_deviation_m`` of the path's arc (L ≤ √(2δ/|κ|)), and never reaches back beyond the path's last motion. It
+is tried at most ``attempts`` times, and never on a path that only turns in place.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from agvctl.angles import wrap_angle
 from agvctl.config import number
 from agvctl.params import VehicleParams
 from agvctl.planning import PathLimits, PathSpec, StartPose, plan
@@ -81,6 +82,11 @@ class Docking:
         x, y, theta = self._end[0], self._end[1], self._drive_heading_rad
         return float(math.cos(theta) * (pose[0] - x) + math.sin(theta) * (pose[1] - y))
 
+    def _turned_rad(self) -> float:
+        """The heading the turns in place after the last drive leave, relative to the drive's, the short way round
+        (rad): a full turn in place leaves the vehicle facing along the drive again."""
+        return wrap_angle(float(self._end[2]) - self._drive_heading_rad)
+
     def needed(self, pose: NDArray[np.float64]) -> bool:
         """Whether a vehicle at rest at ``pose`` should dock: attempts left, and an error beyond tolerance across
         the last drive, or along it where the path ends with turns in place (then the vehicle no longer faces
@@ -88,7 +94,7 @@ class Docking:
         if self._left <= 0:
             return False
         tol = self.config.tolerance_m
-        turned = abs(float(self._end[2]) - self._drive_heading_rad) > 1e-6
+        turned = abs(self._turned_rad()) > 1e-6
         return abs(self.lateral_error_m(pose)) > tol or (turned and abs(self.along_error_m(pose)) > tol)
 
     def plan(self, pose: NDArray[np.float64]) -> Reference | None:
@@ -104,7 +110,7 @@ class Docking:
         if distance < 0.05:
             return None
         x, y, theta = self._end
-        turned_deg = math.degrees(float(theta) - self._drive_heading_rad)  # the turns in place after the drive
+        turned_deg = math.degrees(self._turned_rad())  # undone and turned again the short way round
         back = -self._direction * distance
         segments: list[Segment] = [LineSegment(length_m=back), LineSegment(length_m=-back)]
         if abs(turned_deg) > 1e-6:
