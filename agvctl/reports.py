@@ -44,5 +44,12 @@ def write_run_outputs(
         write_text(out_dir / name, text)
     written = [out_dir / "log.csv", *(out_dir / name for name in texts)]
     if plots:
-        written += save_closed_loop_plots(result.log, experiment.controller_vehicle, out_dir, title=exp.name)
+        gate = {r["limit"]: r["bound"] for r in summary.get("limits", ())}
+        written += save_closed_loop_plots(
+            result.log,
+            experiment.controller_vehicle,
+            out_dir,
+            title=exp.name,
+            wheel_accel_bound_m_s2=gate.get("wheel_accel_m_s2"),
+        )
     return written
