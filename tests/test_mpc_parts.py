@@ -147,15 +147,15 @@ def step_on(grid: HorizonReference, k: int, pose: np.ndarray, window: SetpointWi
     return HorizonStep(grid, k, 0.0, pose, np.zeros(2), window, np.zeros(2), on_main_path=True)
 
 
-def test_no_backing_at_start_keeps_a_forward_mean_and_only_at_the_start(
+def test_no_backing_at_start_drops_a_backward_mean_and_only_at_the_start(
     straight: Reference, vehicle: VehicleParams
 ) -> None:
     grid = grid_of(straight, vehicle)
-    rule = NoBackingAtStart(CONFIG.horizon, vehicle.wheels.separation_m, forward_share=0.1)
+    rule = NoBackingAtStart(CONFIG.horizon)
     rule.reset(grid)
     left, right = rule(step_on(grid, 0, np.zeros(3)), -0.2, 0.1)  # backing while turning left
     assert right - left == pytest.approx(0.3)  # the turn kept
-    assert 0.5 * (left + right) == pytest.approx(0.5 * 0.1 * 0.3)  # the mean raised to the forward share
+    assert 0.5 * (left + right) == pytest.approx(0.0)  # the backward mean dropped
     assert rule(step_on(grid, 0, np.zeros(3)), 0.3, 0.4) == (0.3, 0.4)  # forward already: untouched
     far = int(np.argmax(grid.travel_m > 0.5))
     assert rule(step_on(grid, far, on_reference(grid, far)), -0.2, 0.1) == (-0.2, 0.1)  # past the start

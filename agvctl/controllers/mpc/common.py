@@ -79,7 +79,7 @@ class MpcStepper:
         self._reach = WheelReach(vehicle)
         self._window = ReachWindow(self._reach, self._lead_factor_s, self.max_wheel_speed_m_s)
         self._governor = ReferenceGovernor(c, self.separation_m)
-        rules = (NoBackingAtStart(c.horizon, self.separation_m), TowardTurningPoint(self.separation_m))
+        rules = (NoBackingAtStart(c.horizon), TowardTurningPoint(self.separation_m))
         self._shaper = CommandShaper(rules, self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 * self.sample_period_s)
         self._end = EndOfPath(Docking(vehicle, c.docking), self.sample_period_s)
         self._fallback = SetpointFallback(c.horizon)

@@ -30,7 +30,6 @@ from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
 from agvctl.feasibility import WheelReach
 
 __all__ = [
-    "START_TURN_FORWARD_SHARE",
     "CommandRule",
     "CommandShaper",
     "HorizonStep",
@@ -41,11 +40,6 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-
-START_TURN_FORWARD_SHARE = 0.1
-"""At the start of a forward path, before any turn in place, the command's mean speed is at least this share of its
-wheels' speed difference: turning towards the path from rest with a zero mean, two wheels that break away unequally
-(stiction, radii) move the centre backwards, away from a path the vehicle points at."""
 
 
 class SetpointWindow(NamedTuple):
@@ -112,19 +106,14 @@ class CommandRule(Protocol):
 class NoBackingAtStart:
     """At the start of a forward path (the reference has moved less than 5 cm, and no backward but some forward
     speed over the horizon), never back up to a start point the vehicle is already past: the reference comes to it
-    (the turn is kept, the backward speed dropped). Before any turn in place the mean speed stays at least
-    ``forward_share`` of the wheels' speed difference, so that a turn towards the path cannot back the centre away
-    from it."""
+    (the turn is kept, the backward mean speed dropped). It handles starts ahead of the path's first point, where a
+    vehicle already past it would otherwise reverse, moving away from the path its heading points at."""
 
-    def __init__(self, horizon: int, separation_m: float, forward_share: float = START_TURN_FORWARD_SHARE) -> None:
+    def __init__(self, horizon: int) -> None:
         self.horizon = horizon
-        self.separation_m = separation_m
-        self.forward_share = forward_share
-        self._turned = np.zeros(1, dtype=np.bool_)
 
     def reset(self, grid: HorizonReference) -> None:
-        spins = turning_in_place(grid.yaw_rate_rad_s, grid.speed_m_s, self.separation_m)
-        self._turned = np.maximum.accumulate(spins)  # per grid point: turned in place by then
+        """Nothing to precompute."""
 
     def _starting_forward(self, step: HorizonStep) -> bool:
         g, k = step.grid, step.k
@@ -136,11 +125,9 @@ class NoBackingAtStart:
     def __call__(self, step: HorizonStep, left: float, right: float) -> tuple[float, float]:
         if not self._starting_forward(step):
             return left, right
-        turned = bool(self._turned[min(step.k, len(self._turned) - 1)])
-        least = 0.0 if turned else 0.5 * self.forward_share * abs(right - left)
         mean = 0.5 * (left + right)
-        if mean < least:
-            return left + least - mean, right + least - mean
+        if mean < 0.0:
+            return left - mean, right - mean
         return left, right
 
 
