@@ -135,7 +135,9 @@ class TowardTurningPoint:
     """Where the reference turns in place, the setpoints without their mean speed if it would carry the vehicle away
     from the turning point (the turn kept): the path there is the point, so moving away from it moves off the path.
     Driving along the heading with speed U changes the squared distance to the point at −2U·(distance ahead along
-    the heading), so only a mean speed towards the point is kept."""
+    the heading), so only a mean speed towards the point is kept. It handles starts beside a turn in place and
+    turns reached with a lateral error, where a wheel breaking away from stiction before the other would otherwise
+    carry the vehicle 1-6 mm further off."""
 
     def __init__(self, separation_m: float) -> None:
         self.separation_m = separation_m

@@ -1,0 +1,280 @@
+"""Does the default gate catch broken controllers? The default pose controller and deliberately broken variants of
+it, each run on the scenarios of a fuzz file and judged by the default gate alone.
+
+Each fault is one a real integration makes: the wheels' sides swapped, the heading feedback's sign flipped, commands
+that stop at 60 % of the path (ramping the wheels down gently, so no acceleration gives it away), the wheel loops'
+gains four times the design, one sample of extra delay, setpoints 20 % short, docking switched off. For each, the
+table gives how often the gate fails it, in all scenarios and in those where the fault changes the run at all (a run
+within 1 mm and 0.5° of the healthy one, all along, is one the fault cannot show in), and which limits caught it.
+
+Run: python experiments/robustness/broken_controllers.py [FUZZ.toml] [--jobs 2] [--out TABLE.md]
+(the CI fuzz file by default: 30 scenarios, about 4 minutes on 2 cores).
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import dataclasses
+import json
+import math
+import sys
+import tempfile
+import time
+import warnings
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agvctl.controllers.base import PoseCommand, PoseController, WheelSpeedController
+from agvctl.controllers.mpc.docking import DockingConfig
+from agvctl.controllers.pi.wheel_loop import PIWheelController
+from agvctl.controllers.registry import POSE_CONTROLLERS
+from agvctl.evaluation.limits import evaluate_limits
+from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.feasibility import HeadroomWarning
+from agvctl.fuzz.generate import generate_scenario, scenario_files
+from agvctl.fuzz.spec import load_fuzz_config
+from agvctl.params import load_vehicle
+from agvctl.planning.reference import Reference
+from agvctl.scenario import Experiment, load_experiment, run_experiment
+
+HERE = Path(__file__).resolve().parent
+CI_FUZZ = HERE.parent / "fuzz" / "ci.toml"
+
+
+class Wrapped:
+    """A pose controller around the default one, changing what goes in or comes out."""
+
+    def __init__(self, inner: PoseController) -> None:
+        self.inner = inner
+        self.reference: Reference | None = None
+
+    def reset(self, reference: Reference) -> None:
+        self.reference = reference
+        self.inner.reset(reference)
+
+    def update(self, t_s: float, pose: np.ndarray, wheel_speed_m_s: np.ndarray) -> PoseCommand:
+        return self.inner.update(t_s, pose, wheel_speed_m_s)
+
+
+class SidesSwapped(Wrapped):
+    """Left and right setpoints exchanged (a wiring or a sign convention mixed up)."""
+
+    def update(self, t_s: float, pose: np.ndarray, wheel_speed_m_s: np.ndarray) -> PoseCommand:
+        c = self.inner.update(t_s, pose, wheel_speed_m_s)
+        return dataclasses.replace(
+            c, wheel_speed_left_m_s=c.wheel_speed_right_m_s, wheel_speed_right_m_s=c.wheel_speed_left_m_s
+        )
+
+
+class HeadingFlipped(Wrapped):
+    """The heading error fed back with the wrong sign (the heading mirrored about the reference's)."""
+
+    def update(self, t_s: float, pose: np.ndarray, wheel_speed_m_s: np.ndarray) -> PoseCommand:
+        assert self.reference is not None
+        theta_ref = float(self.reference.sample([min(t_s, self.reference.duration_s)]).theta_rad[0])
+        mirrored = np.array([pose[0], pose[1], 2.0 * theta_ref - pose[2]])
+        return self.inner.update(t_s, mirrored, wheel_speed_m_s)
+
+
+class StopsAt60(Wrapped):
+    """From 60 % of the path's duration on, the setpoints ramp down to rest at eq 5's a_lim and stay there."""
+
+    def __init__(self, inner: PoseController, sample_period_s: float, accel_m_s2: float) -> None:
+        super().__init__(inner)
+        self.step_m_s = sample_period_s * accel_m_s2
+        self.previous = np.zeros(2)
+
+    def reset(self, reference: Reference) -> None:
+        super().reset(reference)
+        self.previous = np.zeros(2)
+
+    def update(self, t_s: float, pose: np.ndarray, wheel_speed_m_s: np.ndarray) -> PoseCommand:
+        assert self.reference is not None
+        c = self.inner.update(t_s, pose, wheel_speed_m_s)
+        if t_s >= 0.6 * self.reference.duration_s:
+            s = np.sign(self.previous) * np.maximum(np.abs(self.previous) - self.step_m_s, 0.0)
+            c = dataclasses.replace(c, wheel_speed_left_m_s=float(s[0]), wheel_speed_right_m_s=float(s[1]))
+        self.previous = np.array([c.wheel_speed_left_m_s, c.wheel_speed_right_m_s])
+        return c
+
+
+class Scaled(Wrapped):
+    """Setpoints multiplied by a factor (a wrong wheel radius or gear ratio in the conversion)."""
+
+    def __init__(self, inner: PoseController, factor: float) -> None:
+        super().__init__(inner)
+        self.factor = factor
+
+    def update(self, t_s: float, pose: np.ndarray, wheel_speed_m_s: np.ndarray) -> PoseCommand:
+        c = self.inner.update(t_s, pose, wheel_speed_m_s)
+        return dataclasses.replace(
+            c,
+            wheel_speed_left_m_s=self.factor * c.wheel_speed_left_m_s,
+            wheel_speed_right_m_s=self.factor * c.wheel_speed_right_m_s,
+        )
+
+
+class Delayed(Wrapped):
+    """Each setpoint applied one sample late (a queue between the pose and the wheel computer)."""
+
+    def reset(self, reference: Reference) -> None:
+        super().reset(reference)
+        self.previous: PoseCommand | None = None
+
+    def update(self, t_s: float, pose: np.ndarray, wheel_speed_m_s: np.ndarray) -> PoseCommand:
+        c = self.inner.update(t_s, pose, wheel_speed_m_s)
+        out = self.previous or dataclasses.replace(c, wheel_speed_left_m_s=0.0, wheel_speed_right_m_s=0.0)
+        self.previous = c
+        return dataclasses.replace(out, reference_done=c.reference_done)
+
+
+Controllers = tuple[PoseController, WheelSpeedController | None]
+
+
+def _default(e: Experiment, **settings: Any) -> PoseController:
+    spec = e.spec.controller
+    pose_settings = dataclasses.replace(spec.pose_settings, **settings) if settings else spec.pose_settings
+    return POSE_CONTROLLERS[spec.pose].make(e.controller_vehicle, pose_settings)
+
+
+def _gains_x4(e: Experiment) -> WheelSpeedController:
+    loops = e.wheel_loops
+    gains = dataclasses.replace(loops.design.gains, kp=4 * loops.design.gains.kp, ki=4 * loops.design.gains.ki)
+    return PIWheelController(
+        e.controller_vehicle,
+        gains,
+        coulomb_feedforward=loops.coulomb_feedforward,
+        symmetric_braking=loops.symmetric_braking,
+        gentle_stop=loops.gentle_stop,
+    )
+
+
+FAULTS: dict[str, Callable[[Experiment], Controllers]] = {
+    "healthy": lambda e: (_default(e), None),
+    "sides swapped": lambda e: (SidesSwapped(_default(e)), None),
+    "heading feedback flipped": lambda e: (HeadingFlipped(_default(e)), None),
+    "stops at 60 %": lambda e: (
+        StopsAt60(
+            _default(e), e.controller_vehicle.control.sample_period_s, e.controller_vehicle.derived.accel_limit_m_s2
+        ),
+        None,
+    ),
+    "wheel-loop gains x4": lambda e: (_default(e), _gains_x4(e)),
+    "one sample of delay": lambda e: (Delayed(_default(e)), None),
+    "setpoints x0.8": lambda e: (Scaled(_default(e), 0.8), None),
+    "never docks": lambda e: (_default(e, docking=DockingConfig(enabled=False)), None),
+}
+
+
+def run_scenario(args: tuple[str, int, tuple[str, ...]]) -> list[dict[str, Any]]:
+    """The healthy controller and ``faults`` on one scenario: each verdict, the limits it failed and whether the run
+    differs from the healthy one."""
+    fuzz_file, index, faults = args
+    warnings.simplefilter("ignore", HeadroomWarning)  # the fuzz draws limits up to the vehicle's maxima on purpose
+    spec = load_fuzz_config(fuzz_file)
+    scenario = generate_scenario(spec, load_vehicle(), index)
+    files = scenario_files(spec, scenario, "mpc")
+    rows, healthy_pose = [], None
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, text in files.items():
+            Path(tmp, name).write_text(text)
+        experiment = load_experiment(Path(tmp, list(files)[-1]))
+        for fault in ("healthy", *faults):
+            pose_controller, wheel_controller = FAULTS[fault](experiment)
+            try:
+                result = run_experiment(experiment, pose_controller=pose_controller, wheel_controller=wheel_controller)
+            except Exception as exc:  # a fault that breaks the run is caught by check's exit code 3
+                rows.append(
+                    dict(index=index, fault=fault, passed=False, failed=[f"error: {type(exc).__name__}"], differs=True)
+                )
+                continue
+            limits = evaluate_limits(
+                experiment.spec.limits,
+                result.log,
+                closed_loop_metrics(result),
+                experiment.controller_vehicle,
+                result.sample_period_s,
+            )
+            pose = np.column_stack([result.log["x_m"], result.log["y_m"], result.log["theta_rad"]])
+            if fault == "healthy":
+                healthy_pose = pose
+            rows.append(
+                dict(
+                    index=index,
+                    fault=fault,
+                    passed=all(r.passed for r in limits),
+                    failed=[r.limit for r in limits if not r.passed],
+                    differs=_differs(pose, healthy_pose),
+                )
+            )
+    return rows
+
+
+def _differs(pose: np.ndarray, healthy: np.ndarray | None) -> bool:
+    """Whether a run leaves the healthy run's pose by more than 1 mm or 0.5° at any sample (or lasts longer)."""
+    if healthy is None or len(pose) != len(healthy):
+        return True
+    distance = np.hypot(pose[:, 0] - healthy[:, 0], pose[:, 1] - healthy[:, 1])
+    return bool(np.max(distance) > 1e-3 or np.max(np.abs(pose[:, 2] - healthy[:, 2])) > math.radians(0.5))
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """The Markdown table of how often the default gate fails each fault."""
+    lines = [
+        "| controller | fails the gate | where the fault shows | limits that caught it |",
+        "|---|---|---|---|",
+    ]
+    for fault in dict.fromkeys(r["fault"] for r in rows):
+        runs = [r for r in rows if r["fault"] == fault]
+        shows = [r for r in runs if r["differs"]]
+        caught = sum(not r["passed"] for r in runs)
+        caught_shows = sum(not r["passed"] for r in shows)
+        keys = collections.Counter(k for r in runs for k in r["failed"])
+        named = ", ".join(f"`{k}` {n}" for k, n in keys.most_common()) or "none"
+        where = "(the reference)" if fault == "healthy" else f"{caught_shows} of {len(shows)}"
+        lines.append(f"| {fault} | {caught} of {len(runs)} | {where} | {named} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("fuzz", nargs="?", default=str(CI_FUZZ), help="fuzz file whose scenarios to run")
+    parser.add_argument("--jobs", type=int, default=2, help="worker processes")
+    parser.add_argument("--faults", help=f"comma-separated subset of: {', '.join(list(FAULTS)[1:])}")
+    parser.add_argument("--out", help="also write the table to this Markdown file")
+    parser.add_argument("--rows", help="also write every run's verdict to this JSON file")
+    args = parser.parse_args(argv)
+    faults = tuple(f for f in FAULTS if f != "healthy")
+    if args.faults:
+        faults = tuple(f.strip() for f in args.faults.split(","))
+        unknown = [f for f in faults if f not in FAULTS]
+        if unknown:
+            parser.error(f"--faults: unknown {unknown}; choose from {list(FAULTS)[1:]}")
+    spec = load_fuzz_config(args.fuzz)
+    t0, rows = time.perf_counter(), []
+    with ProcessPoolExecutor(args.jobs) as pool:
+        tasks = [(args.fuzz, k, faults) for k in range(spec.scenarios)]
+        for i, scenario_rows in enumerate(pool.map(run_scenario, tasks)):
+            rows.extend(scenario_rows)
+            print(f"\r{i + 1}/{spec.scenarios} scenarios", end="", file=sys.stderr, flush=True)
+    print(file=sys.stderr)
+    text = table(rows)
+    header = (
+        f"Default gate against broken controllers: {spec.scenarios} scenarios of `{Path(args.fuzz).name}` "
+        f"(seed {spec.seed}), {time.perf_counter() - t0:.0f} s on {args.jobs} workers.\n\n"
+    )
+    print(header + text)
+    if args.out:
+        Path(args.out).write_text(header + text)
+    if args.rows:
+        Path(args.rows).write_text(json.dumps(rows, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
