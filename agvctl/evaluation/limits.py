@@ -7,8 +7,8 @@ Adding a limit is one entry in :data:`LIMITS`: the experiment loader validates `
 **The default gate** (:func:`default_limits`): whatever an experiment's ``[limits]`` leaves out is judged against
 what every healthy run of a planned path keeps, derived from the vehicle and the run's start:
 
-* it ends at the path's end (``final_position_error_m`` 2 cm) facing its final heading (``final_heading_error_deg``
-  2°);
+* it ends at the path's end (``final_position_error_m`` 1 cm: where a vehicle stops to load, a centimetre off is
+  a miss, and a controller that docks keeps it) facing its final heading (``final_heading_error_deg`` 2°);
 * it stays on the path (``cross_track_error_max_m``: 10 cm, or the start's own offset from the path plus 5 cm) and
   never faces against it (``path_heading_error_max_deg`` 90°);
 * every controller step succeeds (``solver_failures`` 0);
@@ -293,7 +293,7 @@ def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimi
         "wheel_accel_m_s2": DefaultLimit(
             torque, "what the motors' torque at the current limit gives a wheel, eqs 58-59"
         ),
-        "final_position_error_m": DefaultLimit(0.02, "ends within 2 cm of the path's end"),
+        "final_position_error_m": DefaultLimit(0.01, "ends within 1 cm of the path's end"),
         "final_heading_error_deg": DefaultLimit(2.0, "ends facing the path's final heading"),
         "cross_track_error_max_m": corridor,
         "path_heading_error_max_deg": DefaultLimit(90.0, "never faces against the path"),
