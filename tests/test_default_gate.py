@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
-import dataclasses
+import importlib.util
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 
 from agvctl.checks.summary import run_summary
-from agvctl.controllers.base import PoseCommand
-from agvctl.controllers.registry import POSE_CONTROLLERS
 from agvctl.params import load_vehicle
-from agvctl.planning.reference import Reference
 from agvctl.scenario import load_experiment, run_experiment
 
 PATHS = {
@@ -47,38 +45,37 @@ def test_a_users_first_file_passes_the_default_gate(tmp_path: Path, path: str, p
     assert summary["passed"], [r["message"] for r in limits.values() if not r["passed"]]
 
 
-class _SidesSwapped:
-    """The default controller with its left and right setpoints swapped."""
-
-    def __init__(self, inner: object) -> None:
-        self.inner = inner
-
-    def reset(self, reference: Reference) -> None:
-        self.inner.reset(reference)  # type: ignore[attr-defined]
-
-    def update(self, t_s: float, pose: object, wheel_speed_m_s: object) -> PoseCommand:
-        c: PoseCommand = self.inner.update(t_s, pose, wheel_speed_m_s)  # type: ignore[attr-defined]
-        return dataclasses.replace(c, wheel_speed_left_m_s=c.wheel_speed_right_m_s,
-                                   wheel_speed_right_m_s=c.wheel_speed_left_m_s)  # fmt: skip
+def faults() -> ModuleType:
+    """The broken controllers of ``experiments/robustness/broken_controllers.py``."""
+    path = Path(__file__).resolve().parents[1] / "experiments" / "robustness" / "broken_controllers.py"
+    spec = importlib.util.spec_from_file_location("broken_controllers", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
-def test_the_default_gate_fails_a_controller_with_its_sides_swapped(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("fault", "caught_by"),
+    [
+        ("sides swapped", "final_position_error_m"),
+        ("heading feedback flipped", "cross_track_error_max_m"),
+        ("stops at 60 %", "final_position_error_m"),
+    ],
+)
+def test_the_default_gate_fails_a_broken_controller(tmp_path: Path, fault: str, caught_by: str) -> None:
     experiment = load_experiment(first_file(tmp_path, "s_curve"))
-    spec = experiment.spec.controller
-    broken = _SidesSwapped(POSE_CONTROLLERS[spec.pose].make(experiment.controller_vehicle, spec.pose_settings))
-    summary = run_summary(experiment, run_experiment(experiment, pose_controller=broken))  # type: ignore[arg-type]
+    pose_controller, wheel_controller = faults().FAULTS[fault](experiment)
+    result = run_experiment(experiment, pose_controller=pose_controller, wheel_controller=wheel_controller)
+    summary = run_summary(experiment, result)
     failed = {r["limit"] for r in summary["limits"] if not r["passed"]}
-    assert not summary["passed"] and "final_position_error_m" in failed
+    assert not summary["passed"] and caught_by in failed, failed
 
 
-def test_the_default_gate_fails_wheel_loops_with_four_times_their_gains(tmp_path: Path) -> None:
-    from agvctl.controllers.pi.wheel_loop import PIWheelController
-
+def test_wheel_loops_with_four_times_their_gains_fail_on_acceleration_alone(tmp_path: Path) -> None:
     experiment = load_experiment(first_file(tmp_path, "s_curve"))
-    loops = experiment.wheel_loops
-    gains = dataclasses.replace(loops.design.gains, kp=4 * loops.design.gains.kp, ki=4 * loops.design.gains.ki)
-    wheel = PIWheelController(experiment.controller_vehicle, gains, coulomb_feedforward=loops.coulomb_feedforward)
-    summary = run_summary(experiment, run_experiment(experiment, wheel_controller=wheel))
+    _, wheel_controller = faults().FAULTS["wheel-loop gains x4"](experiment)
+    summary = run_summary(experiment, run_experiment(experiment, wheel_controller=wheel_controller))
     failed = {r["limit"] for r in summary["limits"] if not r["passed"]}
     assert failed == {"wheel_accel_m_s2"}  # on the path, but slamming the wheels from limit to limit
     assert load_vehicle().derived.accel_limit_m_s2 < 1.3  # the bound is the torque limit, twice eq 5's a_lim
