@@ -224,3 +224,22 @@ def test_a_nearer_branch_does_not_crowd_out_the_vehicles_own() -> None:
     np.testing.assert_allclose(e.cross_track_m, [0.003], atol=1e-6)  # the true distance: to the way there
     assert abs(e.heading_error_rad[0]) < 1e-6  # on the way back, heading along it
     assert abs(e.path_length_m[0] - (1.0 + x_back)) < 0.02
+
+
+def test_a_branch_several_centimetres_away_is_still_a_candidate() -> None:
+    """Driving back from a 172.5° turn, 4 mm beside the way there and 8 cm from the way back it drives on, lagging
+    25 cm behind the clock: the way back is still the vehicle's branch, although every vertex within 8 cm lies on
+    the way there."""
+    ref = _plan(LineSegment(length_m=1.2), TurnSegment(angle_deg=-172.5), LineSegment(length_m=1.2))
+    times = np.linspace(0.0, ref.duration_s, 20001)
+    s = ref.sample(times)
+    back = math.radians(-172.5)
+    q = 0.6  # along the way back
+    clock = float(times[np.argmin(np.abs(s.path_length_m - (1.2 + q + 0.25)))])
+    x, y = 1.2 + q * math.cos(back), 0.004
+    to_back = abs(-(x - 1.2) * math.sin(back) + y * math.cos(back))
+    assert 0.08 < to_back < 0.085
+    e = path_errors([clock], [x], [y], [back], ref)
+    np.testing.assert_allclose(e.cross_track_m, [0.004], atol=1e-6)  # the true distance: to the way there
+    assert abs(e.heading_error_rad[0]) < math.radians(1.0)  # on the way back, heading along it
+    assert abs(e.along_track_lag_m[0] - 0.25) < 0.02

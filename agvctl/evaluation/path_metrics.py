@@ -31,9 +31,9 @@ always the true distance to the path.
 The nearest points come from a k-d tree (``scipy.spatial.cKDTree``) on the polyline's vertices: each vehicle
 sample is projected onto the segments next to its ``neighbours`` nearest vertices, and onto those around the
 time-indexed reference point (so that the clock's branch is a candidate even where the path retraces
-itself). The default 24 vertices span about ±6 cm of one branch, so another branch within 6 cm is always a
-candidate: with 8, a run driving back from a 177° turn 2 cm off the way back, nearer the way there and 13 cm behind
-the clock, had only the way there and the clock's stretch to choose from, and read 165° of heading error.
+itself). The default 48 vertices reach about 12 cm from the vehicle, beyond the default gate's 10 cm corridor, so
+another branch the vehicle could be on is always a candidate: driving back along a sharp turn's way back, nearer
+the way there and behind the clock, the way back is still among the choices.
 Pure numpy/scipy.
 """
 
@@ -146,7 +146,7 @@ class ReferencePath:
         y_m: ArrayLike,
         theta_rad: ArrayLike,
         *,
-        neighbours: int = 24,
+        neighbours: int = 48,
         branch_weight: float = 0.1,
         turn_zone_m: float = 0.05,
     ) -> PathErrors:
@@ -168,7 +168,9 @@ class ReferencePath:
         d_min = np.min(dist, axis=1)
         # the branch (a stretch of travel) nearest with a preference for the clock's, then its nearest point
         seed = np.argmin(dist + branch_weight * np.abs(travel_c - travel_ref[:, None]), axis=1)
-        branch = np.abs(travel_c - travel_c[rows, seed][:, None]) <= _BRANCH_SPAN * self.spacing_m
+        # the branch: within 2·d of travel of the seed, where the clock's pull can move the seed off the nearest point
+        span = _BRANCH_SPAN * self.spacing_m + 2.0 * d_min
+        branch = np.abs(travel_c - travel_c[rows, seed][:, None]) <= span[:, None]
         pick = np.argmin(np.where(branch, dist, np.inf), axis=1)
         j, uj = seg[rows, pick], u[rows, pick]
         reach = np.maximum(2.0 * dist[rows, pick] + self.spacing_m, turn_zone_m)
