@@ -21,6 +21,6 @@ Start with :func:`agvctl.params.load_vehicle`, :func:`agvctl.sim.simulate_open_l
 from agvctl.errors import AgvctlError, ConfigError, PlanningError
 from agvctl.params import VehicleParams, load_vehicle
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = ["AgvctlError", "ConfigError", "PlanningError", "VehicleParams", "load_vehicle", "__version__"]
