@@ -312,9 +312,27 @@ def default_vehicle_path() -> Path:
 def load_vehicle(
     path: str | Path | None = None, overrides: Iterable[str | tuple[str, Any]] = (), *, override_source: str = "--set"
 ) -> VehicleParams:
-    """Load a vehicle file (``None`` or ``"default"``: the shipped IAU AGV) and apply dotted-key overrides.
+    """Load a vehicle file and apply dotted-key overrides.
 
-    Raises :class:`ConfigError` with a one-line message naming the file (or ``--set``) and the key.
+    Parameters
+    ----------
+    path
+        A vehicle TOML file; ``None`` or ``"default"``: the shipped IAU AGV (the report's appendix A).
+    overrides
+        Dotted-key overrides applied on top of the file, as ``"KEY=VALUE"`` strings
+        (``"wheels.right.radius_m=0.101"``) or ``(key, value)`` pairs; values in the key's unit.
+    override_source
+        How the overrides are named in error messages (the command line's ``--set``).
+
+    Returns
+    -------
+    VehicleParams
+        The validated, frozen vehicle; ``.derived`` holds the derived constants (eqs 5, 47-51, 60-64).
+
+    Raises
+    ------
+    ConfigError
+        A one-line message naming the file (or ``--set``) and the key.
     """
     if path is None or str(path) == "default":
         path = default_vehicle_path()

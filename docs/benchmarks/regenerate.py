@@ -32,6 +32,7 @@ BENCHMARKS: dict[str, tuple[str, list[str], list[str], str]] = {
     "mpc": ("mpc.py", ["--repeat", "1"], [], "The OSQP MPC, the CasADi NMPC and do-mpc on one tracking problem."),
     "baselines": ("baselines.py", [], [], "Ramsete and the LTV unicycle law against the MPC."),
     "estimation": ("estimation.py", ["--repeat", "2"], [], "EKF, Kalman wheel speeds, sensors, loop on estimates."),
+    "shipped": ("shipped.py", [], [], "The shipped experiments, each run once as `agvctl run` runs it."),
     "fuzz": ("fuzz.py", ["--scenarios", "40"], [], "The scenario fuzzer on local worker processes."),
 }
 
