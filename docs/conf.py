@@ -56,4 +56,5 @@ sphinx_gallery_conf = {
 html_theme = "pydata_sphinx_theme"
 html_title = f"agvctl {release}"
 html_static_path = ["_static"]
+templates_path = ["_templates"]
 html_theme_options = {"navigation_with_keys": False, "show_toc_level": 2}

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import importlib.util
 import os
 import platform
 import subprocess
@@ -24,10 +25,18 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 OUT = Path(__file__).resolve().parent / "results.md"
 
+# TOPP-RA is the planning benchmark's optional peer (the bench extra): skipped when it is not installed.
+NO_TOPPRA = [] if importlib.util.find_spec("toppra") else ["--no-toppra"]
+
 # name: (script, quick arguments, full arguments, what it measures)
 BENCHMARKS: dict[str, tuple[str, list[str], list[str], str]] = {
     "plant": ("plant.py", ["--quick"], [], "The open-loop simulator against python-control, and a batch."),
-    "planning": ("planning.py", ["--repeat", "20", "--no-toppra"], [], "Planning times and durations against TOPP-RA."),
+    "planning": (
+        "planning.py",
+        ["--repeat", "20", *NO_TOPPRA],
+        NO_TOPPRA,
+        "Planning times, durations against TOPP-RA.",
+    ),
     "closed_loop": ("closed_loop.py", ["--repeat", "2"], [], "The closed loop on the figure-8 with the OSQP MPC."),
     "mpc": ("mpc.py", ["--repeat", "1"], [], "The OSQP MPC, the CasADi NMPC and do-mpc on one tracking problem."),
     "baselines": ("baselines.py", [], [], "Ramsete and the LTV unicycle law against the MPC."),
