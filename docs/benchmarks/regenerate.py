@@ -67,6 +67,7 @@ def run_one(name: str, full: bool) -> str:
     args = full_args if full else quick_args
     command = " ".join(["python", f"experiments/benchmarks/{script}", *args])
     started = datetime.datetime.now(datetime.UTC)
+    load = " ".join(f"{x:.1f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "unknown"
     t0 = time.perf_counter()
     done = subprocess.run(
         [sys.executable, str(ROOT / "experiments" / "benchmarks" / script), *args],
@@ -82,7 +83,7 @@ def run_one(name: str, full: bool) -> str:
     return (
         f"## {name}\n\n{what}\n\n"
         f"- command: `{command}`\n"
-        f"- date: {started:%Y-%m-%d %H:%M} UTC, {wall_s:.0f} s\n\n"
+        f"- date: {started:%Y-%m-%d %H:%M} UTC, {wall_s:.0f} s; load average at the start {load} (1, 5, 15 min)\n\n"
         f"```text\n{output}\n```\n"
     )
 
@@ -103,7 +104,8 @@ def main() -> int:
         "Written by `python docs/benchmarks/regenerate.py`; do not edit by hand. "
         f"Run with {mode}.\n\n"
         f"- machine: {machine()}\n\n"
-        "The machine may be shared with other work: timings on a loaded machine swing by tens of per cent.\n\n"
+        "The machine may be shared with other work: a load average above the number of cores means the benchmarks "
+        "competed for them, and their timings are then slower than on a quiet machine, by up to several times.\n\n"
     )
     OUT.write_text(header + "\n".join(sections), encoding="utf-8")
     print(f"wrote {OUT}", file=sys.stderr)

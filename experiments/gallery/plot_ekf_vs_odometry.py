@@ -32,6 +32,7 @@ for name, log in logs.items():
     ax_err.plot(log["t_s"], estimate_error_m * 1e3, label=name)
 ax_path.set(xlabel="x [m]", ylabel="y [m]", aspect="equal", title="true paths")
 ax_err.set(xlabel="t [s]", ylabel="|estimate − truth| [mm]", title="position estimate error", yscale="log")
+ax_err.set_ylim(bottom=0.1)
 for ax in (ax_path, ax_err):
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
