@@ -1,7 +1,7 @@
 """agvctl: control design and trajectory planning for the IAU differential-drive AGV.
 
 The physics is that of the technical report "Models for IAU's Autonomous Guided Vehicle" (IMM-REP-1997-15),
-with the corrections listed in the README's model notes. Data flows one way::
+with the corrections listed in the docs' model notes. Data flows one way::
 
     vehicles/*.toml ──► params.load_vehicle ──► VehicleParams (.derived: eqs 5, 47-51, 60-64)
                             plant: FullModel (CasADi, eqs 2-4, 39-59) | linear_model | decoupled_wheel_models
@@ -21,6 +21,6 @@ Start with :func:`agvctl.params.load_vehicle`, :func:`agvctl.sim.simulate_open_l
 from agvctl.errors import AgvctlError, ConfigError, PlanningError
 from agvctl.params import VehicleParams, load_vehicle
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = ["AgvctlError", "ConfigError", "PlanningError", "VehicleParams", "load_vehicle", "__version__"]

@@ -1,7 +1,7 @@
 """The actuator chain between a controller and the motors: 12-bit DA converter and power amplifier.
 
-The report's figures 3-4, which would show it, are missing; agvctl's chain is that of the README's "Model notes",
-note 9:
+The report's figures 3-4, which would show it, are missing; agvctl's chain is that of model note 9
+(docs/model-notes.md):
 
 1. the controller commands a DA voltage v (or a code directly);
 2. DA: ``code = clip(round(v / α), code_min, code_max)``, ``v_DA = code · α`` with α = 10 V / 4096 for the

@@ -1,6 +1,7 @@
 """The closed loop: every shipped experiment runs; the acceptance figures of the figure-8; the run command."""
 
 import dataclasses
+import doctest
 import json
 from pathlib import Path
 
@@ -239,20 +240,24 @@ def test_run_experiment_drives_the_run_with_a_users_pose_controller():
     assert abs(np.mean(log["wheel_speed_left_m_s"][late]) - 0.2) < 0.01
 
 
-def test_readme_custom_pose_controller_runs():
-    readme = (EXPERIMENTS.parent / "README.md").read_text(encoding="utf-8")
-    blocks = readme.split("```python\n")[1:]
-    code = next(b.split("```")[0] for b in blocks if "class LateralP" in b)
+USER_GUIDE_EXPERIMENTS = EXPERIMENTS.parent / "docs" / "guide" / "experiments.md"
+
+
+def test_user_guide_custom_pose_controller_runs():
+    page = USER_GUIDE_EXPERIMENTS.read_text(encoding="utf-8")
+    blocks = page.split("```pycon\n")[1:]
+    example = next(b.split("```")[0] for b in blocks if "class LateralP" in b)
+    code = "".join(e.source for e in doctest.DocTestParser().get_examples(example))
     namespace = {}
-    exec(compile(code.replace('"experiments/', f'"{EXPERIMENTS}/'), "README.md", "exec"), namespace)
+    exec(compile(code.replace('"experiments/', f'"{EXPERIMENTS}/'), str(USER_GUIDE_EXPERIMENTS), "exec"), namespace)
     metrics = closed_loop_metrics(namespace["result"])
     assert metrics["tracking_error_max_m"] < 0.05  # a proportional correction keeps a straight line within 5 cm
 
 
-def test_readme_lists_every_registered_pose_controller_and_estimator():
+def test_user_guide_lists_every_registered_pose_controller_and_estimator():
     from agvctl.controllers.registry import POSE_CONTROLLERS
     from agvctl.estimation.registry import ESTIMATORS
 
-    readme = (EXPERIMENTS.parent / "README.md").read_text(encoding="utf-8")
+    page = USER_GUIDE_EXPERIMENTS.read_text(encoding="utf-8")
     for name in (*POSE_CONTROLLERS, *ESTIMATORS):
-        assert f'`"{name}"`' in readme, name
+        assert f'`"{name}"`' in page, name

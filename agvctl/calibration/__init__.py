@@ -3,7 +3,7 @@
 * :mod:`~agvctl.calibration.mass`: total mass and centre of mass from three scale readings (eq 63), moment of
   inertia from the frame and battery dimensions (eq 64).
 * :mod:`~agvctl.calibration.friction`: viscous and Coulomb friction per side by least squares over
-  constant-speed runs on the PI speed loops (eqs 66-69 as corrected in the README's "Model notes"), stiction
+  constant-speed runs on the PI speed loops (eqs 66-69 as corrected in the docs' model notes), stiction
   from a slow voltage ramp (eq 65 corrected).
 * :mod:`~agvctl.calibration.umbmark`: wheel-radius ratio and wheel base from Borenstein & Feng's UMBmark.
 

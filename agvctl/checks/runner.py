@@ -305,7 +305,9 @@ def check_experiments(
         Local worker processes (default: all cores); with one job, or one run in all, the runs go one after another
         in a worker thread of this process. With ``executor="dask"`` and no scheduler: the local cluster's workers.
     executor
-        ``"local"``, or ``"dask"`` to send the runs to the Dask scheduler at ``scheduler`` (``tcp://host:8786``).
+        ``"local"``, or ``"dask"`` to send the runs to the Dask scheduler at ``scheduler``.
+    scheduler
+        The Dask scheduler's address (``tcp://host:8786``); ``None`` with ``executor="dask"``: a local cluster.
     progress
         Called as ``progress(done, total)`` in this thread after each run.
 

@@ -1,5 +1,5 @@
 """``agvctl identify friction``: viscous, Coulomb friction and stiction per side (eqs 65-69, corrected as in the
-README's "Model notes"), from a measured log or the simulated experiment."""
+model notes, docs/model-notes.md), from a measured log or the simulated experiment."""
 
 from __future__ import annotations
 
@@ -54,7 +54,7 @@ def register(isub: Any) -> None:
         "friction",
         help="viscous, Coulomb friction and stiction per side (eqs 65-69, corrected)",
         description="Viscous and Coulomb friction per side by least squares over constant-speed windows, stiction "
-        "from a slow DA ramp (eqs 65-69 as corrected in the README's model notes).\n\nLog columns (CSV with a "
+        "from a slow DA ramp (eqs 65-69 as corrected in the docs' model notes).\n\nLog columns (CSV with a "
         "header):\n" + f_cols,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -3,7 +3,7 @@
 A new pose controller is one module — a class satisfying :class:`~agvctl.controllers.base.PoseController`,
 constructed as ``Controller(vehicle, settings)`` — and one line in :data:`POSE_CONTROLLERS`. The experiment loader
 builds the ``[controller]`` table's remaining keys strictly into the entry's settings dataclass, once; ``run``,
-``check`` and the README's list of names read the same table.
+``check`` and the documentation's list of names read the same table.
 """
 
 from __future__ import annotations

@@ -36,7 +36,26 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class EkfSettings:
-    """The EKF's tuning (beliefs about what the sensor table does not say)."""
+    """The EKF's tuning (beliefs about what the sensor table does not say).
+
+    Parameters
+    ----------
+    slip_sigma
+        Relative σ of each wheel's travel per sample (dimensionless): slip and floor unevenness.
+    radius_sigma
+        Prior relative σ of each wheel radius (dimensionless, the ε states).
+    radius_walk_sigma_per_sqrt_s
+        Random walk of ε, 1/√s.
+    initial_position_sigma_m
+        Initial σ of x and y, m.
+    initial_heading_sigma_rad
+        Initial σ of θ, rad.
+    latency_compensation
+        Apply each fix at the sample it was measured and replay the travels since; ``False`` applies it on
+        arrival as if just measured.
+    history_s
+        How far back fixes are replayed, s (at least the believed latency).
+    """
 
     slip_sigma: float = 0.0005
     """Relative σ of each wheel's travel per sample: slip and floor unevenness (the simulated plant has none)."""
@@ -54,8 +73,18 @@ class EkfSettings:
 
 
 class PoseEkf:
-    """The pose EKF (``localization = "ekf"``), built for the controller's vehicle (its believed geometry and
-    sensor table)."""
+    """The pose EKF (``localization = "ekf"``): the state (x, y, θ, ε_l, ε_r), ε the relative errors of the
+    believed wheel radii; odometry from the encoder counts (and the gyro when on) predicts, position fixes
+    update, a late fix at the sample it was measured (buffer and replay).
+
+    Parameters
+    ----------
+    vehicle
+        The controller's vehicle: its believed geometry and sensor table (encoder resolution, gyro, fix noise and
+        latency).
+    settings
+        The filter's tuning: slip, radius prior and random walk, the initial covariance, latency compensation.
+    """
 
     def __init__(self, vehicle: VehicleParams, settings: EkfSettings | None = None) -> None:
         self.settings = s = settings or EkfSettings()

@@ -30,7 +30,14 @@ class TruthEstimator:
 
 class OdometryEstimator:
     """Dead reckoning from the encoder counts with the *believed* wheel radii and base (``localization =
-    "odometry"``): each sample's travel Δn·q·r/N per wheel (eqs 26, 29), eqs 39-43 with the midpoint heading."""
+    "odometry"``): each sample's travel Δn·q·r/N per wheel (eqs 26, 29), eqs 39-43 with the midpoint heading.
+
+    Parameters
+    ----------
+    vehicle
+        The controller's vehicle: the believed wheel radii and separation (m), gear ratios and encoder counts per
+        revolution.
+    """
 
     def __init__(self, vehicle: VehicleParams) -> None:
         q = 2.0 * math.pi / vehicle.sensors.encoder_counts_per_rev

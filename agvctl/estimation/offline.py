@@ -174,8 +174,25 @@ def filter_log(
     *,
     initial_pose: FloatArray | None = None,
 ) -> SimLog:
-    """The causal EKF over a log, as the loop runs it (``vehicle``: the believed one), started from
-    ``initial_pose`` (x_m, y_m, theta_rad; default the log's first estimate, as the loop did)."""
+    """The causal EKF over a log, as the loop runs it.
+
+    Parameters
+    ----------
+    log
+        A closed-loop log with its sensor columns (a run's ``log.csv`` through :func:`read_log`, or
+        :attr:`ClosedLoopResult.log <agvctl.sim.loop.ClosedLoopResult>`).
+    vehicle
+        The believed vehicle (what the controllers believed in the run).
+    settings
+        The EKF's tuning; default :class:`~agvctl.estimation.ekf.EkfSettings`.
+    initial_pose
+        The start (x_m, y_m, theta_rad); default the log's first estimate, as the loop did.
+
+    Returns
+    -------
+    SimLog
+        The estimate per sample: ``est_x_m``, ``est_y_m``, ``est_theta_rad``, their σ, the radius errors, NEES
+        and NIS."""
     ekf = PoseEkf(vehicle, settings)
     ekf.reset(_start(log) if initial_pose is None else np.asarray(initial_pose, dtype=float))
     counts, gyro, fixes = (
@@ -192,7 +209,21 @@ def filter_log(
 
 def smooth_log(log: SimLog, vehicle: VehicleParams, settings: EkfSettings | None = None) -> SimLog:
     """The Rauch-Tung-Striebel smoothed estimate over a log: the EKF forward with every fix at the sample it was
-    measured, then backwards ``x_s,k = x_k + C_k (x_s,k+1 − x⁻_k+1)``, ``C_k = P_k F_k+1ᵀ (P⁻_k+1)⁻¹``."""
+    measured, then backwards ``x_s,k = x_k + C_k (x_s,k+1 − x⁻_k+1)``, ``C_k = P_k F_k+1ᵀ (P⁻_k+1)⁻¹``.
+
+    Parameters
+    ----------
+    log
+        A closed-loop log with its sensor columns.
+    vehicle
+        The believed vehicle.
+    settings
+        The EKF's tuning; default :class:`~agvctl.estimation.ekf.EkfSettings`.
+
+    Returns
+    -------
+    SimLog
+        The smoothed estimate per sample, in the columns of :func:`filter_log`."""
     ekf = PoseEkf(vehicle, settings)
     ekf.reset(_start(log))
     n, ts = len(log), vehicle.control.sample_period_s

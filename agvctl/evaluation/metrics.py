@@ -78,11 +78,23 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
 
     ``peak_wheel_accel_m_s2`` is the largest mean rim acceleration over a sample
     (:func:`sample_wheel_accel_m_s2`), ``peak_wheel_accel_instant_m_s2`` the largest within one. Besides the
-    time-indexed tracking error |p(t) − p_d(t)|, the errors against the reference's path separate
-    being off the path from being behind the clock (:mod:`agvctl.evaluation.path_metrics`): ``cross_track_error_*_m``
-    (distance to the path), ``along_track_lag_max_m`` (the largest |lag| along the path, behind or ahead) and
+    time-indexed tracking error ``|p(t) − p_d(t)|``, the errors against the reference's path separate being off
+    the path from being behind the clock (:mod:`agvctl.evaluation.path_metrics`): ``cross_track_error_*_m``
+    (distance to the path), ``along_track_lag_max_m`` (the largest ``|lag|`` along the path, behind or ahead) and
     ``path_heading_error_max_deg`` (heading against the path's at the nearest point). ``non_finite_commands`` counts
     the samples whose pose-controller command was NaN or infinite (also counted in ``solver_failures``).
+
+    Parameters
+    ----------
+    result
+        A closed-loop run: a :class:`~agvctl.sim.loop.ClosedLoopResult` from
+        :func:`~agvctl.scenario.experiment.run_experiment` or :func:`~agvctl.sim.loop.run_closed_loop` (any record
+        with its ``log``, ``solver_failures`` and ``wall_time_s``).
+
+    Returns
+    -------
+    dict of str to float
+        Each metric by name, its unit in the name (``tracking_error_rms_m``, ``heading_error_max_deg``, ...).
     """
     log = result.log
     err = log["position_error_m"]

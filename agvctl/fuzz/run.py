@@ -162,7 +162,9 @@ def fuzz(
         Local worker processes (default: all cores); one job runs in a worker thread of this process. With
         ``executor="dask"`` and no scheduler: the local Dask cluster's workers.
     executor
-        ``"local"``, or ``"dask"`` to send the runs to the Dask scheduler at ``scheduler`` (``tcp://host:8786``).
+        ``"local"``, or ``"dask"`` to send the runs to the Dask scheduler at ``scheduler``.
+    scheduler
+        The Dask scheduler's address (``tcp://host:8786``); ``None`` with ``executor="dask"``: a local cluster.
     scenarios
         Only these scenario indices (default: ``range(spec.scenarios)``); each is the same as in a full run.
     progress

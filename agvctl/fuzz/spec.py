@@ -266,8 +266,24 @@ def _check_against_vehicle(spec: FuzzSpec, vehicle: VehicleParams) -> None:
 
 
 def load_fuzz_config(path: str | Path) -> FuzzSpec:
-    """Read and validate a fuzz configuration file (and the vehicle it names). One-line errors name the file and
-    key; ``name`` defaults to the file's stem and ``vehicle`` is resolved relative to the file."""
+    """Read and validate a fuzz configuration file (and the vehicle it names).
+
+    ``name`` defaults to the file's stem and ``vehicle`` is resolved relative to the file.
+
+    Parameters
+    ----------
+    path
+        The fuzz configuration (TOML).
+
+    Returns
+    -------
+    FuzzSpec
+        The validated configuration, for :func:`~agvctl.fuzz.run.fuzz`.
+
+    Raises
+    ------
+    ConfigError
+        A one-line message naming the file and key."""
     path = Path(path)
     spec = build(FuzzSpec, load_toml(path), source=str(path))
     vehicle_path = spec.vehicle

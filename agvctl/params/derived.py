@@ -128,7 +128,7 @@ class DerivedConstants:
     inertia_from_dimensions_kg_m2: float
     """eq 64."""
     inertia_rotation_point_kg_m2: float
-    """I + M h² of eqs 16-28, about the point of rotation (README, model note 6)."""
+    """I + M h² of eqs 16-28, about the point of rotation (model note 6, docs/model-notes.md)."""
     k_ll: float
     """eq 47: r_l²/N_l² (M/4 + (I+Mh²)/b²)."""
     k_rr: float

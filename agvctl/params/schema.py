@@ -88,7 +88,7 @@ class BodyParams:
 
 @dataclass(frozen=True)
 class AmplifierParams:
-    """Power amplifier: gain k_pow, and its voltage and current limits (README, model note 9)."""
+    """Power amplifier: gain k_pow, and its voltage and current limits (model note 9, docs/model-notes.md)."""
 
     gain: float = number(gt=0, doc="k_pow")
     current_limit_a: float = number(gt=0, doc="I_max")
@@ -136,7 +136,7 @@ class FrictionModelParams:
 
 @dataclass(frozen=True)
 class SensorParams:
-    """The vehicle's sensors (README, "Sensors and estimation"): incremental encoders on the motor shafts, an
+    """The vehicle's sensors (docs/guide/estimation.md): incremental encoders on the motor shafts, an
     optional rate gyro, and absolute position fixes from a beacon/laser system. Under ``[plant] set`` these are
     the true sensors; in the vehicle file they are what the estimators believe."""
 
@@ -240,7 +240,7 @@ def inertia_from_dimensions(frame: FrameParams, battery: BatteryParams) -> float
 
 
 def inertia_rotation_point(body: BodyParams) -> float:
-    """I + M h², the inertia about the point of rotation used by eqs 16-28 (README, model note 6)."""
+    """I + M h², the inertia about the point of rotation used by eqs 16-28 (model note 6, docs/model-notes.md)."""
     if body.inertia_about == "rotation_point":
         return body.inertia_kg_m2  # the table's 5.46 kg m² is about O: it already is I + M h²
     return body.inertia_kg_m2 + body.mass_kg * body.com_behind_axle_m**2  # literal eq 12: I about the CoM
@@ -312,9 +312,27 @@ def default_vehicle_path() -> Path:
 def load_vehicle(
     path: str | Path | None = None, overrides: Iterable[str | tuple[str, Any]] = (), *, override_source: str = "--set"
 ) -> VehicleParams:
-    """Load a vehicle file (``None`` or ``"default"``: the shipped IAU AGV) and apply dotted-key overrides.
+    """Load a vehicle file and apply dotted-key overrides.
 
-    Raises :class:`ConfigError` with a one-line message naming the file (or ``--set``) and the key.
+    Parameters
+    ----------
+    path
+        A vehicle TOML file; ``None`` or ``"default"``: the shipped IAU AGV (the report's appendix A).
+    overrides
+        Dotted-key overrides applied on top of the file, as ``"KEY=VALUE"`` strings
+        (``"wheels.right.radius_m=0.101"``) or ``(key, value)`` pairs; values in the key's unit.
+    override_source
+        How the overrides are named in error messages (the command line's ``--set``).
+
+    Returns
+    -------
+    VehicleParams
+        The validated, frozen vehicle; ``.derived`` holds the derived constants (eqs 5, 47-51, 60-64).
+
+    Raises
+    ------
+    ConfigError
+        A one-line message naming the file (or ``--set``) and the key.
     """
     if path is None or str(path) == "default":
         path = default_vehicle_path()

@@ -59,12 +59,30 @@ class _Failure(PlanningError):
 
 
 def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = False) -> Reference:
-    """Plan the reference of a path for a vehicle (default: the shipped IAU AGV).
+    """Plan the reference of a path for a vehicle.
 
-    The path's limits are resolved against the vehicle (see :func:`~agvctl.planning.spec.resolve_limits`;
-    ``force`` turns a physically impossible limit from an error into a warning). A failure to plan (numerical
-    ones included) raises a one-line :class:`ConfigError` naming the file and the segment or waypoint, and so
-    does a reference longer than :data:`MAX_DURATION_S`.
+    The path's limits are resolved against the vehicle (see :func:`~agvctl.planning.spec.resolve_limits`).
+
+    Parameters
+    ----------
+    spec
+        The path, from :func:`~agvctl.planning.load_path` or built in code.
+    vehicle
+        Whose wheel separation, sample period and limits apply; default the shipped IAU AGV.
+    force
+        Turn a physically impossible limit from an error into a warning.
+
+    Returns
+    -------
+    Reference
+        The time-optimal, jerk-limited reference: sampled anywhere by ``.sample(t_s)``, on the control grid by
+        ``.grid``.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file and the segment or waypoint: a failure to plan (numerical ones included), a
+        limit above the physical one without ``force``, a reference longer than :data:`MAX_DURATION_S`.
     """
     vehicle = vehicle if vehicle is not None else load_vehicle()
     limits = resolve_limits(spec, vehicle, force=force)

@@ -246,7 +246,23 @@ def _check_waypoints(waypoints: Sequence[Waypoint], source: str) -> None:
 
 
 def load_path(path: str | Path) -> PathSpec:
-    """Read and check a path file. Raises a one-line :class:`ConfigError` naming the file, segment and key."""
+    """Read and check a path file.
+
+    Parameters
+    ----------
+    path
+        The path file (TOML): segments or waypoints, and optional limits.
+
+    Returns
+    -------
+    PathSpec
+        The validated path, for :func:`~agvctl.planning.plan`.
+
+    Raises
+    ------
+    ConfigError
+        A one-line message naming the file, segment and key.
+    """
     source = str(path)
     raw = load_toml(path)
     data = build(_PathFile, raw, source=source)  # unknown keys are reported first

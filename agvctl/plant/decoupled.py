@@ -23,7 +23,18 @@ class DecoupledModels(NamedTuple):
 
 
 def decoupled_wheel_models(vehicle: VehicleParams) -> DecoupledModels:
-    """The per-wheel transfer functions of eqs 60-61."""
+    """The per-wheel transfer functions of eqs 60-61.
+
+    Parameters
+    ----------
+    vehicle
+        The vehicle whose equivalent inertia and damping (eqs 60-62) give each side's first-order model.
+
+    Returns
+    -------
+    DecoupledModels
+        ``(left, right)``: each a ``control.TransferFunction`` from motor voltage (V) to motor speed (rad/s).
+    """
     d = vehicle.derived
     out = []
     for side, consts in (("left", d.left), ("right", d.right)):

@@ -1,7 +1,7 @@
 """The pre-velocity friction model of the report's Fig. 3 (eqs 2-4), for numbers and CasADi symbols alike.
 
-The integrator state is the pre-velocity ω̃. The motor speed is a dead zone of it (eq 2 as corrected in the
-README's model notes, note 1), and the friction torque acting on the shaft is τ₁ − τ₂ (eqs 3-4):
+The integrator state is the pre-velocity ω̃. The motor speed is a dead zone of it (eq 2 as corrected in
+model note 1, docs/model-notes.md), and the friction torque acting on the shaft is τ₁ − τ₂ (eqs 3-4):
 
 * sticking, |ω̃| ≤ τ_s/P: ω_mot = 0 and the friction is P ω̃, a stiff spring that holds any drive torque below
   the break-away torque τ_s;

@@ -32,7 +32,19 @@ def linear_model_matrices(vehicle: VehicleParams) -> tuple[np.ndarray, np.ndarra
 
 
 def linear_model(vehicle: VehicleParams) -> control.StateSpace:
-    """Eqs 35-38: motor voltages (V) → motor speeds (rad/s), continuous time."""
+    """Eqs 35-38: motor voltages (V) → motor speeds (rad/s), continuous time.
+
+    Parameters
+    ----------
+    vehicle
+        The vehicle whose constants (and derived constants) fill the matrices.
+
+    Returns
+    -------
+    control.StateSpace
+        Inputs ``voltage_left_v``, ``voltage_right_v`` (V); states and outputs ``omega_motor_left_rad_s``,
+        ``omega_motor_right_rad_s``.
+    """
     A, B = linear_model_matrices(vehicle)
     return control.ss(
         A, B, np.eye(2), np.zeros((2, 2)), states=_STATES, inputs=_INPUTS, outputs=_STATES, name="agv_linear"

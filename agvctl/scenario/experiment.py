@@ -78,7 +78,26 @@ class Experiment:
 
 
 def load_experiment(path: str | Path) -> Experiment:
-    """Read and validate an experiment file and everything it names: trajectory, vehicles, controller settings."""
+    """Read and validate an experiment file and everything it names: trajectory, vehicles, controller settings.
+
+    Parameters
+    ----------
+    path
+        The experiment file (TOML); the paths it names are relative to it.
+
+    Returns
+    -------
+    Experiment
+        The validated file (``.spec``), the controllers' and the true vehicles (``.controller_vehicle``,
+        ``.plant_vehicle``), the planned ``.reference`` and the designed wheel loops, ready for
+        :func:`run_experiment`.
+
+    Raises
+    ------
+    ConfigError
+        A one-line message naming the file and key: a missing or unreadable file, an unknown or misspelt key, a
+        value out of range, a path that cannot be planned.
+    """
     path = Path(path)
     spec = build(ExperimentSpec, load_toml(path), source=str(path))
     return experiment_from_spec(dataclasses.replace(spec, source=str(path)))
@@ -132,6 +151,11 @@ def run_experiment(
         :class:`~agvctl.controllers.base.WheelSpeedController`, DA voltages in V) instead of the file's.
     progress
         Called with the fraction done (0…1) about every simulated second.
+
+    Returns
+    -------
+    ClosedLoopResult
+        The log (every signal per sample), the reference, and the wall and setup times in s.
     """
     e = experiment
     c = e.spec.controller

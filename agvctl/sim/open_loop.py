@@ -88,9 +88,23 @@ def simulate_open_loop(
 ) -> OpenLoopResult:
     """Simulate the full model from DA voltage commands held over each sample period.
 
-    ``da_voltage_v`` is an (n, 2) array of requested DA voltages (left, right), one row per sample; each goes
-    through the DA converter and amplifier (:class:`~agvctl.actuator.Actuator`). ``initial_state`` is the
-    plant state (:data:`~agvctl.plant.full.STATE_NAMES`), default at rest at the origin. The log has n + 1 rows.
+    Parameters
+    ----------
+    vehicle
+        The simulated vehicle, from :func:`~agvctl.params.load_vehicle`.
+    da_voltage_v
+        An (n, 2) array of requested DA voltages in V (left, right), one row per sample period; each goes through
+        the DA converter and amplifier (:class:`~agvctl.actuator.Actuator`) and is held over its sample.
+    initial_state
+        The plant state (:data:`~agvctl.plant.full.STATE_NAMES`, SI units); default at rest at the origin.
+    options
+        Which nonlinear effects the model includes (:class:`~agvctl.plant.full.PlantOptions`); default all.
+
+    Returns
+    -------
+    OpenLoopResult
+        The log (:class:`~agvctl.log.SimLog`, n + 1 rows from t = 0), the wall time spent integrating and the
+        one-time setup time (compiling or loading the plant), both in s.
     """
     u_req = _check_inputs(da_voltage_v)
     t0 = time.perf_counter()
@@ -113,8 +127,22 @@ def simulate_batch(
 ) -> list[SimLog]:
     """Simulate many vehicles (parameter variants) at once, in parallel threads of compiled code.
 
-    ``da_voltage_v`` is (n, 2) for the same commands to every vehicle or (B, n, 2) per vehicle. All vehicles
-    must share the sample period.
+    Parameters
+    ----------
+    vehicles
+        The B simulated vehicles; all must share the sample period.
+    da_voltage_v
+        Requested DA voltages in V (left, right): (n, 2) for the same commands to every vehicle, or (B, n, 2) per
+        vehicle.
+    initial_states
+        Plant states, one row per vehicle (B, n_states; SI units); default at rest at the origin.
+    options
+        Which nonlinear effects the model includes (:class:`~agvctl.plant.full.PlantOptions`); default all.
+
+    Returns
+    -------
+    list of SimLog
+        One log per vehicle, in order, each of n + 1 rows.
     """
     vs = list(vehicles)
     if not vs:

@@ -34,9 +34,9 @@ from agvctl.scenario.experiment import load_experiment, run_experiment
 
 SHIPPED = Path(__file__).resolve().parents[1]
 
-ISSUE10_PATH = """\
+UNTUNED_PATH = """\
 # an untuned scenario: a short line, two opposite 35° arcs and a full circle, no [limits] (the defaults)
-name = "issue10-line-arcs-circle"
+name = "untuned-line-arcs-circle"
 [[segments]]
 type = "line"
 length_m = 0.3
@@ -54,9 +54,9 @@ radius_m = 1.0
 angle_deg = 360
 """
 
-ISSUE10_EXPERIMENT = """\
-name = "issue10_untuned"
-trajectory = "issue10_path.toml"
+UNTUNED_EXPERIMENT = """\
+name = "untuned"
+trajectory = "untuned_path.toml"
 vehicle = "default"
 settle_s = 2.0
 [plant]
@@ -100,15 +100,17 @@ def run(path: Path, which: str) -> dict[str, float]:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--keep", type=Path, help="write the issue-10 files to this directory (default: a temporary one)")
+    ap.add_argument(
+        "--keep", type=Path, help="write the untuned scenario's files to this directory (default: a temporary one)"
+    )
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         where = args.keep or Path(tmp)
         where.mkdir(parents=True, exist_ok=True)
-        (where / "issue10_path.toml").write_text(ISSUE10_PATH, encoding="utf-8")
+        (where / "untuned_path.toml").write_text(UNTUNED_PATH, encoding="utf-8")
         nominal = load_vehicle().wheels.right.radius_m
-        (where / "issue10_untuned.toml").write_text(ISSUE10_EXPERIMENT % (nominal * 1.008), encoding="utf-8")
-        cases = [SHIPPED / "figure8.toml", SHIPPED / "figure8_offpath.toml", where / "issue10_untuned.toml"]
+        (where / "untuned.toml").write_text(UNTUNED_EXPERIMENT % (nominal * 1.008), encoding="utf-8")
+        cases = [SHIPPED / "figure8.toml", SHIPPED / "figure8_offpath.toml", where / "untuned.toml"]
         header = (
             "rms_mm",
             "max_mm",

@@ -1,4 +1,4 @@
-"""Benchmark of the open-loop plant simulator (issue: "a fast, accurate open-loop simulator").
+"""Benchmark of the open-loop plant simulator: a fast, accurate open-loop simulator.
 
 Prints, in one run on this machine:
   * 60 s of open-loop simulation (1,500 samples of 40 ms, random piecewise-constant DA inputs): wall time and

@@ -1,4 +1,4 @@
-"""Friction identification, the report's appendix A.1 (eqs 65-69, corrected as in the README's "Model notes").
+"""Friction identification, the report's appendix A.1 (eqs 65-69, corrected as in the docs' model notes).
 
 Two experiments per side, on the vehicle's own speed loops and DA converter:
 
@@ -11,7 +11,7 @@ Two experiments per side, on the vehicle's own speed loops and DA converter:
    with u the DA voltage (the control input of eqs 65-69, which the amplifier multiplies by k_pow). The left side
    is known from the log and the motor constants; least squares over the windows gives f_m and τ_c. With two
    speeds in one direction this is the report's two-speed formula, eqs 66-67 (68-69 for the right side), as
-   corrected in the README's model notes: ``τ_c = k_pow k_t u₂/R − (k_e k_t/R + f_m) ω₂``
+   corrected in the docs' model notes: ``τ_c = k_pow k_t u₂/R − (k_e k_t/R + f_m) ω₂``
    (:func:`two_speed_friction`).
 2. **Slow voltage ramp.** From standstill the DA voltage of one side rises slowly until the wheel turns. While it
    sticks the motor does not move, so the drive torque is k_pow k_t u/R (eq 65 as corrected: the amplifier gain

@@ -1,4 +1,4 @@
-"""Break-away detection in the friction log's slow DA ramps (eq 65, corrected as in the README's model notes)."""
+"""Break-away detection in the friction log's slow DA ramps (eq 65, corrected as in the docs' model notes)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The friction fit: f_m and τ_c by weighted least squares over the hold windows (eqs 66-69), τ_s from the ramps
-(eq 65), both as corrected in the README's "Model notes"; the report's two-speed formula; applying the result."""
+(eq 65), both as corrected in the docs' model notes; the report's two-speed formula; applying the result."""
 
 from __future__ import annotations
 
@@ -91,7 +91,7 @@ def two_speed_friction(
     """The report's two-speed formula: ``(f_m, τ_c)`` from the DA voltages u₁, u₂ holding ω₁, ω₂ (one side).
 
     eq 66 (68): f_m = (k_pow k_t/R (u₂ − u₁) − k_e k_t/R (ω₂ − ω₁)) / (ω₂ − ω₁).
-    eq 67 (69), corrected as in the README's "Model notes": τ_c = k_pow k_t u₂/R − (k_e k_t/R + f_m) ω₂. With
+    eq 67 (69), corrected as in the docs' model notes: τ_c = k_pow k_t u₂/R − (k_e k_t/R + f_m) ω₂. With
     ``corrected=False`` the report's printed sign, τ_c = k_pow k_t u₂/R − (k_e k_t/R − f_m) ω₂, which is
     2 f_m ω₂ too large.
     """
@@ -315,7 +315,7 @@ def fit_friction(
 def apply_friction(vehicle: VehicleParams, fit: FrictionFit) -> tuple[VehicleParams, list[str]]:
     """``vehicle`` with the identified f_m, τ_c, τ_s per side, and notes on any value that had to be clamped.
 
-    A vehicle file needs f_m ≥ 0 and τ_s ≥ τ_c (README, "Model notes", item 5): a slightly negative f_m (a true
+    A vehicle file needs f_m ≥ 0 and τ_s ≥ τ_c (model note 5, docs/model-notes.md): a slightly negative f_m (a true
     f_m near zero plus noise) becomes 0, a τ_s below τ_c becomes τ_c.
     """
     notes: list[str] = []

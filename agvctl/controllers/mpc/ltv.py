@@ -70,10 +70,20 @@ steps and on warm-started tracking steps (``docs/decisions/0012-osqp.md``)."""
 class LtvMpcController(MpcStepper):
     """Linear time-varying MPC on OSQP; satisfies :class:`~agvctl.controllers.base.PoseController`.
 
-    ``vehicle`` provides b (wheel separation), T_s and the default speed and acceleration limits. The solver
-    is set up once here; :meth:`reset` only recomputes the reference-dependent data. :meth:`update` never
-    raises: when OSQP fails or hits its limits it returns a fallback (see :class:`PoseCommand.status`) and
-    counts it. ``osqp_settings`` overrides entries of :data:`OSQP_SETTINGS`.
+    The solver is set up once here; :meth:`reset` only recomputes the reference-dependent data. :meth:`update`
+    never raises: when OSQP fails or hits its limits it returns a fallback (see
+    :attr:`~agvctl.controllers.base.PoseCommand.status`) and counts it.
+
+    Parameters
+    ----------
+    vehicle
+        The controller's model: the wheel separation b (m), the sample period T_s (s) and the default wheel-speed
+        and acceleration limits (m/s, m/s²).
+    config
+        Horizon, weights, limits, the prediction model and the governor, docking and solver settings
+        (:class:`~agvctl.controllers.mpc.config.MpcConfig`, as in an experiment file's ``[controller]`` table).
+    osqp_settings
+        Entries that replace those of :data:`OSQP_SETTINGS`.
     """
 
     def __init__(

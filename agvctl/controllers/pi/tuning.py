@@ -344,8 +344,25 @@ def _fastest_crossover(
 def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningResult:
     """Design the wheel-speed PI for ``spec`` (default: PM >= 60°, GM >= 10 dB, fastest crossover).
 
-    One gain set serves both wheels; it must meet the spec on each side's model. Raises :class:`ConfigError`
-    (one line) when no PI meets the spec.
+    One gain set serves both wheels; it must meet the spec on each side's model.
+
+    Parameters
+    ----------
+    vehicle
+        The controller's model: its decoupled per-wheel models (eqs 60-61), sampled with a zero-order hold at
+        its sample period, and its actuator chain.
+    spec
+        The margins (degrees, dB) and optionally a demanded crossover (rad/s).
+
+    Returns
+    -------
+    TuningResult
+        The gains, the margins of each wheel's sampled loop and of the worse of the two, and the sampled plants.
+
+    Raises
+    ------
+    ConfigError
+        One line, when no PI meets the spec.
     """
     spec = spec or TuningSpec()
     ts = vehicle.control.sample_period_s

@@ -236,7 +236,25 @@ class PIWheelController:
     """Both wheels' PI loops: a :class:`~agvctl.controllers.base.WheelSpeedController`.
 
     ``update`` takes motor-speed setpoints and measurements (rad/s, left and right) and returns DA voltage
-    commands (V) = motor voltage / k_pow. Per-side motor constants come from ``vehicle``.
+    commands (V) = motor voltage / k_pow.
+
+    Parameters
+    ----------
+    vehicle
+        The controller's model: per-side motor constants, the DA converter's range and the amplifier's gain and
+        voltage and current limits.
+    gains
+        k_p (V s/rad), k_i (V/rad) and the sample period (s) of both loops, from
+        :func:`~agvctl.controllers.pi.tuning.design_pi`.
+    coulomb_feedforward
+        Add τ_c R/k_t to the PI output, ramped in over the last 2 rad/s to zero speed.
+    anti_windup
+        Clamp the output to the window of predicted current ((u − k_e ω)/R within ±I_max) and the DA range, and
+        stop the integrator there.
+    symmetric_braking
+        Limit the braking current so that friction-assisted braking decelerates no harder than a_lim (eq 5).
+    gentle_stop
+        The same braking limit, only at low speed, when a wheel is brought to a stop.
     """
 
     def __init__(

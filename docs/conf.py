@@ -1,0 +1,60 @@
+"""Sphinx configuration of the agvctl documentation.
+
+Build:  sphinx-build -W --keep-going -b html docs docs/_build/html
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import agvctl
+
+ROOT = Path(__file__).resolve().parent.parent
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+project = "agvctl"
+author = "the agvctl authors"
+copyright = "2026, the agvctl authors"
+release = agvctl.__version__
+version = release
+
+extensions = [
+    "sphinx.ext.autodoc",
+    "sphinx.ext.autosummary",
+    "sphinx.ext.mathjax",
+    "numpydoc",
+    "myst_parser",
+    "sphinx_gallery.gen_gallery",
+]
+
+source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
+exclude_patterns = ["_build", "decisions/README.md", "benchmarks/regenerate.py", "auto_examples/*.ipynb"]
+myst_enable_extensions = ["colon_fence", "dollarmath"]
+myst_heading_anchors = 3
+
+autosummary_generate = True
+autodoc_typehints = "none"
+autodoc_member_order = "bysource"
+numpydoc_show_class_members = False
+numpydoc_class_members_toctree = False
+numpydoc_xref_param_type = False
+
+
+sphinx_gallery_conf = {
+    "examples_dirs": str(ROOT / "experiments" / "gallery"),
+    "gallery_dirs": "auto_examples",
+    "filename_pattern": r"/plot_",
+    "download_all_examples": False,
+    "remove_config_comments": True,
+    "within_subsection_order": "FileNameSortKey",
+    "matplotlib_animations": False,
+    "image_scrapers": ("matplotlib",),
+    "reset_modules": ("matplotlib",),
+}
+
+html_theme = "pydata_sphinx_theme"
+html_title = f"agvctl {release}"
+html_static_path = ["_static"]
+templates_path = ["_templates"]
+html_theme_options = {"navigation_with_keys": False, "show_toc_level": 2}

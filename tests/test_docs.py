@@ -1,0 +1,41 @@
+"""The README stays a landing page and the documentation stays inside the repository."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
+
+
+def _documentation_files() -> list[Path]:
+    files = [README, ROOT / "CHANGELOG.md"]
+    for folder, pattern in (("docs", "*.md"), ("docs", "*.rst"), ("docs", "*.py"), ("agvctl", "*.py")):
+        files += [
+            p for p in (ROOT / folder).rglob(pattern) if not {"_build", "generated", "auto_examples"} & set(p.parts)
+        ]
+    return files
+
+
+def test_readme_is_a_landing_page():
+    lines = README.read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= 250
+    # the two set-up commands come first, before any section
+    first_section = next(i for i, line in enumerate(lines) if line.startswith("## "))
+    commands = [line for line in lines[:first_section] if line.startswith("python3 -m venv .venv")]
+    assert len(commands) == 2
+
+
+def test_no_issue_numbers_and_no_paths_outside_the_repository():
+    for path in _documentation_files():
+        text = path.read_text(encoding="utf-8")
+        assert not re.search(r"issue [0-9]+", text, flags=re.IGNORECASE), path
+        assert "../shared" not in text and "/work/" not in text, path
+
+
+def test_readme_picture_and_links_exist():
+    text = README.read_text(encoding="utf-8")
+    for target in re.findall(r"\]\(([^)#]+)\)", text):
+        if not target.startswith("http"):
+            assert (ROOT / target).exists(), target
