@@ -29,7 +29,7 @@ extensions = [
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
-exclude_patterns = ["_build", "decisions/README.md", "benchmarks/regenerate.py", "auto_examples/*.ipynb"]
+exclude_patterns = ["_build", "decisions/README.md", "guide/broken-controllers.md", "benchmarks/regenerate.py", "auto_examples/*.ipynb"]
 myst_enable_extensions = ["colon_fence", "dollarmath"]
 myst_heading_anchors = 3
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import collections
 import dataclasses
+import datetime
 import json
 import math
 import sys
@@ -226,7 +227,7 @@ def _differs(pose: np.ndarray, healthy: np.ndarray | None) -> bool:
 def table(rows: list[dict[str, Any]]) -> str:
     """The Markdown table of how often the default gate fails each fault."""
     lines = [
-        "| controller | fails the gate | where the fault shows | limits that caught it |",
+        "| controller | fails the gate | of the runs the fault changes | limits that caught it |",
         "|---|---|---|---|",
     ]
     for fault in dict.fromkeys(r["fault"] for r in rows):
@@ -236,7 +237,7 @@ def table(rows: list[dict[str, Any]]) -> str:
         caught_shows = sum(not r["passed"] for r in shows)
         keys = collections.Counter(k for r in runs for k in r["failed"])
         named = ", ".join(f"`{k}` {n}" for k, n in keys.most_common()) or "none"
-        where = "(the reference)" if fault == "healthy" else f"{caught_shows} of {len(shows)}"
+        where = "—" if fault == "healthy" else f"{caught_shows} of {len(shows)}"
         lines.append(f"| {fault} | {caught} of {len(runs)} | {where} | {named} |")
     return "\n".join(lines) + "\n"
 
@@ -264,9 +265,11 @@ def main(argv: list[str] | None = None) -> int:
             print(f"\r{i + 1}/{spec.scenarios} scenarios", end="", file=sys.stderr, flush=True)
     print(file=sys.stderr)
     text = table(rows)
+    command = " ".join(["python experiments/robustness/broken_controllers.py", *(argv or sys.argv[1:])])
     header = (
-        f"Default gate against broken controllers: {spec.scenarios} scenarios of `{Path(args.fuzz).name}` "
-        f"(seed {spec.seed}), {time.perf_counter() - t0:.0f} s on {args.jobs} workers.\n\n"
+        f"Written by `{command}` on {datetime.date.today()}; do not edit by hand. The default gate against broken "
+        f"controllers: {spec.scenarios} scenarios of `{Path(args.fuzz).name}` (seed {spec.seed}), "
+        f"{time.perf_counter() - t0:.0f} s on {args.jobs} workers.\n\n"
     )
     print(header + text)
     if args.out:
