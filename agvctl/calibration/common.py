@@ -52,7 +52,7 @@ def read_csv_columns(
     """
     source = str(path)
     try:
-        with open(path, newline="", encoding="utf-8") as fh:
+        with open(path, newline="", encoding="utf-8-sig") as fh:  # a byte-order mark (Excel's CSV UTF-8) is dropped
             rows = list(csv.reader(fh))
     except FileNotFoundError:
         raise ConfigError(source, "", "file not found") from None
