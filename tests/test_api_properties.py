@@ -1,15 +1,15 @@
 """The Python API never crashes: random arguments to its public constructors and entry points end in success or
 the package's own one-line error.
 
-The segments and the other path dataclasses, the vehicle parameter dataclasses, :func:`plan_segments`,
-:func:`simulate_open_loop` (a few samples each) and :func:`read_log` (random bytes) get random arguments: NaN,
-±inf, huge and tiny numbers, zero, negative, wrong types, misspelled choices, mixed with sensible values so that
-success is reached too. The only accepted outcomes are success, or an :class:`~agvctl.errors.AgvctlError` whose
-message is one line starting with the class or function it names (the file, for :func:`read_log`). Any other
+The segments and the other path dataclasses, the vehicle parameter dataclasses, the experiment's plant and
+robustness tables, :func:`plan_segments`, :func:`plan_waypoints`, :func:`simulate_open_loop` (a few samples each)
+and :func:`read_log` (random bytes) get random arguments: NaN, ±inf, huge and tiny numbers, zero, negative, wrong
+types, misspelled choices, mixed with sensible values so that success is reached too. The only accepted outcomes
+are success, or an :class:`~agvctl.errors.AgvctlError` whose message is one line starting with the class or
+function it names (the path's source for :func:`plan_waypoints`, the file for :func:`read_log`). Any other
 exception fails.
 
-Each gets :data:`EXAMPLES` examples, drawn deterministically; :func:`plan_segments` gets :data:`PLANNED_EXAMPLES`
-(each example plans a trajectory).
+Each gets :data:`EXAMPLES` examples, drawn deterministically.
 """
 
 from __future__ import annotations
@@ -40,12 +40,12 @@ from agvctl.params import (
     WheelSide,
     load_vehicle,
 )
-from agvctl.planning import ArcSegment, LineSegment, TurnSegment, WheelLimits, plan_segments
+from agvctl.planning import ArcSegment, LineSegment, TurnSegment, WheelLimits, plan_segments, plan_waypoints
 from agvctl.planning.spec import PathLimits, StartPose, Waypoint
+from agvctl.scenario.spec import PlantSpec, RobustnessSpec, Spread
 from agvctl.sim.open_loop import simulate_open_loop
 
 EXAMPLES = 1000
-PLANNED_EXAMPLES = 300
 API = settings(
     max_examples=EXAMPLES,
     deadline=None,
@@ -122,6 +122,9 @@ test_sensor_params = _constructor_test(SensorParams)
 test_control_params = _constructor_test(ControlParams)
 test_wheel_side = _constructor_test(WheelSide)
 test_motor_params = _constructor_test(MotorParams)
+test_plant_spec = _constructor_test(PlantSpec)
+test_spread = _constructor_test(Spread)
+test_robustness_spec = _constructor_test(RobustnessSpec)
 
 
 @API
@@ -155,7 +158,7 @@ limits = st.builds(WheelLimits, st.floats(0.05, 2.0), st.floats(0.05, 2.0), st.f
 )
 
 
-@settings(API, max_examples=PLANNED_EXAMPLES)
+@API
 @given(
     segments=st.lists(segment(), min_size=0, max_size=3),
     limits=limits,
@@ -172,6 +175,33 @@ def test_plan_segments(
         ),
         "plan_segments",
         "segments[",  # a motion that cannot be planned: a PlanningError naming the segment
+    )
+
+
+@st.composite
+def waypoint(draw: st.DrawFn) -> Any:
+    coordinate = st.floats(-5.0, 5.0) | values
+    kwargs = draw(st.fixed_dictionaries({"x_m": coordinate, "y_m": coordinate, "theta_deg": st.none() | values}))
+    try:
+        return Waypoint(**kwargs)
+    except AgvctlError:
+        return draw(st.sampled_from([Waypoint(x_m=1.0, y_m=0.0), Waypoint(x_m=0.0, y_m=0.0)]))
+
+
+@API
+@given(
+    waypoints=st.lists(waypoint(), min_size=0, max_size=4),
+    limits=limits,
+    separation_m=st.floats(0.1, 1.0) | values,
+    sample_period_s=st.sampled_from([0.04, 0.02, 0.1]) | values,
+)
+def test_plan_waypoints(waypoints: list[Any], limits: WheelLimits, separation_m: Any, sample_period_s: Any) -> None:
+    assert_clean(
+        lambda: plan_waypoints(
+            waypoints, limits=limits, separation_m=separation_m, sample_period_s=sample_period_s, source="path.toml"
+        ),
+        "path.toml",
+        "waypoints",  # a path that cannot be planned: a PlanningError naming the waypoints
     )
 
 

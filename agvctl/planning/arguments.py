@@ -10,7 +10,7 @@ from agvctl.params.schema import check_sample_count
 from agvctl.planning.reference import Reference
 from agvctl.planning.spec import MAX_SEGMENTS, Segment
 
-__all__ = ["MAX_DURATION_S", "check_arguments", "check_reference"]
+__all__ = ["MAX_DURATION_S", "check_arguments", "check_geometry", "check_reference"]
 
 MAX_DURATION_S = 24 * 3600.0
 """The longest reference planned (one day): a longer one is a typing error, not a drive, and its samples would
@@ -41,6 +41,12 @@ def check_arguments(segments: Sequence[Segment], join: str, separation_m: float,
         seg.validate(source="plan_segments", prefix=f"segments[{i}]")
     if join not in ("smooth", "stop"):
         raise ConfigError("plan_segments", "join", f"must be one of 'smooth', 'stop' (got {join!r})")
+    check_geometry("plan_segments", separation_m, sample_period_s)
+
+
+def check_geometry(source: str, separation_m: float, sample_period_s: float) -> None:
+    """``separation_m`` and ``sample_period_s`` finite numbers > 0, else a ConfigError naming ``source`` and the
+    argument."""
     for name, value in (("separation_m", separation_m), ("sample_period_s", sample_period_s)):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
-            raise ConfigError("plan_segments", name, f"must be finite and > 0 (got {value!r})")
+            raise ConfigError(source, name, f"must be finite and > 0 (got {value!r})")

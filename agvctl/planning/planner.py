@@ -26,17 +26,19 @@ import numpy as np
 
 from agvctl.errors import ConfigError, PlanningError
 from agvctl.params import VehicleParams, load_vehicle
-from agvctl.planning.arguments import MAX_DURATION_S, check_arguments, check_reference
+from agvctl.planning.arguments import MAX_DURATION_S, check_arguments, check_geometry, check_reference
 from agvctl.planning.curve import Curve
 from agvctl.planning.geometry import Pose, segment_kinematics
 from agvctl.planning.joins import JoinWindow, design_join
 from agvctl.planning.profile import _Solver, rest_to_rest
 from agvctl.planning.reference import Motion, Reference
 from agvctl.planning.spec import (
+    MAX_SEGMENTS,
     PathSpec,
     Segment,
     Waypoint,
     WheelLimits,
+    check_waypoints,
     load_path,
     resolve_limits,
 )
@@ -388,8 +390,23 @@ def plan_waypoints(
     source: str = "<path>",
 ) -> Reference:
     """Plan a path through waypoints with explicit limits (no vehicle file): one motion, its speed planned on
-    sections of :data:`WAYPOINT_SECTION_PIECES` curve pieces. Bad waypoints raise a one-line
-    :class:`ConfigError` naming ``source``; a failure to plan a :class:`PlanningError` naming the waypoint."""
+    sections of :data:`WAYPOINT_SECTION_PIECES` curve pieces.
+
+    Raises
+    ------
+    ConfigError
+        One line naming ``source``: bad waypoints, more than :data:`~agvctl.planning.spec.MAX_SEGMENTS` of them,
+        ``separation_m`` or ``sample_period_s`` not finite and > 0, a reference too long or of too many samples.
+    PlanningError
+        One line naming the waypoint, if the path cannot be planned.
+    """
+    if len(waypoints) > MAX_SEGMENTS:
+        raise ConfigError(source, "waypoints", f"at most {MAX_SEGMENTS} (got {len(waypoints)})")
+    for i, point in enumerate(waypoints):
+        if not isinstance(point, Waypoint):
+            raise ConfigError(source, f"waypoints[{i}]", f"expected a Waypoint (got {point!r})")
+    check_waypoints(waypoints, source)
+    check_geometry(source, separation_m, sample_period_s)
     curve, s_i, deviation = waypoint_curve(waypoints, source=source)
     half_b = 0.5 * separation_m
     bounds = curve.piece_bounds()
@@ -413,7 +430,7 @@ def plan_waypoints(
         )
     except (ValueError, ArithmeticError) as exc:
         raise _Failure("waypoints", f"cannot be planned: {exc}") from None
-    return Reference(
+    reference = Reference(
         name=name,
         motions=[motion],
         limits=limits,
@@ -423,3 +440,5 @@ def plan_waypoints(
         segment_count=len(s_i) - 1,
         geometry_deviation_m=deviation,
     )
+    check_reference(reference, source, "waypoints")
+    return reference

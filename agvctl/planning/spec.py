@@ -263,12 +263,13 @@ class PathSpec:
         if self.segments and self.waypoints:
             raise ConfigError(self.source, "waypoints", "give either [[segments]] or [[waypoints]], not both")
         if self.waypoints:
-            _check_waypoints(self.waypoints, self.source)
+            check_waypoints(self.waypoints, self.source)
         elif not self.segments:
             raise ConfigError(self.source, "segments", "at least one segment is required")
 
 
-def _check_waypoints(waypoints: Sequence[Waypoint], source: str) -> None:
+def check_waypoints(waypoints: Sequence[Waypoint], source: str) -> None:
+    """At least two waypoints, no two consecutive ones on the same point; else a ConfigError naming ``source``."""
     if len(waypoints) < 2:
         raise ConfigError(source, "waypoints", f"at least 2 waypoints are required (got {len(waypoints)})")
     for i in range(1, len(waypoints)):
@@ -295,7 +296,7 @@ def load_path(path: str | Path) -> PathSpec:
         if "start" in raw:
             raise ConfigError(source, "start", "a waypoint path starts at its first waypoint; remove start")
         if "segments" not in raw:
-            _check_waypoints(data.waypoints, source)
+            check_waypoints(data.waypoints, source)
     segments: Sequence[Any] = data.segments
     return PathSpec(
         segments=tuple(segments),
