@@ -7,7 +7,8 @@ error, and every other experiment is still run and reported; the JUnit XML and J
 * 1 — a limit was violated (every run completed);
 * 2 — bad input: a file, key or flag that cannot be used (one line on stderr; nothing is run, nothing written);
 * 3 — a run could not be completed (it raised): an ``<error>`` in the JUnit XML, ``"completed": false`` in the
-  JSON; this wins over 1.
+  JSON; this wins over 1;
+* 130 — interrupted (Ctrl-C): one line on stderr; no output is left half-written.
 """
 
 from __future__ import annotations
@@ -35,7 +36,8 @@ EXIT_CODES = """exit codes:
   1  a limit was violated
   2  bad input (one line on stderr naming the file or flag; nothing is run or written)
   3  a run could not be completed (it raised): reported as an <error> in the JUnit XML and
-     "completed": false in the JSON, every other run still reported; wins over 1"""
+     "completed": false in the JSON, every other run still reported; wins over 1
+  130  interrupted (Ctrl-C): one line on stderr, no partial output, the workers stopped"""
 
 
 def register(sub: Any) -> None:
