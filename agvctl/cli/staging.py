@@ -49,7 +49,10 @@ def check_replaceable(flag: str, directory: str | Path, inputs: Iterable[str | P
         raise ConfigError(flag, "", f"{d} holds {inside}, an input of this command; refusing to replace it")
     if any(d.iterdir()) and not (d / MARKER).is_file():
         raise ConfigError(
-            flag, "", f"{d} holds files that are not an agvctl output; refusing to replace it (choose a new folder)"
+            flag,
+            "",
+            f"{d} holds files that are not an agvctl output; refusing to replace it (remove it, or choose another "
+            "folder)",
         )
 
 
