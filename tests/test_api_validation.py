@@ -132,3 +132,13 @@ def test_csv_files_written_by_excel_with_a_byte_order_mark_are_read(tmp_path: Pa
     runs.write_bytes(b"\xef\xbb\xbfdirection,x_m,y_m\r\ncw,0.1,0.2\r\nccw,0.1,0.1\r\n")
     cw, ccw = read_umbmark_log(runs)
     assert cw.shape[-1] == 2 and ccw.shape[-1] == 2
+
+
+def test_a_calibration_log_error_names_the_line_in_the_file_after_comment_lines(tmp_path: Path) -> None:
+    runs = tmp_path / "runs.csv"
+    runs.write_text("# hall B, 4 m square\ndirection,x_m,y_m\n# first cw\ncw,0.1,0.2\n\nccw,0.1,oops\n")
+    with pytest.raises(ConfigError, match=r"runs.csv: line 6: y_m is not a finite number \(oops\)"):
+        read_umbmark_log(runs)
+    runs.write_text("# hall B\ndirection,x_m,y_m\ncw,0.1,0.2\nleft,0.1,0.1\n")
+    with pytest.raises(ConfigError, match=r"runs.csv: line 4: direction must be cw or ccw \(got 'left'\)"):
+        read_umbmark_log(runs)
