@@ -18,9 +18,25 @@ Start with :func:`agvctl.params.load_vehicle`, :func:`agvctl.sim.simulate_open_l
 :func:`agvctl.scenario.experiment.load_experiment` (a closed-loop run from an experiment file).
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
 from agvctl.errors import AgvctlError, ConfigError, PlanningError
-from agvctl.params import VehicleParams, load_vehicle
+
+if TYPE_CHECKING:
+    from agvctl.params import VehicleParams, load_vehicle
 
 __version__ = "0.2.0"
 
 __all__ = ["AgvctlError", "ConfigError", "PlanningError", "VehicleParams", "load_vehicle", "__version__"]
+
+
+def __getattr__(name: str) -> Any:
+    """``VehicleParams`` and ``load_vehicle``, imported when first used: ``import agvctl`` stays light, so the
+    command line starts (and answers an interrupt) before the numerical libraries are loaded."""
+    if name in ("VehicleParams", "load_vehicle"):
+        from agvctl import params
+
+        return getattr(params, name)
+    raise AttributeError(f"module 'agvctl' has no attribute {name!r}")

@@ -1,7 +1,60 @@
-"""``python -m agvctl``."""
+"""``python -m agvctl`` and the ``agvctl`` command: :func:`agvctl.cli.main`, with an interrupt at any moment — while
+the package is still being imported, or while an error is printed — one line and exit code 130, never a traceback."""
 
+from __future__ import annotations
+
+import atexit
+import contextlib
+import os
+import signal
 import sys
 
-from agvctl.cli import main
+__all__ = ["EXIT_INTERRUPTED", "console"]
 
-sys.exit(main())
+EXIT_INTERRUPTED = 130
+"""The exit code after SIGINT (Ctrl-C), 128 + 2 as shells report it."""
+
+
+def _interrupted(exc: BaseException | None) -> bool:
+    """``exc`` is a KeyboardInterrupt or was caused by one: an interrupt inside an import can surface as another
+    error (say a RuntimeError from a class being created) with the KeyboardInterrupt as its cause."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
+def _main() -> int:
+    try:
+        from agvctl.cli import main
+
+        return main()
+    except BaseException as exc:
+        if not _interrupted(exc):
+            raise
+        print("agvctl: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+def console() -> None:
+    """Run the CLI and exit with its code. Once the command is done (its outputs written and its report printed),
+    SIGINT is ignored: the interpreter's shutdown is not an interruption of the command."""
+    code = _main()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if code == EXIT_INTERRUPTED:
+        # the outputs are discarded and the workers stopped already; run the exit handlers (multiprocessing's
+        # among them) and exit with 130 at once: the interpreter would otherwise end itself by SIGINT when the
+        # interrupt went through code a library runs at import time (it counts that one unhandled, caught or not)
+        atexit._run_exitfuncs()
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(OSError, ValueError):
+                stream.flush()
+        os._exit(EXIT_INTERRUPTED)
+    sys.exit(code)
+
+
+if __name__ == "__main__":
+    console()

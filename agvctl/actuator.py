@@ -55,7 +55,11 @@ class Actuator:
 
     def da_code(self, voltage_v: ArrayLike) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
         """The DA code for a requested voltage (round to nearest, clip) and whether it was clipped."""
-        raw = np.rint((np.asarray(voltage_v, dtype=float) - self.mid_v) / self.volts_per_code)
+        # a request far out of range (1e308 V, say) is first brought to just beyond the codes, so the division
+        # cannot overflow; its code and its clipped flag stay what they would be
+        lo = self.mid_v + (self.code_min - 1) * self.volts_per_code
+        hi = self.mid_v + (self.code_max + 1) * self.volts_per_code
+        raw = np.rint((np.clip(np.asarray(voltage_v, dtype=float), lo, hi) - self.mid_v) / self.volts_per_code)
         raw = np.nan_to_num(raw, nan=0.0)
         clipped = (raw < self.code_min) | (raw > self.code_max)
         return np.clip(raw, self.code_min, self.code_max).astype(np.int64), clipped

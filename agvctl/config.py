@@ -11,9 +11,11 @@ project, and the loader gives exactly the one-line messages the CLI promises.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import difflib
 import math
+import numbers
 import tomllib
 import types
 import typing
@@ -31,6 +33,7 @@ __all__ = [
     "apply_overrides",
     "build",
     "build_fields",
+    "check_fields",
     "check_key",
     "check_plain_name",
     "convert_value",
@@ -74,10 +77,11 @@ def check_plain_name(name: str, source: str, key: str, folder: str) -> None:
 
 
 def read_text(path: str | Path) -> str:
-    """A UTF-8 text file's contents; a missing or unreadable file raises a one-line :class:`ConfigError`."""
+    """A UTF-8 text file's contents, without a leading byte-order mark (Excel's "CSV UTF-8" writes one); a missing
+    or unreadable file raises a one-line :class:`ConfigError`."""
     path = Path(path)
     try:
-        return path.read_text(encoding="utf-8")
+        return path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise ConfigError(str(path), "", "file not found") from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -296,6 +300,61 @@ def _check_bounds(value: float, meta: Mapping[str, Any] | None, source: str, key
         raise ConfigError(source, key, f"must be >= {ge:g} (got {value:g})")
     if le is not None and not value <= le:
         raise ConfigError(source, key, f"must be <= {le:g} (got {value:g})")
+
+
+_INIT_FIELDS: dict[type, tuple[tuple[str, Any, Mapping[str, Any]], ...]] = {}
+
+
+def _init_fields(cls: type) -> tuple[tuple[str, Any, Mapping[str, Any]], ...]:
+    """``(name, type, metadata)`` of each field a dataclass's constructor takes (worked out once per class)."""
+    if cls not in _INIT_FIELDS:
+        hints = get_type_hints(cls)
+        _INIT_FIELDS[cls] = tuple((f.name, hints[f.name], f.metadata) for f in dataclasses.fields(cls) if f.init)
+    return _INIT_FIELDS[cls]
+
+
+def _check_argument(tp: Any, value: Any, source: str, key: str, meta: Mapping[str, Any]) -> None:
+    origin = get_origin(tp)
+    if origin in (Union, types.UnionType):
+        if value is None and type(None) in get_args(tp):
+            return
+        args = [a for a in get_args(tp) if a is not type(None)]
+        for arg in args[:-1]:
+            with contextlib.suppress(ConfigError):
+                _check_argument(arg, value, source, key, meta)
+                return
+        _check_argument(args[-1], value, source, key, meta)
+    elif origin is Literal:
+        if value not in get_args(tp):
+            choices = ", ".join(repr(c) for c in get_args(tp))
+            raise ConfigError(source, key, f"must be one of {choices} (got {value!r})")
+    elif tp is float:
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise ConfigError(source, key, f"expected a number (got {value!r})")
+        if not math.isfinite(value):
+            raise ConfigError(source, key, f"must be finite (got {value})")
+        _check_bounds(float(value), meta, source, key)
+    elif tp is int:
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+            raise ConfigError(source, key, f"expected an integer (got {value!r})")
+        _check_bounds(int(value), meta, source, key)
+    elif tp in (str, bool) and not isinstance(value, tp):
+        raise ConfigError(source, key, f"expected {_type_name(tp)} (got {value!r})")
+
+
+def check_fields(obj: Any) -> None:
+    """Check the fields of a dataclass made in Python as :func:`build` checks a file's: numbers finite and within
+    their :func:`number` bounds, integers whole, choices among their ``Literal`` values, strings and booleans of
+    their type. Nested dataclasses check themselves.
+
+    Raises
+    ------
+    ConfigError
+        ``"<Class>: <argument>: <problem>"``, e.g. ``LineSegment: length_m: must be finite (got nan)``.
+    """
+    source = type(obj).__name__
+    for name, tp, meta in _init_fields(type(obj)):
+        _check_argument(tp, getattr(obj, name), source, name, meta)
 
 
 def _build_dataclass(cls: type, data: Mapping[str, Any], source: str, prefix: str) -> Any:

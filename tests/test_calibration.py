@@ -302,7 +302,7 @@ def _one_speed_log(clean_log: FrictionLog) -> FrictionLog:
         ("missing", "missing column omega_motor_right_rad_s"),
         ("few", "1 steady constant-speed window"),
         ("one_speed", "at one speed"),
-        ("nan", "row 5: setpoint_omega_motor_right_rad_s is not a finite number (nan)"),
+        ("nan", "line 6: setpoint_omega_motor_right_rad_s is not a finite number (nan)"),
         ("no_ramp", "no ramp breaks the wheel away"),
     ],
 )
@@ -369,8 +369,8 @@ def test_cli_umbmark_log(tmp_path: Path, capsys: pytest.CaptureFixture[str], veh
     [
         ("direction,x_m\ncw,0.1\n", "missing column y_m"),
         ("direction,x_m,y_m\ncw,0.1,0.2\ncw,0.1,0.1\n", "no ccw runs"),
-        ("direction,x_m,y_m\ncw,0.1,0.2\nleft,0.1,0.1\n", "row 2: direction must be cw or ccw"),
-        ("direction,x_m,y_m\ncw,0.1,0.2\nccw,,0.1\n", "row 2: x_m is not a finite number (empty)"),
+        ("direction,x_m,y_m\ncw,0.1,0.2\nleft,0.1,0.1\n", "line 3: direction must be cw or ccw"),
+        ("direction,x_m,y_m\ncw,0.1,0.2\nccw,,0.1\n", "line 3: x_m is not a finite number (empty)"),
     ],
 )
 def test_cli_bad_umbmark_logs(content: str, message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

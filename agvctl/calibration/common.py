@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -43,30 +43,45 @@ class Estimate:
 
 
 def read_csv_columns(
-    path: str | Path, numeric: Sequence[str], text: Sequence[str] = ()
+    path: str | Path,
+    numeric: Sequence[str],
+    text: Sequence[str] = (),
+    choices: Mapping[str, Sequence[str]] | None = None,
 ) -> tuple[dict[str, NDArray[np.float64]], dict[str, list[str]]]:
     """Read the named columns of a CSV log with a header row; other columns are ignored.
 
-    Every numeric cell must parse as a finite number. Raises :class:`ConfigError` (one line) naming the file and
-    the first missing column, or the first row (1-based data row) and column that is empty or not a finite number.
+    Blank lines and lines starting with ``#`` are skipped; a byte-order mark (Excel's "CSV UTF-8") is dropped.
+    Every numeric cell must parse as a finite number; a text column named in ``choices`` must hold one of its
+    values (any case; returned in lower case).
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file and the first missing column, or the line (counted in the file, comments
+        included) and the column of the first cell that is empty, not a finite number or not one of its choices.
     """
     source = str(path)
     try:
-        with open(path, newline="", encoding="utf-8") as fh:
-            rows = list(csv.reader(fh))
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            reader = csv.reader(fh)
+            numbered = [(reader.line_num, row) for row in reader]
     except FileNotFoundError:
         raise ConfigError(source, "", "file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise ConfigError(source, "", f"cannot read: {exc}") from None
-    rows = [r for r in rows if r and not (len(r) == 1 and not r[0].strip()) and not r[0].lstrip().startswith("#")]
-    if not rows:
+    numbered = [
+        (n, r)
+        for n, r in numbered
+        if r and not (len(r) == 1 and not r[0].strip()) and not r[0].lstrip().startswith("#")
+    ]
+    if not numbered:
         raise ConfigError(source, "", "empty file (expected a header row naming the columns)")
-    header = [h.strip() for h in rows[0]]
+    header = [h.strip() for h in numbered[0][1]]
     missing = [name for name in (*numeric, *text) if name not in header]
     if missing:
         plural = "s" if len(missing) > 1 else ""
         raise ConfigError(source, "", f"missing column{plural} {', '.join(missing)}")
-    body = rows[1:]
+    body = numbered[1:]
     if not body:
         raise ConfigError(source, "", "no data rows")
     index = {name: header.index(name) for name in (*numeric, *text)}
@@ -74,7 +89,7 @@ def read_csv_columns(
     for name in numeric:
         col = np.empty(len(body))
         j = index[name]
-        for i, row in enumerate(body):
+        for i, (line, row) in enumerate(body):
             cell = row[j].strip() if j < len(row) else ""
             try:
                 value = float(cell)
@@ -82,8 +97,15 @@ def read_csv_columns(
                 value = math.nan
             if not math.isfinite(value):
                 shown = cell if cell else "empty"
-                raise ConfigError(source, f"row {i + 1}", f"{name} is not a finite number ({shown})")
+                raise ConfigError(source, f"line {line}", f"{name} is not a finite number ({shown})")
             col[i] = value
         values[name] = col
-    strings = {name: [(row[index[name]].strip() if index[name] < len(row) else "") for row in body] for name in text}
+    strings = {name: [(row[index[name]].strip() if index[name] < len(row) else "") for _, row in body] for name in text}
+    for name, allowed in (choices or {}).items():
+        strings[name] = [cell.lower() for cell in strings[name]]
+        for (line, _row), cell in zip(body, strings[name], strict=True):
+            if cell not in allowed:
+                raise ConfigError(
+                    source, f"line {line}", f"{name} must be {' or '.join(allowed)} (got {cell or 'empty'!r})"
+                )
     return values, strings

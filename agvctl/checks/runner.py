@@ -17,9 +17,10 @@ import dataclasses
 import functools
 import multiprocessing
 import os
+import signal
 import time
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor, as_completed
+from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, TypeVar
@@ -37,6 +38,7 @@ from agvctl.scenario.experiment import Experiment, load_experiment, run_experime
 __all__ = [
     "CheckWork",
     "ExecutorKind",
+    "InlineExecutor",
     "check_experiments",
     "execute",
     "load_check",
@@ -180,13 +182,64 @@ def resolved_jobs(jobs: int | None, executor: str) -> int:
     return n
 
 
+class InlineExecutor(Executor):
+    """Each task run in this thread as it is submitted: no worker, so nothing to start and nothing left running
+    after an interrupt (the run in progress stops with it)."""
+
+    def submit(self, fn: Callable[..., R], /, *args: Any, **kwargs: Any) -> Future[R]:
+        future: Future[R] = Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except Exception as exc:  # as a worker's: the task's error, in its future
+            future.set_exception(exc)
+        return future
+
+
+@contextlib.contextmanager
+def _sigint_blocked() -> Iterator[None]:
+    """SIGINT blocked in this thread meanwhile (and delivered when the block ends): worker processes and threads
+    started meanwhile inherit the block, so an interrupt (Ctrl-C reaches the whole process group) stops only this
+    process, which then stops them."""
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+@contextlib.contextmanager
+def _process_pool(jobs: int) -> Iterator[Executor]:
+    """``jobs`` spawned worker processes that never see SIGINT, terminated at once when the block is left by an
+    exception or an interrupt (a run in progress is abandoned) and shut down otherwise."""
+    # one thread per worker for the numerical libraries (as Dask does for its workers): with N workers on N cores
+    # their own thread pools would oversubscribe the machine several times over
+    saved = {k: os.environ.get(k) for k in _THREAD_VARS}
+    os.environ.update({k: "1" for k, v in saved.items() if v is None})
+    try:
+        with _sigint_blocked():
+            pool = ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"))
+        try:
+            yield pool
+        except BaseException:
+            for process in list(pool._processes.values()):
+                process.terminate()
+            raise
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+
+
 @contextlib.contextmanager
 def open_executor(kind: ExecutorKind, jobs: int, scheduler: str | None, n_tasks: int) -> Iterator[Executor]:
     """The executor the runs go to, shut down (its workers and any cluster of ours stopped) on leaving.
 
-    ``"local"``: ``jobs`` spawned worker processes, or, for one job or one task, one worker thread in this process
-    (no start-up cost; the runs go one after another). ``"dask"``: the ``concurrent.futures`` executor of a Dask
-    client of the scheduler at ``scheduler``, or of a local cluster of ``jobs`` worker processes.
+    ``"local"``: ``jobs`` spawned worker processes, or, for one job or one task, this process itself
+    (:class:`InlineExecutor`: no start-up cost; the runs go one after another). ``"dask"``: the
+    ``concurrent.futures`` executor of a Dask client of the scheduler at ``scheduler``, or of a local cluster of
+    ``jobs`` worker processes. An interrupt (SIGINT) reaches only this process; local workers are stopped with it.
     """
     if kind == "dask":
         try:
@@ -202,20 +255,11 @@ def open_executor(kind: ExecutorKind, jobs: int, scheduler: str | None, n_tasks:
             client.close()  # our own connection (and, without a scheduler, our own local cluster)
         return
     if jobs <= 1 or n_tasks <= 1:
-        with ThreadPoolExecutor(max_workers=1) as serial:
-            yield serial
+        with InlineExecutor() as inline:
+            yield inline
         return
-    # one thread per worker for the numerical libraries (as Dask does for its workers): with N workers on N cores
-    # their own thread pools would oversubscribe the machine several times over
-    saved = {k: os.environ.get(k) for k in _THREAD_VARS}
-    os.environ.update({k: "1" for k, v in saved.items() if v is None})
-    try:
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-            yield pool
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
+    with _process_pool(jobs) as pool:
+        yield pool
 
 
 def execute(
@@ -231,19 +275,30 @@ def execute(
     ``on_error(task, exception)`` when that is given; without it the first error stops all. ``run`` must be a
     module-level function (it is pickled for worker processes).
     """
-    futures = [pool.submit(run, task) for task in tasks]
-    task_of = dict(zip(futures, tasks, strict=True))
     outcomes: dict[Future[R], R] = {}
+
+    def record(done: int, future: Future[R], task: T) -> None:
+        try:
+            outcomes[future] = future.result()
+        except Exception as exc:
+            if on_error is None:
+                raise
+            outcomes[future] = on_error(task, exc)
+        if progress:
+            progress(done, len(tasks))
+
+    futures: list[Future[R]] = []
+    if isinstance(pool, InlineExecutor):  # each run in its turn, so progress comes run by run
+        for done, task in enumerate(tasks, start=1):
+            futures.append(pool.submit(run, task))
+            record(done, futures[-1], task)
+        return [outcomes[f] for f in futures]
+    with _sigint_blocked():  # worker processes start on the first submissions, and inherit the block
+        futures = [pool.submit(run, task) for task in tasks]
+    task_of = dict(zip(futures, tasks, strict=True))
     try:
         for done, future in enumerate(as_completed(futures), start=1):
-            try:
-                outcomes[future] = future.result()
-            except Exception as exc:
-                if on_error is None:
-                    raise
-                outcomes[future] = on_error(task_of[future], exc)
-            if progress:
-                progress(done, len(futures))
+            record(done, future, task_of[future])
     finally:
         for future in futures:
             future.cancel()  # after an error or an interrupt: the runs not started yet
@@ -303,7 +358,7 @@ def check_experiments(
         Experiment files, or the :class:`CheckWork` of :func:`load_check` (loaded already).
     jobs
         Local worker processes (default: all cores); with one job, or one run in all, the runs go one after another
-        in a worker thread of this process. With ``executor="dask"`` and no scheduler: the local cluster's workers.
+        in this process. With ``executor="dask"`` and no scheduler: the local cluster's workers.
     executor
         ``"local"``, or ``"dask"`` to send the runs to the Dask scheduler at ``scheduler``.
     scheduler

@@ -4,7 +4,7 @@ Each subcommand lives in its own module with ``register(subparsers)`` adding its
 ``func=run``, where ``run(args) -> int`` calls the public API and prints. Exit codes: 0 success, 1 a failed
 check, 2 bad input or any other :class:`~agvctl.errors.AgvctlError` (one line on stderr naming the file and
 key; no traceback), 3 a run of ``check`` or ``fuzz`` that could not be completed (it raised; reported with every
-other run).
+other run), 130 an interrupt (Ctrl-C: one line, no partial output; see :mod:`agvctl.__main__`).
 """
 
 from __future__ import annotations

@@ -7,7 +7,8 @@ error, and every other experiment is still run and reported; the JUnit XML and J
 * 1 — a limit was violated (every run completed);
 * 2 — bad input: a file, key or flag that cannot be used (one line on stderr; nothing is run, nothing written);
 * 3 — a run could not be completed (it raised): an ``<error>`` in the JUnit XML, ``"completed": false`` in the
-  JSON; this wins over 1.
+  JSON; this wins over 1;
+* 130 — interrupted (Ctrl-C): one line on stderr; no output is left half-written.
 """
 
 from __future__ import annotations
@@ -23,8 +24,8 @@ from agvctl.checks.report import CheckReport
 from agvctl.checks.runner import check_experiments, load_check
 from agvctl.cli.outputs import Output, check_outputs, writing
 from agvctl.cli.progress import ProgressBar
+from agvctl.cli.staging import check_replaceable, staged_outputs
 from agvctl.errors import ConfigError
-from agvctl.fileio import write_text
 from agvctl.plots import save_metric_histograms
 
 EXIT_PASSED, EXIT_VIOLATED, EXIT_RUN_ERROR = 0, 1, 3
@@ -35,7 +36,8 @@ EXIT_CODES = """exit codes:
   1  a limit was violated
   2  bad input (one line on stderr naming the file or flag; nothing is run or written)
   3  a run could not be completed (it raised): reported as an <error> in the JUnit XML and
-     "completed": false in the JSON, every other run still reported; wins over 1"""
+     "completed": false in the JSON, every other run still reported; wins over 1
+  130  interrupted (Ctrl-C): one line on stderr, no partial output, the workers stopped"""
 
 
 def register(sub: Any) -> None:
@@ -54,7 +56,9 @@ def register(sub: Any) -> None:
     p.add_argument("--executor", choices=("local", "dask"), default="local", help="where the runs go (default local)")
     p.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
     p.add_argument(
-        "--report-dir", metavar="DIR", help="histogram PNGs of every metric of Monte Carlo runs (default: out/check)"
+        "--report-dir",
+        metavar="DIR",
+        help="histogram PNGs of every metric of Monte Carlo runs, the folder replaced whole (default: out/check)",
     )
     p.set_defaults(func=run)
 
@@ -97,6 +101,8 @@ def run(args: argparse.Namespace) -> int:
     report_dir = Path(args.report_dir or "out/check")
     monte_carlo = any(len(tasks) > 1 or tasks[0].sample is not None for tasks in work.tasks)
     check_outputs(outputs, work.input_files, [("--report-dir", report_dir)] if monte_carlo else [])
+    if monte_carlo:
+        check_replaceable("--report-dir", report_dir, work.input_files)
     jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
     bar = ProgressBar("check:")
     try:
@@ -111,12 +117,13 @@ def run(args: argparse.Namespace) -> int:
         bar.close()
     # everything is computed before anything is written
     texts = {"--junit": junit_xml(report), "--json": json.dumps(report.as_dict(), indent=2) + "\n"}
-    for out in outputs:
-        with writing(out.flag, out.path):
-            write_text(out.path, texts[out.flag])
-    if report.monte_carlo:
-        with writing("--report-dir", report_dir):
-            save_metric_histograms(report, report_dir)
+    with staged_outputs("check") as staging:  # every output moved into place once all are written
+        if report.monte_carlo:
+            staged = staging.directory("--report-dir", report_dir)
+            with writing("--report-dir", report_dir):
+                save_metric_histograms(report, staged)
+        for out in outputs:
+            staging.write_text(out.flag, out.path, texts[out.flag])
     print(format_report(report))
     return exit_code(report)
 

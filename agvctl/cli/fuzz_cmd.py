@@ -20,9 +20,9 @@ from typing import Any
 from agvctl.checks.runner import resolved_jobs
 from agvctl.cli.outputs import Output, check_outputs, files_in, vehicle_input, writing
 from agvctl.cli.progress import ProgressBar
+from agvctl.cli.staging import check_replaceable, staged_outputs
 from agvctl.errors import ConfigError
 from agvctl.evaluation.limits import LIMITS
-from agvctl.fileio import write_text
 from agvctl.fuzz.report import FUZZ_METRICS, FuzzOutcome, FuzzReport
 from agvctl.fuzz.run import FuzzRun, fuzz_tasks, run_fuzz
 from agvctl.fuzz.spec import load_fuzz_config, override_fuzz_config
@@ -42,7 +42,7 @@ def register(sub: Any) -> None:
         "(it raised or broke down numerically: a JUnit <error>; wins over 1).",
     )
     p.add_argument("config", metavar="FUZZ.toml")
-    p.add_argument("--out", metavar="DIR", help="output directory (default: out/fuzz/<name>)")
+    p.add_argument("--out", metavar="DIR", help="output directory, replaced whole (default: out/fuzz/<name>)")
     p.add_argument("--jobs", type=int, default=None, metavar="N", help="local worker processes (default: all cores)")
     p.add_argument("--executor", choices=("local", "dask"), default="local", help="where the runs go (default local)")
     p.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
@@ -160,7 +160,8 @@ def _check_outputs(args: argparse.Namespace, work: FuzzRun, out_dir: Path) -> No
     if args.junit:
         outputs.append(Output("--junit", Path(args.junit)))
     inputs = [Path(args.config), vehicle_input(work.spec.vehicle)]
-    check_outputs(outputs, inputs, [("--out", out_dir), ("--out", out_dir / "failures")])
+    check_outputs(outputs, inputs, [("--out", out_dir)])
+    check_replaceable("--out", out_dir, inputs)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -188,13 +189,15 @@ def run(args: argparse.Namespace) -> int:
     texts.update({out_dir / "failures" / name: text for name, text in failures.items()})
     if args.junit:
         texts[Path(args.junit)] = report.junit()
-    for path, text in texts.items():
-        with writing("--junit" if args.junit and path == Path(args.junit) else "--out", path):
-            write_text(path, text)
-    written = [str(out_dir / "summary.json")]
-    if not args.no_plot:
-        with writing("--out", out_dir / "fuzz.png"):
-            written.append(str(save_fuzz_plot(report, out_dir / "fuzz.png")))
+    with staged_outputs("fuzz") as staging:  # the folder replaced whole, once every file is written
+        staged = staging.directory("--out", out_dir)
+        for path, text in texts.items():
+            staging.write_text("--junit" if args.junit and path == Path(args.junit) else "--out", path, text)
+        written = [str(out_dir / "summary.json")]
+        if not args.no_plot:
+            with writing("--out", out_dir / "fuzz.png"):
+                save_fuzz_plot(report, staged / "fuzz.png")
+            written.append(str(out_dir / "fuzz.png"))
     print(format_fuzz_report(report))
     print(f"wrote {', '.join(written)}" + (f", {args.junit}" if args.junit else ""))
     if failures:

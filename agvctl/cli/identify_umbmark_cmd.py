@@ -16,6 +16,7 @@ from agvctl.calibration import (
     umbmark_correction,
 )
 from agvctl.calibration.umbmark import POSITION_NOISE_M, UmbmarkCorrection
+from agvctl.calibration.umbmark.experiment import MAX_RUNS_PER_DIRECTION, MAX_SIDE_LENGTH_M
 from agvctl.cli.identify_common import add_common_options, check_common, command_line, table, vehicles, write_vehicle
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams, load_vehicle
@@ -55,10 +56,10 @@ def run(args: argparse.Namespace) -> int:
     check_common(args)
     if bool(args.log) == bool(args.simulate):
         raise ConfigError("identify umbmark", "", "give exactly one of --log RUNS.csv and --simulate")
-    if not (math.isfinite(args.side_m) and args.side_m > 0):
-        raise ConfigError("--side-m", "", f"must be > 0 (got {args.side_m:g})")
-    if args.runs < 1:
-        raise ConfigError("--runs", "", f"must be >= 1 (got {args.runs})")
+    if not (math.isfinite(args.side_m) and 0 < args.side_m <= MAX_SIDE_LENGTH_M):
+        raise ConfigError("--side-m", "", f"must be > 0 and <= {MAX_SIDE_LENGTH_M:g} m (got {args.side_m:g})")
+    if not 1 <= args.runs <= MAX_RUNS_PER_DIRECTION:
+        raise ConfigError("--runs", "", f"must be >= 1 and <= {MAX_RUNS_PER_DIRECTION} (got {args.runs})")
     nominal = load_vehicle(args.vehicle)
     demo = [
         f"wheels.right.radius_m={nominal.wheels.left.radius_m * DEMO_UMBMARK_RATIO!r}",

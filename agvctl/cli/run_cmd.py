@@ -10,6 +10,7 @@ from typing import Any
 from agvctl.checks.summary import run_summary
 from agvctl.cli.outputs import check_outputs, files_in, writing
 from agvctl.cli.progress import ProgressBar
+from agvctl.cli.staging import check_replaceable, staged_outputs
 from agvctl.planning.headroom import limits_report
 from agvctl.plots import CLOSED_LOOP_PLOTS
 from agvctl.reports import RUN_FILES, write_run_outputs
@@ -24,7 +25,7 @@ def register(sub: Any) -> None:
         "wheel loops through the DA converter and amplifier on the full plant, write the log, a summary and plots.",
     )
     p.add_argument("experiment", metavar="EXPERIMENT.toml")
-    p.add_argument("--out", metavar="DIR", help="output directory (default: out/<experiment name>)")
+    p.add_argument("--out", metavar="DIR", help="output directory, replaced whole (default: out/<experiment name>)")
     p.add_argument("--no-plot", action="store_true", help="skip the PNG plots")
     p.add_argument("--json", action="store_true", help="print summary.json instead of the report")
     p.set_defaults(func=run)
@@ -86,14 +87,18 @@ def run(args: argparse.Namespace) -> int:
     out_dir = Path(args.out) if args.out else Path("out") / name
     names = RUN_FILES if args.no_plot else (*RUN_FILES, *CLOSED_LOOP_PLOTS, "estimate.png")
     check_outputs(files_in("--out", out_dir, names), experiment.input_files, [("--out", out_dir)])
+    check_replaceable("--out", out_dir, experiment.input_files)
     bar = ProgressBar(f"{name}:")
     try:
         result = run_experiment(experiment, progress=bar)
     finally:
         bar.close()
     summary = run_summary(experiment, result)
-    with writing("--out", out_dir):
-        written = write_run_outputs(experiment, result, summary, out_dir, plots=not args.no_plot)
+    with staged_outputs("run") as staging:  # the folder is replaced whole, once every file is written
+        staged = staging.directory("--out", out_dir)
+        with writing("--out", out_dir):
+            written = write_run_outputs(experiment, result, summary, staged, plots=not args.no_plot)
+    written = [out_dir / p.relative_to(staged) for p in written]
     if args.json:
         print(json.dumps(summary, indent=2))
     else:

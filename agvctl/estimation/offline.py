@@ -28,6 +28,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
+from agvctl.config import read_text
+from agvctl.errors import ConfigError
 from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator
 from agvctl.estimation.ekf import EkfSettings, PoseEkf
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
@@ -66,11 +68,39 @@ ESTIMATE_COLUMNS = (
 
 
 def read_log(path: str | Path) -> SimLog:
-    """A log written by :meth:`SimLog.to_csv` (``agvctl run``'s ``log.csv``), every column as floats."""
-    with open(path, newline="", encoding="utf-8") as fh:
-        header = next(csv.reader(fh))
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    """A log written by :meth:`SimLog.to_csv` (``agvctl run``'s ``log.csv``), every column as floats. A byte-order
+    mark (Excel's "CSV UTF-8") is dropped.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file and, where it applies, the line: a missing or unreadable file, an empty file or
+        header, a row of another length than the header, a cell that is not a number (NaN is kept: the log writes
+        it for values that do not apply).
+    """
+    source = str(path)
+    rows = list(csv.reader(read_text(path).splitlines()))
+    if not rows or not any(cell.strip() for cell in rows[0]):
+        raise ConfigError(source, "", "empty file (expected a header row naming the columns)")
+    header = [h.strip() for h in rows[0]]
+    data = np.empty((len(rows) - 1, len(header)))
+    for i, row in enumerate(rows[1:]):
+        if len(row) != len(header):
+            raise ConfigError(source, f"line {i + 2}", f"expected {len(header)} cells (got {len(row)})")
+        try:
+            data[i] = [float(cell) for cell in row]
+        except ValueError:
+            bad = next(c for c in row if not _is_number(c))
+            raise ConfigError(source, f"line {i + 2}", f"not a number: {bad[:40]!r}") from None
     return SimLog({name: np.array(data[:, j]) for j, name in enumerate(header)})
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
 
 
 def resense_log(log: SimLog, vehicle: VehicleParams, *, seed: int) -> SimLog:

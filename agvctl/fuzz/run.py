@@ -2,7 +2,7 @@
 
 :func:`fuzz` draws every scenario in this process (:mod:`agvctl.fuzz.generate`; scenario i of seed s from
 (s, i) alone), turns each into its path and experiment files (one per controller) and sends them to the executor
-of ``agvctl check`` (:func:`agvctl.checks.runner.open_executor`: a worker thread, spawned local processes or a
+of ``agvctl check`` (:func:`agvctl.checks.runner.open_executor`: this process, spawned local processes or a
 Dask cluster). A worker writes the files into a temporary directory, loads them with
 :func:`~agvctl.scenario.experiment.load_experiment` — exactly what ``agvctl run`` does with the written-out file — runs
 the closed loop and returns the metrics and the verdicts of the gate ``agvctl check`` applies: the default gate
@@ -159,7 +159,7 @@ def fuzz(
     spec
         From :func:`~agvctl.fuzz.spec.load_fuzz_config`.
     jobs
-        Local worker processes (default: all cores); one job runs in a worker thread of this process. With
+        Local worker processes (default: all cores); one job runs in this process. With
         ``executor="dask"`` and no scheduler: the local Dask cluster's workers.
     executor
         ``"local"``, or ``"dask"`` to send the runs to the Dask scheduler at ``scheduler``.

@@ -20,7 +20,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from agvctl.config import apply_overrides, build, join_key, load_toml, number, parse_override, to_dict
+import numpy as np
+
+from agvctl.config import apply_overrides, build, check_fields, join_key, load_toml, number, parse_override, to_dict
 from agvctl.errors import ConfigError
 from agvctl.params.derived import (
     DerivedConstants,
@@ -43,7 +45,11 @@ __all__ = [
     "FrameParams",
     "FrictionModelParams",
     "SensorParams",
+    "MAX_PLANT_SUBSTEPS",
+    "MAX_SAMPLES_PER_RUN",
+    "PLANT_STIFFNESS_STEP",
     "VehicleParams",
+    "check_sample_count",
     "default_vehicle_path",
     "derive",
     "inertia_from_dimensions",
@@ -52,6 +58,28 @@ __all__ = [
 ]
 
 InertiaAbout = Literal["rotation_point", "center_of_mass"]
+
+MAX_SAMPLES_PER_RUN = 10_000_000
+"""The most control samples one run may take — a planned reference, an open-loop or a closed-loop simulation:
+10^7, 4.6 days at 40 ms. A closed-loop log holds about a hundred columns of 8 bytes, so some 8 GB at the bound."""
+PLANT_STIFFNESS_STEP = 0.4
+"""Largest h·λ the plant's RK4 substeps allow for the stiffest mode (RK4's real-axis stability limit is 2.78)."""
+MAX_PLANT_SUBSTEPS = 4096
+"""The most RK4 substeps per control sample: 10 µs steps at 40 ms; a vehicle needing more is refused."""
+
+
+def check_sample_count(samples: float, source: str, key: str, what: str) -> None:
+    """Refuse a run of more than :data:`MAX_SAMPLES_PER_RUN` samples before anything is allocated for it.
+
+    Raises
+    ------
+    ConfigError
+        ``"<source>: <key>: <what> would take <n> samples, above the maximum 10000000 per run"``.
+    """
+    if not samples <= MAX_SAMPLES_PER_RUN:
+        raise ConfigError(
+            source, key, f"{what} would take {samples:.4g} samples, above the maximum {MAX_SAMPLES_PER_RUN} per run"
+        )
 
 
 @dataclass(frozen=True)
@@ -65,6 +93,9 @@ class FrameParams:
     front_to_rotation_point_m: float = number(ge=0, doc="d_of (l_of in eq 64)")
     wheel_axis_to_castor_m: float = number(gt=0, doc="d_wc (eq 63)")
 
+    def __post_init__(self) -> None:
+        check_fields(self)
+
 
 @dataclass(frozen=True)
 class BatteryParams:
@@ -74,6 +105,9 @@ class BatteryParams:
     width_m: float = number(gt=0)
     height_m: float = number(gt=0)
     mass_kg: float = number(gt=0)
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 @dataclass(frozen=True)
@@ -85,6 +119,9 @@ class BodyParams:
     com_behind_axle_m: float = number()
     inertia_about: InertiaAbout = "rotation_point"
 
+    def __post_init__(self) -> None:
+        check_fields(self)
+
 
 @dataclass(frozen=True)
 class AmplifierParams:
@@ -94,6 +131,9 @@ class AmplifierParams:
     current_limit_a: float = number(gt=0, doc="I_max")
     voltage_limit_v: float = number(gt=0, doc="u_max")
 
+    def __post_init__(self) -> None:
+        check_fields(self)
+
 
 @dataclass(frozen=True)
 class DAParams:
@@ -102,6 +142,9 @@ class DAParams:
     min_v: float = number()
     max_v: float = number()
     bits: int = number(gt=0, le=32)
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
     def validate(self, *, source: str, prefix: str) -> None:
         if not self.min_v < self.max_v:
@@ -133,6 +176,9 @@ class FrictionModelParams:
 
     p_factor: float = number(gt=0, default=10.0)
 
+    def __post_init__(self) -> None:
+        check_fields(self)
+
 
 @dataclass(frozen=True)
 class SensorParams:
@@ -150,12 +196,18 @@ class SensorParams:
     heading_fix_sigma_deg: float = number(gt=0, default=0.5)
     position_fix_latency_s: float = number(ge=0, le=10.0, default=0.05)
 
+    def __post_init__(self) -> None:
+        check_fields(self)
+
 
 @dataclass(frozen=True)
 class ControlParams:
     """Digital control: the sample period T_s."""
 
-    sample_period_s: float = number(gt=0)
+    sample_period_s: float = number(ge=1e-4, le=1.0, doc="0.1 ms … 1 s")
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 @dataclass(frozen=True)
@@ -197,6 +249,24 @@ class VehicleParams:
             derived = {}
         if not derived or not all(math.isfinite(v) for v in derived.values()):
             raise ConfigError(source, prefix, "the derived constants overflow: a value is far out of range")
+        substeps = self.control.sample_period_s * self.stiffest_rate_1_s() / PLANT_STIFFNESS_STEP
+        if not substeps <= MAX_PLANT_SUBSTEPS:
+            raise ConfigError(
+                source,
+                "friction_model.p_factor",
+                f"the plant would need {substeps:.3g} RK4 substeps per control sample, above the maximum "
+                f"{MAX_PLANT_SUBSTEPS} (the stiction spring P against the motor inertia; lower p_factor)",
+            )
+
+    def stiffest_rate_1_s(self) -> float:
+        """λ_max (1/s), the largest eigenvalue of M⁻¹·diag(max(P, k_e k_t/R + f_m)), M the motor-side mass matrix
+        of eqs 56-57: the stiction spring of eqs 2-3 (or the back-EMF damping, if P is set below it) against the
+        inertia. It sets the plant's RK4 substeps (:data:`PLANT_STIFFNESS_STEP`)."""
+        d = self.derived
+        ml, mr = self.motor.left, self.motor.right
+        mass = np.array([[ml.inertia_kg_m2 + d.k_ll, d.k_lr], [d.k_lr, mr.inertia_kg_m2 + d.k_rr]])
+        stiffness = [max(side.friction_gain_p, side.damping_n_m_s_rad) for side in (d.left, d.right)]
+        return float(np.max(np.abs(np.linalg.eigvals(np.linalg.solve(mass, np.diag(stiffness))))))
 
     @property
     def derived(self) -> DerivedConstants:

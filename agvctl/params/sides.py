@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
-from agvctl.config import convert_value, did_you_mean, join_key, number, renamed
+from agvctl.config import check_fields, convert_value, did_you_mean, join_key, number, renamed
 from agvctl.errors import ConfigError
 from agvctl.params.derived import Side
 
@@ -74,6 +74,9 @@ class WheelSide:
 
     radius_m: float = number(gt=0)
 
+    def __post_init__(self) -> None:
+        check_fields(self)
+
 
 _WHEEL_SIDE_KEYS = tuple(f.name for f in dataclasses.fields(WheelSide))
 _RENAMED_WHEEL_KEYS = {"radius_left_m": "left.radius_m", "radius_right_m": "right.radius_m"}
@@ -132,6 +135,9 @@ class MotorParams:
     coulomb_friction_n_m: float = number(ge=0, doc="tau_c")
     stiction_n_m: float = number(ge=0, doc="tau_s, the break-away torque")
     gear_ratio: float = number(gt=0, doc="N")
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
     def validate(self, *, source: str, prefix: str) -> None:
         if self.coulomb_friction_n_m > self.stiction_n_m:

@@ -26,20 +26,26 @@ import numpy as np
 
 from agvctl.errors import ConfigError, PlanningError
 from agvctl.params import VehicleParams, load_vehicle
+from agvctl.planning.arguments import MAX_DURATION_S, check_arguments, check_geometry, check_reference
 from agvctl.planning.curve import Curve
 from agvctl.planning.geometry import Pose, segment_kinematics
 from agvctl.planning.joins import JoinWindow, design_join
 from agvctl.planning.profile import _Solver, rest_to_rest
 from agvctl.planning.reference import Motion, Reference
-from agvctl.planning.spec import PathSpec, Segment, Waypoint, WheelLimits, load_path, resolve_limits
+from agvctl.planning.spec import (
+    MAX_SEGMENTS,
+    PathSpec,
+    Segment,
+    Waypoint,
+    WheelLimits,
+    check_waypoints,
+    load_path,
+    resolve_limits,
+)
 from agvctl.planning.speed import SectionLimits, plan_speed, section_limits
 from agvctl.planning.waypoints import waypoint_curve
 
 __all__ = ["MAX_DURATION_S", "plan", "plan_file", "plan_segments", "plan_waypoints"]
-
-MAX_DURATION_S = 24 * 3600.0
-"""The longest reference planned (one day): a longer one is a typing error, not a drive, and its samples would
-not fit in memory."""
 
 Join = Literal["smooth", "stop"]
 _Part = tuple[int, float, float, float | None]  # segment index, distance, curvature, speed cap
@@ -96,7 +102,8 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
         if spec.waypoints:
             reference = plan_waypoints(spec.waypoints, source=spec.source, **common)  # type: ignore[arg-type]
         else:
-            reference = plan_segments(spec.segments, start_pose=Pose.from_start(spec.start), join=spec.join, **common)  # type: ignore[arg-type]
+            start = Pose.from_start(spec.start)
+            reference = _segments_reference(spec.segments, start_pose=start, join=spec.join, **common)  # type: ignore[arg-type]
     except _Failure as exc:
         raise ConfigError(spec.source, exc.key, exc.problem) from None
     except ConfigError:
@@ -104,13 +111,7 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
     except (ValueError, ArithmeticError) as exc:  # a numerical failure no validation foresaw: still one line
         key = "waypoints" if spec.waypoints else "segments"
         raise ConfigError(spec.source, key, f"cannot be planned: {exc}") from None
-    if not reference.duration_s <= MAX_DURATION_S:
-        key = "waypoints" if spec.waypoints else "segments"
-        raise ConfigError(
-            spec.source,
-            key,
-            f"the reference would last {reference.duration_s:.4g} s, above the maximum {MAX_DURATION_S:g} s",
-        )
+    check_reference(reference, spec.source, "waypoints" if spec.waypoints else "segments")
     return reference
 
 
@@ -150,11 +151,43 @@ def plan_segments(
 ) -> Reference:
     """Plan segments with explicit limits and geometry (no vehicle file): the core of :func:`plan`.
 
-    ``start_pose`` defaults to the origin, heading along x. Raises a one-line :class:`PlanningError`
-    naming the segment (``segments[i]: …``) if a motion cannot be planned.
+    ``start_pose`` defaults to the origin, heading along x.
+
+    Raises
+    ------
+    ConfigError
+        ``plan_segments: <argument>: <problem>``: no segment or more than :data:`~agvctl.planning.spec.MAX_SEGMENTS`,
+        a segment of zero length or angle, ``join`` not ``"smooth"`` or ``"stop"``, ``separation_m`` or
+        ``sample_period_s`` not finite and > 0, or a reference longer than :data:`MAX_DURATION_S` or of more than
+        :data:`~agvctl.params.schema.MAX_SAMPLES_PER_RUN` samples.
+    PlanningError
+        One line naming the segment (``segments[i]: …``) if a motion cannot be planned.
     """
-    if not segments:
-        raise ValueError("plan_segments: at least one segment is required")
+    check_arguments(segments, join, separation_m, sample_period_s)
+    reference = _segments_reference(
+        segments,
+        limits=limits,
+        separation_m=separation_m,
+        sample_period_s=sample_period_s,
+        start_pose=start_pose,
+        name=name,
+        join=join,
+    )
+    check_reference(reference, "plan_segments", "segments")
+    return reference
+
+
+def _segments_reference(
+    segments: Sequence[Segment],
+    *,
+    limits: WheelLimits,
+    separation_m: float,
+    sample_period_s: float,
+    start_pose: Pose | None = None,
+    name: str = "path",
+    join: Join = "smooth",
+) -> Reference:
+    """:func:`plan_segments` of arguments checked already."""
     half_b = 0.5 * separation_m
     pose = start_pose if start_pose is not None else Pose(0.0, 0.0, 0.0)
     solver = _Solver()
@@ -173,7 +206,7 @@ def plan_segments(
             raise _Failure(f"segments[{parts[0][0]}]", f"cannot be planned: {exc}") from None
         motions += new
         t, pose = new[-1].t_end_s, new[-1].end_pose
-    return Reference(
+    reference = Reference(
         name=name,
         motions=motions,
         limits=limits,
@@ -183,6 +216,7 @@ def plan_segments(
         segment_count=len(segments),
         geometry_deviation_m=deviation,
     )
+    return reference
 
 
 def _starts(lengths: Sequence[float]) -> tuple[float, ...]:
@@ -374,8 +408,23 @@ def plan_waypoints(
     source: str = "<path>",
 ) -> Reference:
     """Plan a path through waypoints with explicit limits (no vehicle file): one motion, its speed planned on
-    sections of :data:`WAYPOINT_SECTION_PIECES` curve pieces. Bad waypoints raise a one-line
-    :class:`ConfigError` naming ``source``; a failure to plan a :class:`PlanningError` naming the waypoint."""
+    sections of :data:`WAYPOINT_SECTION_PIECES` curve pieces.
+
+    Raises
+    ------
+    ConfigError
+        One line naming ``source``: bad waypoints, more than :data:`~agvctl.planning.spec.MAX_SEGMENTS` of them,
+        ``separation_m`` or ``sample_period_s`` not finite and > 0, a reference too long or of too many samples.
+    PlanningError
+        One line naming the waypoint, if the path cannot be planned.
+    """
+    if len(waypoints) > MAX_SEGMENTS:
+        raise ConfigError(source, "waypoints", f"at most {MAX_SEGMENTS} (got {len(waypoints)})")
+    for i, point in enumerate(waypoints):
+        if not isinstance(point, Waypoint):
+            raise ConfigError(source, f"waypoints[{i}]", f"expected a Waypoint (got {point!r})")
+    check_waypoints(waypoints, source)
+    check_geometry(source, separation_m, sample_period_s)
     curve, s_i, deviation = waypoint_curve(waypoints, source=source)
     half_b = 0.5 * separation_m
     bounds = curve.piece_bounds()
@@ -399,7 +448,7 @@ def plan_waypoints(
         )
     except (ValueError, ArithmeticError) as exc:
         raise _Failure("waypoints", f"cannot be planned: {exc}") from None
-    return Reference(
+    reference = Reference(
         name=name,
         motions=[motion],
         limits=limits,
@@ -409,3 +458,5 @@ def plan_waypoints(
         segment_count=len(s_i) - 1,
         geometry_deviation_m=deviation,
     )
+    check_reference(reference, source, "waypoints")
+    return reference

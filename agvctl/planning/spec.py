@@ -47,7 +47,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from agvctl.config import build, did_you_mean, load_toml, number
+from agvctl.config import build, check_fields, did_you_mean, load_toml, number
 from agvctl.errors import ConfigError
 from agvctl.feasibility import (
     CURRENT_HEADROOM,
@@ -86,6 +86,10 @@ MAX_WAYPOINT_COORDINATE_M = 1e6
 """The largest |x_m|, |y_m| of a waypoint: a thousand kilometres, beyond a day's drive (the planner's maximum
 reference duration) and within the range where the spline fit stays well conditioned."""
 
+MAX_SEGMENTS = 10_000
+"""The most segments (or waypoints) of one path: a hundred times the longest hall route, and a bound on the
+planning work (each segment is a motion or a join to solve)."""
+
 
 class PhysicalLimitWarning(UserWarning):
     """A limit above what the vehicle can physically do was accepted because ``force=True``."""
@@ -99,6 +103,9 @@ class StartPose:
     y_m: float = number(default=0.0)
     theta_deg: float = number(default=0.0)
 
+    def __post_init__(self) -> None:
+        check_fields(self)
+
 
 @dataclass(frozen=True)
 class PathLimits:
@@ -108,10 +115,19 @@ class PathLimits:
     wheel_accel_m_s2: float | None = number(gt=0, default=None)
     wheel_jerk_m_s3: float | None = number(gt=0, default=None)
 
+    def __post_init__(self) -> None:
+        check_fields(self)
+
 
 @dataclass(frozen=True)
 class WheelLimits:
-    """Resolved per-wheel limits: |wheel speed|, |wheel acceleration| and |wheel jerk| of either wheel."""
+    """Resolved per-wheel limits: |wheel speed|, |wheel acceleration| and |wheel jerk| of either wheel.
+
+    Raises
+    ------
+    ConfigError
+        ``WheelLimits: <argument>: must be finite and > 0``.
+    """
 
     wheel_speed_m_s: float
     wheel_accel_m_s2: float
@@ -120,8 +136,12 @@ class WheelLimits:
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"WheelLimits.{f.name} must be finite and > 0 (got {value})")
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float))
+                or not (math.isfinite(value) and value > 0)
+            ):
+                raise ConfigError("WheelLimits", f.name, f"must be finite and > 0 (got {value!r})")
 
 
 def _nonzero(value: float, source: str, prefix: str, key: str) -> None:
@@ -137,6 +157,9 @@ class LineSegment:
     speed_m_s: float | None = number(gt=0, default=None)
     type: Literal["line"] = "line"
 
+    def __post_init__(self) -> None:
+        check_fields(self)
+
     def validate(self, *, source: str, prefix: str) -> None:
         _nonzero(self.length_m, source, prefix, "length_m")
 
@@ -148,6 +171,9 @@ class TurnSegment:
     angle_deg: float = number()
     speed_m_s: float | None = number(gt=0, default=None)
     type: Literal["turn"] = "turn"
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
     def validate(self, *, source: str, prefix: str) -> None:
         _nonzero(self.angle_deg, source, prefix, "angle_deg")
@@ -162,6 +188,9 @@ class ArcSegment:
     speed_m_s: float | None = number(gt=0, default=None)
     type: Literal["arc"] = "arc"
 
+    def __post_init__(self) -> None:
+        check_fields(self)
+
     def validate(self, *, source: str, prefix: str) -> None:
         _nonzero(self.angle_deg, source, prefix, "angle_deg")
 
@@ -173,6 +202,9 @@ class Waypoint:
     x_m: float = number(ge=-MAX_WAYPOINT_COORDINATE_M, le=MAX_WAYPOINT_COORDINATE_M)
     y_m: float = number(ge=-MAX_WAYPOINT_COORDINATE_M, le=MAX_WAYPOINT_COORDINATE_M)
     theta_deg: float | None = number(default=None)
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 Segment = LineSegment | TurnSegment | ArcSegment
@@ -222,17 +254,22 @@ class PathSpec:
     join: Literal["smooth", "stop"] = "smooth"
 
     def __post_init__(self) -> None:
+        check_fields(self)
         object.__setattr__(self, "segments", tuple(self.segments))
         object.__setattr__(self, "waypoints", tuple(self.waypoints))
+        for key in ("segments", "waypoints"):
+            if len(getattr(self, key)) > MAX_SEGMENTS:
+                raise ConfigError(self.source, key, f"at most {MAX_SEGMENTS} (got {len(getattr(self, key))})")
         if self.segments and self.waypoints:
             raise ConfigError(self.source, "waypoints", "give either [[segments]] or [[waypoints]], not both")
         if self.waypoints:
-            _check_waypoints(self.waypoints, self.source)
+            check_waypoints(self.waypoints, self.source)
         elif not self.segments:
             raise ConfigError(self.source, "segments", "at least one segment is required")
 
 
-def _check_waypoints(waypoints: Sequence[Waypoint], source: str) -> None:
+def check_waypoints(waypoints: Sequence[Waypoint], source: str) -> None:
+    """At least two waypoints, no two consecutive ones on the same point; else a ConfigError naming ``source``."""
     if len(waypoints) < 2:
         raise ConfigError(source, "waypoints", f"at least 2 waypoints are required (got {len(waypoints)})")
     for i in range(1, len(waypoints)):
@@ -265,6 +302,9 @@ def load_path(path: str | Path) -> PathSpec:
     """
     source = str(path)
     raw = load_toml(path)
+    for key in ("segments", "waypoints"):  # before any of them is built
+        if isinstance(raw.get(key), list) and len(raw[key]) > MAX_SEGMENTS:
+            raise ConfigError(source, key, f"at most {MAX_SEGMENTS} (got {len(raw[key])})")
     data = build(_PathFile, raw, source=source)  # unknown keys are reported first
     if "segments" not in raw and "waypoints" not in raw:
         raise ConfigError(source, "segments", "missing key (add [[segments]] or [[waypoints]] tables)")
@@ -272,7 +312,7 @@ def load_path(path: str | Path) -> PathSpec:
         if "start" in raw:
             raise ConfigError(source, "start", "a waypoint path starts at its first waypoint; remove start")
         if "segments" not in raw:
-            _check_waypoints(data.waypoints, source)
+            check_waypoints(data.waypoints, source)
     segments: Sequence[Any] = data.segments
     return PathSpec(
         segments=tuple(segments),

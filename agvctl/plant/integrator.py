@@ -25,7 +25,9 @@ import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
+from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
+from agvctl.params.schema import MAX_PLANT_SUBSTEPS, PLANT_STIFFNESS_STEP
 from agvctl.plant.codegen import NumericFunction, cache_dir, native_functions
 from agvctl.plant.full import AUX_NAMES, INPUT_NAMES, PARAMETER_NAMES, STATE_NAMES, FullModel, PlantOptions
 
@@ -60,23 +62,31 @@ MIN_SUBSTEPS_PER_SAMPLE_S = 1.0 / 0.005
 """At least one substep per 5 ms (8 per 40 ms sample): errors ~50x below the accuracy goal on the default AGV."""
 KERNEL_SUBSTEPS = 8
 """RK4 substeps in the compiled sample kernel."""
-STIFFNESS_STEP = 0.4
+STIFFNESS_STEP = PLANT_STIFFNESS_STEP
 """Largest h·λ allowed for the stiffest mode (RK4's real-axis stability limit is 2.78)."""
 
 
 def choose_substeps(vehicle: VehicleParams) -> int:
     """RK4 substeps per sample for ``vehicle``: at least one per 5 ms, and h·λ_max ≤ 0.4, rounded up to 2^k.
 
-    λ_max is the largest eigenvalue of M⁻¹·diag(max(P, k_e k_t/R + f_m)), M the motor-side mass matrix of eqs
-    56-57: the stiction spring of eqs 2-3 (or the back-EMF damping, if P is set below it) against the inertia.
+    λ_max is :meth:`~agvctl.params.VehicleParams.stiffest_rate_1_s`: the stiction spring of eqs 2-3 (or the
+    back-EMF damping, if P is set below it) against the inertia.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``friction_model.p_factor`` when more than :data:`~agvctl.params.schema.MAX_PLANT_SUBSTEPS` would be
+        needed (a vehicle loaded from a file is refused so when it is loaded).
     """
-    d = vehicle.derived
-    ml, mr = vehicle.motor.left, vehicle.motor.right
-    mass = np.array([[ml.inertia_kg_m2 + d.k_ll, d.k_lr], [d.k_lr, mr.inertia_kg_m2 + d.k_rr]])
-    stiffness = [max(side.friction_gain_p, side.damping_n_m_s_rad) for side in (d.left, d.right)]
-    lam = float(np.max(np.abs(np.linalg.eigvals(np.linalg.solve(mass, np.diag(stiffness))))))
     ts = vehicle.control.sample_period_s
-    needed = max(ts * MIN_SUBSTEPS_PER_SAMPLE_S, ts * lam / STIFFNESS_STEP, 1.0)
+    needed = max(ts * MIN_SUBSTEPS_PER_SAMPLE_S, ts * vehicle.stiffest_rate_1_s() / STIFFNESS_STEP, 1.0)
+    if not needed <= MAX_PLANT_SUBSTEPS:
+        raise ConfigError(
+            f"vehicle {vehicle.name}",
+            "friction_model.p_factor",
+            f"the plant would need {needed:.3g} RK4 substeps per control sample, above the maximum "
+            f"{MAX_PLANT_SUBSTEPS}",
+        )
     return int(2 ** math.ceil(math.log2(needed - 1e-9)))
 
 

@@ -16,6 +16,7 @@ from typing import Any, Literal
 from agvctl.config import (
     build,
     build_fields,
+    check_fields,
     check_plain_name,
     convert_value,
     did_you_mean,
@@ -41,6 +42,9 @@ class PlantSpec:
     initial_pose: StartPose | None = None
     sensor_seed: int = number(ge=0, default=0)
     """The seed of the true vehicle's sensor noise (encoder phases, gyro, fixes)."""
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
     @classmethod
     def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> PlantSpec:
@@ -99,6 +103,7 @@ class ControllerSpec:
     """The pose controller's settings (an instance of its registry entry's ``settings``), validated once."""
 
     def __post_init__(self) -> None:
+        check_fields(self)
         kind = POSE_CONTROLLERS.get(self.pose)
         if self.pose_settings is None and kind is not None and kind.settings is not None:
             object.__setattr__(self, "pose_settings", kind.settings())
@@ -142,6 +147,9 @@ class Spread:
     relative: float
     """Half-width of the uniform interval (value · (1 ± relative)) or the Gaussian sigma (value · (1 + N(0, σ)))."""
 
+    def __post_init__(self) -> None:
+        check_fields(self)
+
 
 @dataclass(frozen=True)
 class RobustnessSpec:
@@ -150,6 +158,9 @@ class RobustnessSpec:
     samples: int = number(ge=1, le=100000, default=100)
     seed: int = number(ge=0, default=0)
     spread: dict[str, Spread] = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
     @classmethod
     def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> RobustnessSpec:
@@ -198,6 +209,9 @@ class ExperimentSpec:
     limits: LimitsSpec = dataclasses.field(default_factory=LimitsSpec)
     robustness: RobustnessSpec | None = None
     source: str = dataclasses.field(default="<experiment>", metadata={"derived": True})
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
     @property
     def base_dir(self) -> Path:

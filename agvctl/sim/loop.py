@@ -34,6 +34,7 @@ from agvctl.evaluation.metrics import NON_FINITE_COMMAND_STATUS
 from agvctl.evaluation.path_metrics import path_error_columns
 from agvctl.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.params import SIDES, VehicleParams
+from agvctl.params.schema import check_sample_count
 from agvctl.planning.reference import Reference, ReferenceSamples
 from agvctl.plant.full import PlantOptions
 from agvctl.sensing import SENSOR_READING_COLUMNS, Measurements, Sensors
@@ -161,6 +162,11 @@ class _RunLength:
         ts = sample_period_s
         self.planned = max(int(math.ceil((duration_s + settle_s) / ts - 1e-9)), 1)
         self.longest = max(int(math.ceil((max(2.0 * duration_s, duration_s + 30.0) + settle_s) / ts - 1e-9)), 1)
+        what = (
+            f"the closed loop (a {duration_s:g} s reference, run up to twice as long, and settle_s = {settle_s:g} s, "
+            f"at {ts:g} s a sample)"
+        )
+        check_sample_count(self.longest, "run_closed_loop", "reference", what)
         self.settle = int(math.ceil(settle_s / ts - 1e-9))
         self.samples = self.planned
         self._governed = False

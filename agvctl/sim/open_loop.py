@@ -7,6 +7,7 @@ vehicles in parallel threads), which a per-vehicle stepper cannot; its rows are 
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -20,6 +21,7 @@ from agvctl.config import read_text
 from agvctl.errors import ConfigError
 from agvctl.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.params import VehicleParams
+from agvctl.params.schema import check_sample_count
 from agvctl.planning.planner import MAX_DURATION_S
 from agvctl.plant.full import STATE_NAMES, PlantOptions, parameter_vector
 from agvctl.plant.integrator import compiled_plant, sample_splits
@@ -40,11 +42,20 @@ class OpenLoopResult:
 
 
 def sample_count(duration_s: float, sample_period_s: float) -> int:
-    """Number of whole samples in ``duration_s`` (rounded to the nearest sample)."""
+    """Number of whole samples in ``duration_s`` (rounded to the nearest sample).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``--duration``: not a positive number, above :data:`MAX_DURATION_S`, or more samples than
+        :data:`~agvctl.params.schema.MAX_SAMPLES_PER_RUN`.
+    """
     if not (np.isfinite(duration_s) and duration_s > 0):
         raise ConfigError("--duration", "", f"must be a positive number of seconds (got {duration_s})")
     if duration_s > MAX_DURATION_S:
         raise ConfigError("--duration", "", f"must be at most {MAX_DURATION_S:g} s (got {duration_s:g})")
+    what = f"{duration_s:g} s at control.sample_period_s = {sample_period_s:g} s"
+    check_sample_count(duration_s / sample_period_s, "--duration", "", what)
     return max(1, int(round(duration_s / sample_period_s)))
 
 
@@ -70,13 +81,41 @@ def _batch_log(
     return SimLog({name: both[:, j] for j, name in enumerate(PLANT_LOG_COLUMNS)})
 
 
+MAX_INITIAL_STATE = (1e4, 1e4, 1e6, 1e6, 1e6)
+"""The largest magnitude of each initial state (:data:`~agvctl.plant.full.STATE_NAMES`): 10^4 rad/s on a motor's
+pre-velocity (some 95,000 rpm, far past any motor), 10^6 m (a thousand kilometres) and 10^6 rad."""
+
+
 def _check_inputs(da_voltage_v: ArrayLike) -> NDArray[np.float64]:
-    u = np.asarray(da_voltage_v, dtype=float)
+    try:
+        u = np.asarray(da_voltage_v, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError("simulate_open_loop", "da_voltage_v", "expected an (n, 2) array of numbers") from None
     if u.ndim != 2 or u.shape[1] != 2 or u.shape[0] < 1:
-        raise ValueError(f"da_voltage_v must have shape (n_samples, 2) (got {u.shape})")
+        raise ConfigError("simulate_open_loop", "da_voltage_v", f"must have shape (n_samples, 2) (got {u.shape})")
+    check_sample_count(u.shape[0], "simulate_open_loop", "da_voltage_v", "the commands")
     if not np.all(np.isfinite(u)):
-        raise ValueError("da_voltage_v contains NaN or inf")
+        raise ConfigError("simulate_open_loop", "da_voltage_v", "contains NaN or inf")
     return u
+
+
+def _check_state(initial_state: ArrayLike | None) -> NDArray[np.float64] | None:
+    if initial_state is None:
+        return None
+    try:
+        x0 = np.asarray(initial_state, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError("simulate_open_loop", "initial_state", "expected 5 numbers") from None
+    if x0.shape != (len(STATE_NAMES),):
+        raise ConfigError(
+            "simulate_open_loop", "initial_state", f"must have shape ({len(STATE_NAMES)},) (got {x0.shape})"
+        )
+    for name, value, bound in zip(STATE_NAMES, x0, MAX_INITIAL_STATE, strict=True):
+        if not (math.isfinite(value) and abs(value) <= bound):
+            raise ConfigError(
+                "simulate_open_loop", f"initial_state[{name}]", f"must be finite and within ±{bound:g} (got {value})"
+            )
+    return x0
 
 
 def simulate_open_loop(
@@ -105,10 +144,19 @@ def simulate_open_loop(
     OpenLoopResult
         The log (:class:`~agvctl.log.SimLog`, n + 1 rows from t = 0), the wall time spent integrating and the
         one-time setup time (compiling or loading the plant), both in s.
+
+    Raises
+    ------
+    ConfigError
+        ``simulate_open_loop: <argument>: <problem>``: ``da_voltage_v`` not an (n, 2) array of finite numbers or
+        of more than :data:`~agvctl.params.schema.MAX_SAMPLES_PER_RUN` rows; ``initial_state`` not 5 finite numbers
+        within :data:`MAX_INITIAL_STATE`; or naming ``friction_model.p_factor`` for a vehicle whose plant would need
+        too many substeps (:func:`~agvctl.plant.integrator.choose_substeps`).
     """
     u_req = _check_inputs(da_voltage_v)
+    x0 = _check_state(initial_state)
     t0 = time.perf_counter()
-    plant = PlantStepper(vehicle, initial_state=initial_state, options=options)
+    plant = PlantStepper(vehicle, initial_state=x0, options=options)
     setup = time.perf_counter() - t0
     t1 = time.perf_counter()
     plant.run(u_req)
@@ -170,25 +218,36 @@ def simulate_batch(
     return logs
 
 
+def _comment(line: str) -> bool:
+    return line.lstrip().startswith("#")
+
+
 def load_input_profile(path: str | Path, sample_period_s: float, duration_s: float) -> NDArray[np.float64]:
     """Read a CSV profile with columns ``t_s,da_left_v,da_right_v`` and hold each row until the next one.
 
     Returns the (n, 2) DA voltages on the sample grid for ``duration_s``. Before the first row's time the
-    command is zero.
+    command is zero. Blank lines and lines starting with ``#`` are skipped; a byte-order mark is dropped.
+
+    Raises
+    ------
+    ConfigError
+        Naming the file and the line (counted in the file, comment lines included) or the column: an empty file, a
+        missing column, a cell that is not a finite number, times that do not increase strictly; or naming
+        ``--duration`` (:func:`sample_count`).
     """
     path = Path(path)
     text = read_text(path)
-    lines = [line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")]
-    if not lines:
+    numbered = [(no, line) for no, line in enumerate(text.splitlines(), start=1) if line.strip() and not _comment(line)]
+    if not numbered:
         raise ConfigError(str(path), "", "empty file; expected a header t_s,da_left_v,da_right_v")
-    header = [h.strip() for h in lines[0].split(",")]
+    header = [h.strip() for h in numbered[0][1].split(",")]
     needed = ("t_s", "da_left_v", "da_right_v")
     for name in needed:
         if name not in header:
             raise ConfigError(str(path), name, f"missing column (header is {','.join(header)})")
     idx = [header.index(n) for n in needed]
-    rows = []
-    for line_no, line in enumerate(lines[1:], start=2):
+    rows, line_nos = [], []
+    for line_no, line in numbered[1:]:
         cells = line.split(",")
         try:
             values = [float(cells[i]) for i in idx]
@@ -197,11 +256,12 @@ def load_input_profile(path: str | Path, sample_period_s: float, duration_s: flo
         if not all(np.isfinite(values)):
             raise ConfigError(str(path), f"line {line_no}", "NaN or inf")
         rows.append(values)
+        line_nos.append(line_no)
     if not rows:
         raise ConfigError(str(path), "", "no data rows")
     data = np.array(rows)
     if np.any(np.diff(data[:, 0]) <= 0):
-        bad = int(np.argmax(np.diff(data[:, 0]) <= 0)) + 3
+        bad = line_nos[int(np.argmax(np.diff(data[:, 0]) <= 0)) + 1]
         raise ConfigError(str(path), f"line {bad}", "t_s must increase strictly")
     n = sample_count(duration_s, sample_period_s)
     t = np.arange(n) * sample_period_s

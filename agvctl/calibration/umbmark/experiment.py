@@ -14,6 +14,7 @@ from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.controllers.registry import default_pi_gains
+from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 from agvctl.planning import LineSegment, TurnSegment, WheelLimits, plan_segments
 from agvctl.sim.loop import run_closed_loop
@@ -27,9 +28,22 @@ POSITION_NOISE_M = 0.003
 reference point on the floor and measuring it with a tape."""
 
 
+MAX_SIDE_LENGTH_M = 100.0
+"""The largest UMBmark square: 25 times Borenstein & Feng's 4 m, beyond any hall an AGV is calibrated in."""
+MAX_RUNS_PER_DIRECTION = 100
+"""The most runs per direction: 20 times the usual 5; each is a simulated square."""
+
+
 @dataclass(frozen=True)
 class UmbmarkConfig:
-    """The simulated UMBmark runs."""
+    """The simulated UMBmark runs.
+
+    Raises
+    ------
+    ConfigError
+        Naming the argument: a size or limit not finite and > 0, a side above :data:`MAX_SIDE_LENGTH_M`, runs not
+        within 1 … :data:`MAX_RUNS_PER_DIRECTION`, a settling time not within 0 … 600 s.
+    """
 
     side_length_m: float = 4.0
     """L, the side of the square (Borenstein & Feng: 4 m; smaller works, with less resolution)."""
@@ -45,11 +59,19 @@ class UmbmarkConfig:
         for name in ("side_length_m", "wheel_speed_m_s", "wheel_accel_m_s2", "wheel_jerk_m_s3"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"UmbmarkConfig.{name} must be > 0 (got {value})")
-        if self.runs_per_direction < 1:
-            raise ValueError(f"UmbmarkConfig.runs_per_direction must be >= 1 (got {self.runs_per_direction})")
-        if not (math.isfinite(self.settle_s) and self.settle_s >= 0):
-            raise ValueError(f"UmbmarkConfig.settle_s must be >= 0 (got {self.settle_s})")
+                raise ConfigError("UmbmarkConfig", name, f"must be finite and > 0 (got {value})")
+        if self.side_length_m > MAX_SIDE_LENGTH_M:
+            raise ConfigError(
+                "UmbmarkConfig", "side_length_m", f"must be <= {MAX_SIDE_LENGTH_M:g} m (got {self.side_length_m:g})"
+            )
+        if not 1 <= self.runs_per_direction <= MAX_RUNS_PER_DIRECTION:
+            raise ConfigError(
+                "UmbmarkConfig",
+                "runs_per_direction",
+                f"must be within 1 … {MAX_RUNS_PER_DIRECTION} (got {self.runs_per_direction})",
+            )
+        if not (math.isfinite(self.settle_s) and 0 <= self.settle_s <= 600):
+            raise ConfigError("UmbmarkConfig", "settle_s", f"must be within 0 … 600 s (got {self.settle_s})")
 
 
 def drive_square(

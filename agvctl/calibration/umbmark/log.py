@@ -27,17 +27,14 @@ def read_umbmark_log(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.
     errors ``(cw, ccw)``, each n × 2 (x, y) in m. Raises :class:`ConfigError` (one line) for a missing column,
     a non-finite cell, a direction other than cw/ccw, or a direction without runs."""
     source = str(path)
-    values, text = read_csv_columns(path, ["x_m", "y_m"], ["direction"])
+    values, text = read_csv_columns(path, ["x_m", "y_m"], ["direction"], {"direction": ("cw", "ccw")})
     try:
         est, _ = read_csv_columns(path, ["est_x_m", "est_y_m"])
     except ConfigError as exc:
         if "missing column" not in exc.problem:
             raise
         est = {"est_x_m": np.zeros_like(values["x_m"]), "est_y_m": np.zeros_like(values["y_m"])}
-    directions = [d.lower() for d in text["direction"]]
-    for i, d in enumerate(directions):
-        if d not in ("cw", "ccw"):
-            raise ConfigError(source, f"row {i + 1}", f"direction must be cw or ccw (got {d or 'empty'!r})")
+    directions = text["direction"]
     errors = np.column_stack([values["x_m"] - est["est_x_m"], values["y_m"] - est["est_y_m"]])
     mask = np.array([d == "cw" for d in directions])
     for name, m in (("cw", mask), ("ccw", ~mask)):

@@ -9,7 +9,7 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from agvctl.config import number
+from agvctl.config import check_fields, number
 from agvctl.controllers.mpc.docking import DockingConfig
 from agvctl.params import VehicleParams
 
@@ -36,7 +36,9 @@ class MpcConfig:
     1/(m/s)². Only their ratios matter.
     """
 
-    horizon: int = number(ge=1, default=20, doc="N, prediction and control horizon in samples")
+    horizon: int = number(
+        ge=1, le=500, default=20, doc="N, prediction and control horizon in samples (at most 500: 20 s at 40 ms)"
+    )
     weight_position: float = number(ge=0, default=1.0e3, doc="on each predicted position error, 1/m²")
     along_track_share: float = number(ge=0, le=1, default=0.7, doc="along-path share of weight_position")
     """In the path frame, the along-path error is weighted ``along_track_share`` × ``weight_position`` and the
@@ -82,6 +84,9 @@ class MpcConfig:
     """Enough for the first steps from a far-off start (several hundred OSQP iterations with the heading coupling of
     the LTV MPC); a tracking step needs tens."""
     tolerance: float = number(gt=0, default=1.0e-3, doc="solver tolerance (OSQP eps_abs/eps_rel, IPOPT tol)")
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S = 0.1

@@ -1,0 +1,108 @@
+"""An interrupt at any moment of ``run``, ``check`` and ``fuzz``: exit code 130 with one line, no traceback, no
+partial output, no worker left running — or, when the command had already finished, its whole output and its usual
+exit code. The real command line is started as a process group (as a terminal starts it) and sent SIGINT (as
+Ctrl-C sends it to the whole group) at moments drawn from a fixed-seed generator over each command's duration; the
+check runs on two worker processes, the run and the fuzz in the command's own process."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+MOMENTS = 20
+SHORT_LINE = '[limits]\nwheel_speed_m_s = 0.8\nwheel_accel_m_s2 = 0.5\n[[segments]]\ntype = "line"\nlength_m = 0.5\n'
+QUICK = 'name = "quick"\ntrajectory = "line.toml"\nsettle_s = 0.2\n[controller]\npose = "ramsete"\n'
+FUZZ = 'seed = 1\nscenarios = 1\ncontrollers = ["ramsete"]\nsettle_s = 0.2\n'
+COMMANDS = {
+    "run": ["run", "{d}/quick.toml", "--out", "{o}/out"],
+    "check": [
+        "check",
+        "{d}/quick.toml",
+        "{d}/quick.toml",
+        "--jobs",
+        "2",
+        "--junit",
+        "{o}/j.xml",
+        "--json",
+        "{o}/r.json",
+    ],
+    "fuzz": ["fuzz", "{d}/fz.toml", "--jobs", "1", "--out", "{o}/out", "--junit", "{o}/j.xml", "--no-plot"],
+}
+
+
+def _start(argv: list[str], d: Path, o: Path) -> subprocess.Popen[str]:
+    o.mkdir()
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
+    return subprocess.Popen(
+        [sys.executable, "-m", "agvctl", *(a.format(d=d, o=o) for a in argv)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=o,
+        env=env,
+        start_new_session=True,  # its own process group, with its workers, as a terminal's job
+    )
+
+
+def _tree(o: Path) -> list[str]:
+    return sorted(str(p.relative_to(o)) for p in o.rglob("*"))
+
+
+def _group_gone(pgid: int, timeout_s: float = 5.0) -> bool:
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        try:
+            os.killpg(pgid, 0)
+        except ProcessLookupError:
+            return True
+        time.sleep(0.05)
+    return False
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    d = tmp_path_factory.mktemp("inputs")
+    (d / "line.toml").write_text(SHORT_LINE)
+    (d / "quick.toml").write_text(QUICK)
+    (d / "fz.toml").write_text(FUZZ)
+    return d
+
+
+def test_an_interrupt_at_any_moment_exits_130_with_no_partial_output(inputs: Path, tmp_path: Path) -> None:
+    complete: dict[str, tuple[int, list[str], float]] = {}
+    for name, argv in COMMANDS.items():  # each command uninterrupted: its exit code, its whole output, its duration
+        t0 = time.monotonic()
+        proc = _start(argv, inputs, tmp_path / f"{name}-whole")
+        _, err = proc.communicate(timeout=300)
+        assert proc.returncode in (0, 1) and "Traceback" not in err, err
+        complete[name] = (proc.returncode, _tree(tmp_path / f"{name}-whole"), time.monotonic() - t0)
+    rng = random.Random(20261203)
+    for i in range(MOMENTS):
+        name = list(COMMANDS)[i % len(COMMANDS)]
+        code_whole, tree_whole, duration = complete[name]
+        moment = rng.uniform(0.05, duration)
+        o = tmp_path / f"{name}-{i}"
+        proc = _start(COMMANDS[name], inputs, o)
+        time.sleep(moment)
+        with contextlib.suppress(ProcessLookupError):  # it may have finished already
+            os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=120)
+        seen = f"{name} interrupted at {moment:.2f} s of {duration:.2f} s: exit {proc.returncode}, stderr {err!r}"
+        assert "Traceback" not in err and "Error" not in err.replace("agvctl: ", ""), seen
+        assert _group_gone(proc.pid), f"{seen}: a worker is still running"
+        tree = _tree(o)
+        assert not [p for p in tree if p.rsplit("/", 1)[-1].startswith(".") and ".tmp" in p], f"{seen}: {tree}"
+        if proc.returncode == 130:
+            assert err.splitlines()[-1:] == ["agvctl: interrupted"], seen
+            assert tree in ([], tree_whole), f"{seen}: partial output {tree}"
+        else:
+            assert proc.returncode == code_whole and tree == tree_whole, f"{seen}: {tree}"
