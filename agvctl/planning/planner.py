@@ -26,42 +26,27 @@ import numpy as np
 
 from agvctl.errors import ConfigError, PlanningError
 from agvctl.params import VehicleParams, load_vehicle
-from agvctl.planning.arguments import MAX_DURATION_S, check_arguments, check_geometry, check_reference
+from agvctl.planning.arguments import MAX_DURATION_S, check_arguments, check_reference
 from agvctl.planning.curve import Curve
 from agvctl.planning.geometry import Pose, segment_kinematics
 from agvctl.planning.joins import JoinWindow, design_join
+from agvctl.planning.motion import PlanFailure, motion_starts, path_motion
 from agvctl.planning.profile import _Solver, rest_to_rest
 from agvctl.planning.reference import Motion, Reference
 from agvctl.planning.spec import (
-    MAX_SEGMENTS,
     PathSpec,
     Segment,
-    Waypoint,
     WheelLimits,
-    check_waypoints,
     load_path,
     resolve_limits,
 )
-from agvctl.planning.speed import SectionLimits, plan_speed, section_limits
-from agvctl.planning.waypoints import waypoint_curve
+from agvctl.planning.speed import section_limits
+from agvctl.planning.waypoint_plan import plan_waypoints
 
 __all__ = ["MAX_DURATION_S", "plan", "plan_file", "plan_segments", "plan_waypoints"]
 
 Join = Literal["smooth", "stop"]
 _Part = tuple[int, float, float, float | None]  # segment index, distance, curvature, speed cap
-
-WAYPOINT_SECTION_PIECES = 8
-"""Curve pieces per speed section of a waypoint path (half a waypoint interval). Measured: a quarter planned
-0.3-0.8 % shorter durations for twice the Ruckig calls; merging neighbouring sections whose limits differ by
-< 5 % fewer returns of s̈ to zero, but 8-20 % longer durations."""
-
-
-class _Failure(PlanningError):
-    """A planning failure with the file key it belongs to (``segments[i]`` or ``waypoints[i]``)."""
-
-    def __init__(self, key: str, problem: str) -> None:
-        super().__init__(f"{key}: {problem}")
-        self.key, self.problem = key, problem
 
 
 def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = False) -> Reference:
@@ -104,7 +89,7 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
         else:
             start = Pose.from_start(spec.start)
             reference = _segments_reference(spec.segments, start_pose=start, join=spec.join, **common)  # type: ignore[arg-type]
-    except _Failure as exc:
+    except PlanFailure as exc:
         raise ConfigError(spec.source, exc.key, exc.problem) from None
     except ConfigError:
         raise
@@ -200,10 +185,10 @@ def _segments_reference(
             else:
                 new, dev = _paths(parts, direction, pose, t, limits, half_b, solver)
                 deviation = max(deviation, dev)
-        except _Failure:
+        except PlanFailure:
             raise
         except (PlanningError, ValueError, ArithmeticError) as exc:
-            raise _Failure(f"segments[{parts[0][0]}]", f"cannot be planned: {exc}") from None
+            raise PlanFailure(f"segments[{parts[0][0]}]", f"cannot be planned: {exc}") from None
         motions += new
         t, pose = new[-1].t_end_s, new[-1].end_pose
     reference = Reference(
@@ -217,10 +202,6 @@ def _segments_reference(
         geometry_deviation_m=deviation,
     )
     return reference
-
-
-def _starts(lengths: Sequence[float]) -> tuple[float, ...]:
-    return tuple(float(x) for x in np.concatenate(([0.0], np.cumsum(lengths)[:-1])))
 
 
 def _spin(
@@ -246,7 +227,7 @@ def _spin(
         direction=direction,
         profiles=(profile,),
         section_starts=(0.0,),
-        segment_starts=_starts([p[1] for p in parts]),
+        segment_starts=motion_starts([p[1] for p in parts]),
     )
 
 
@@ -347,7 +328,7 @@ def _path(
         cut_left = cut_right
     curve = Curve(pose, lengths, _pad(coeffs), direction=direction)
     limits_s = [section_limits(d, b, c, limits, half_b) for d, b, c, _ in sections]
-    motion = _motion(
+    motion = path_motion(
         curve,
         limits_s,
         [s[3] for s in sections],
@@ -355,7 +336,7 @@ def _path(
         solver,
         t,
         tuple(p[0] for p in parts),
-        _starts([p[1] for p in parts]),
+        motion_starts([p[1] for p in parts]),
     )
     deviation = max((w.deviation_m for w in windows if w is not None), default=0.0)
     return [motion], deviation
@@ -364,99 +345,3 @@ def _path(
 def _pad(rows: list[list[float]]) -> np.ndarray:
     width = max(len(r) for r in rows)
     return np.array([r + [0.0] * (width - len(r)) for r in rows])
-
-
-def _motion(
-    curve: Curve,
-    sections: list[SectionLimits],
-    owners: list[int],
-    key: str,
-    solver: _Solver,
-    t: float,
-    segment_indices: tuple[int, ...],
-    segment_starts: tuple[float, ...],
-) -> Motion:
-    """Plan the speed along ``curve`` and wrap it as a path motion; a failure names the owner's key."""
-    try:
-        profiles, _ = plan_speed(sections, solver=solver)
-    except PlanningError as exc:
-        k = exc.args[1] if len(exc.args) > 1 else 0
-        raise _Failure(f"{key}[{owners[k]}]", f"cannot be planned: {exc.args[0]}") from None
-    start = curve.evaluate([0.0])
-    pose = Pose(float(start.x_m[0]), float(start.y_m[0]), float(start.theta_rad[0]))
-    return Motion(
-        kind="path",
-        segment_indices=segment_indices,
-        t_start_s=t,
-        start_pose=pose,
-        end_pose=curve.end_pose(),
-        direction=curve.direction,
-        profiles=tuple(profiles),
-        section_starts=_starts([s.length_m for s in sections]),
-        segment_starts=segment_starts,
-        curve=curve,
-    )
-
-
-def plan_waypoints(
-    waypoints: Sequence[Waypoint],
-    *,
-    limits: WheelLimits,
-    separation_m: float,
-    sample_period_s: float,
-    name: str = "path",
-    source: str = "<path>",
-) -> Reference:
-    """Plan a path through waypoints with explicit limits (no vehicle file): one motion, its speed planned on
-    sections of :data:`WAYPOINT_SECTION_PIECES` curve pieces.
-
-    Raises
-    ------
-    ConfigError
-        One line naming ``source``: bad waypoints, more than :data:`~agvctl.planning.spec.MAX_SEGMENTS` of them,
-        ``separation_m`` or ``sample_period_s`` not finite and > 0, a reference too long or of too many samples.
-    PlanningError
-        One line naming the waypoint, if the path cannot be planned.
-    """
-    if len(waypoints) > MAX_SEGMENTS:
-        raise ConfigError(source, "waypoints", f"at most {MAX_SEGMENTS} (got {len(waypoints)})")
-    for i, point in enumerate(waypoints):
-        if not isinstance(point, Waypoint):
-            raise ConfigError(source, f"waypoints[{i}]", f"expected a Waypoint (got {point!r})")
-    check_waypoints(waypoints, source)
-    check_geometry(source, separation_m, sample_period_s)
-    curve, s_i, deviation = waypoint_curve(waypoints, source=source)
-    half_b = 0.5 * separation_m
-    bounds = curve.piece_bounds()
-    n = len(curve.lengths_m)
-    sections, owners = [], []
-    for lo in range(0, n, WAYPOINT_SECTION_PIECES):
-        hi = min(n, lo + WAYPOINT_SECTION_PIECES)
-        length = float(np.sum(curve.lengths_m[lo:hi]))
-        sections.append(section_limits(length, tuple(np.max(bounds[lo:hi], axis=0)), None, limits, half_b))
-        owners.append(int(np.searchsorted(s_i, curve.s0_m[lo], side="right")) - 1)
-    try:
-        motion = _motion(
-            curve,
-            sections,
-            owners,
-            "waypoints",
-            _Solver(),
-            0.0,
-            tuple(range(len(s_i) - 1)),
-            tuple(float(s) for s in s_i[:-1]),
-        )
-    except (ValueError, ArithmeticError) as exc:
-        raise _Failure("waypoints", f"cannot be planned: {exc}") from None
-    reference = Reference(
-        name=name,
-        motions=[motion],
-        limits=limits,
-        separation_m=separation_m,
-        sample_period_s=sample_period_s,
-        start_pose=motion.start_pose,
-        segment_count=len(s_i) - 1,
-        geometry_deviation_m=deviation,
-    )
-    check_reference(reference, source, "waypoints")
-    return reference
