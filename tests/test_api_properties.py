@@ -41,9 +41,10 @@ from agvctl.params import (
     load_vehicle,
 )
 from agvctl.planning import ArcSegment, LineSegment, TurnSegment, WheelLimits, plan_segments, plan_waypoints
+from agvctl.planning.geometry import Pose
 from agvctl.planning.spec import PathLimits, StartPose, Waypoint
 from agvctl.scenario.spec import PlantSpec, RobustnessSpec, Spread
-from agvctl.sim.open_loop import simulate_open_loop
+from agvctl.sim.open_loop import simulate_batch, simulate_open_loop
 
 EXAMPLES = 1000
 API = settings(
@@ -125,6 +126,7 @@ test_motor_params = _constructor_test(MotorParams)
 test_plant_spec = _constructor_test(PlantSpec)
 test_spread = _constructor_test(Spread)
 test_robustness_spec = _constructor_test(RobustnessSpec)
+test_pose = _constructor_test(Pose)
 
 
 @API
@@ -224,3 +226,61 @@ def test_read_log(data: bytes) -> None:
     path = WORK / "log.csv"
     path.write_bytes(data)
     assert_clean(lambda: read_log(path), str(path))
+
+
+@API
+@given(
+    da=commands | st.sampled_from(WRONG_TYPES),
+    initial_states=st.none() | st.lists(states, min_size=0, max_size=3) | st.sampled_from(WRONG_TYPES),
+    n_vehicles=st.integers(1, 2),
+)
+def test_simulate_batch(da: Any, initial_states: Any, n_vehicles: int) -> None:
+    vehicles = [VEHICLE] * n_vehicles
+    call = lambda: simulate_batch(vehicles, da, initial_states=initial_states)  # noqa: E731
+    logs = assert_clean(call, "simulate_batch", "simulate_open_loop")
+    if logs is not None:
+        assert all(np.all(np.isfinite(log["x_m"])) for log in logs)  # type: ignore[attr-defined]
+
+
+SHORT_LINE = plan_segments(
+    [LineSegment(length_m=0.05)],
+    limits=WheelLimits(wheel_speed_m_s=0.3, wheel_accel_m_s2=0.4, wheel_jerk_m_s3=2.0),
+    separation_m=VEHICLE.wheels.separation_m,
+    sample_period_s=VEHICLE.control.sample_period_s,
+)
+
+
+@API
+@given(
+    initial_pose=st.none() | st.lists(numbers | st.floats(-0.01, 0.01), max_size=4) | st.sampled_from(WRONG_TYPES),
+    settle_s=st.sampled_from([0.0, 0.04, -1.0, 601.0, math.nan, math.inf, "1", None]),
+    compute_delay=st.sampled_from(["none", "one_sample", "two", None]),
+    sensor_seed=st.sampled_from([0, 1, -1, 1.5, True, None]),
+)
+def test_run_closed_loop(initial_pose: Any, settle_s: Any, compute_delay: Any, sensor_seed: Any) -> None:
+    from agvctl.controllers.base import PoseCommand
+    from agvctl.controllers.pi.tuning import default_pi_gains
+    from agvctl.controllers.pi.wheel_loop import PIWheelController
+    from agvctl.sim.loop import run_closed_loop
+
+    class Still:
+        def reset(self, reference: object) -> None:
+            pass
+
+        def update(self, t_s: float, pose: object, wheel_speed_m_s: object) -> PoseCommand:
+            return PoseCommand(0.0, 0.0)
+
+    def call() -> object:
+        return run_closed_loop(
+            plant_vehicle=VEHICLE,
+            controller_vehicle=VEHICLE,
+            reference=SHORT_LINE,
+            pose_controller=Still(),
+            wheel_controller=PIWheelController(VEHICLE, default_pi_gains(VEHICLE).gains),
+            initial_pose=initial_pose,
+            settle_s=settle_s,
+            compute_delay=compute_delay,
+            sensor_seed=sensor_seed,
+        )
+
+    assert_clean(call, "run_closed_loop", "simulate_open_loop")

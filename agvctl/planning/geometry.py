@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from agvctl.config import check_fields
 from agvctl.planning.spec import ArcSegment, LineSegment, PathSpec, Segment, StartPose, TurnSegment
 
 __all__ = ["Pose", "advance", "path_end_pose", "segment_end_pose", "segment_kinematics"]
@@ -16,11 +17,20 @@ __all__ = ["Pose", "advance", "path_end_pose", "segment_end_pose", "segment_kine
 
 @dataclass(frozen=True)
 class Pose:
-    """Position of the point of rotation and heading (continuous, not wrapped)."""
+    """Position of the point of rotation and heading (continuous, not wrapped).
+
+    Raises
+    ------
+    ConfigError
+        ``Pose: <argument>: must be finite`` for a NaN or infinite coordinate.
+    """
 
     x_m: float
     y_m: float
     theta_rad: float
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
     @classmethod
     def from_start(cls, start: StartPose) -> Pose:

@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
 from agvctl.controllers.base import PoseCommand, PoseController, WheelSpeedController
+from agvctl.errors import ConfigError
 from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator, consistency
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
 from agvctl.evaluation.metrics import NON_FINITE_COMMAND_STATUS
@@ -201,6 +202,38 @@ def _estimators(
     return estimator, speeds
 
 
+MAX_SETTLE_S = 600.0
+"""The longest settling time after the reference (s), as in an experiment file."""
+
+
+def _check_run(
+    plant_vehicle: VehicleParams,
+    sample_period_s: float,
+    initial_pose: object,
+    settle_s: float,
+    compute_delay: str,
+    sensor_seed: int,
+) -> tuple[float, float, float] | None:
+    """The run's arguments checked as an experiment file's are (the initial pose as three floats, or None)."""
+    if plant_vehicle.control.sample_period_s != sample_period_s:
+        raise ConfigError("run_closed_loop", "plant_vehicle", "must share the controller's control.sample_period_s")
+    if not (isinstance(settle_s, int | float) and 0.0 <= settle_s <= MAX_SETTLE_S):
+        raise ConfigError("run_closed_loop", "settle_s", f"must be within 0 … {MAX_SETTLE_S:g} s (got {settle_s!r})")
+    if compute_delay not in ("none", "one_sample"):
+        raise ConfigError("run_closed_loop", "compute_delay", f"must be 'none' or 'one_sample' (got {compute_delay!r})")
+    if isinstance(sensor_seed, bool) or not isinstance(sensor_seed, int) or sensor_seed < 0:
+        raise ConfigError("run_closed_loop", "sensor_seed", f"must be an integer >= 0 (got {sensor_seed!r})")
+    if initial_pose is None:
+        return None
+    try:
+        pose = tuple(float(v) for v in initial_pose)  # type: ignore[attr-defined]
+    except (TypeError, ValueError):
+        raise ConfigError("run_closed_loop", "initial_pose", "expected (x_m, y_m, theta_rad)") from None
+    if len(pose) != 3 or not all(math.isfinite(v) and abs(v) <= 1e4 for v in pose):
+        raise ConfigError("run_closed_loop", "initial_pose", f"expected 3 finite numbers within ±1e4 (got {pose})")
+    return (pose[0], pose[1], pose[2])
+
+
 def run_closed_loop(
     *,
     plant_vehicle: VehicleParams,
@@ -225,11 +258,12 @@ def run_closed_loop(
     ``sensor_seed`` seeds the true vehicle's sensor noise. ``progress``, if given, is called with the fraction done
     (0…1) about every second of simulated time. A controller that keeps its own clock (its commands'
     :attr:`~agvctl.controllers.base.PoseCommand.reference_done` set) sets the run's length.
+
+    Raises ``ConfigError`` (``run_closed_loop: <argument>: <problem>``) for an argument no experiment file can hold.
     """
     t_setup = time.perf_counter()
     ts = controller_vehicle.control.sample_period_s
-    if plant_vehicle.control.sample_period_s != ts:
-        raise ValueError("the plant and the controller must share control.sample_period_s")
+    initial_pose = _check_run(plant_vehicle, ts, initial_pose, settle_s, compute_delay, sensor_seed)
     length = _RunLength(reference.duration_s, settle_s, ts)
     if initial_pose is None:
         ref0 = reference.sample(np.zeros(1))

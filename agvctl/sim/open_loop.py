@@ -191,20 +191,39 @@ def simulate_batch(
     -------
     list of SimLog
         One log per vehicle, in order, each of n + 1 rows.
+
+    Raises
+    ------
+    ConfigError
+        ``simulate_batch: <argument>: <problem>``, or as :func:`simulate_open_loop` for each vehicle's commands
+        and initial state.
     """
     vs = list(vehicles)
     if not vs:
         return []
+    if not all(isinstance(v, VehicleParams) for v in vs):
+        raise ConfigError("simulate_batch", "vehicles", "expected VehicleParams (from load_vehicle)")
     ts = vs[0].control.sample_period_s
     if any(v.control.sample_period_s != ts for v in vs):
-        raise ValueError("simulate_batch: all vehicles must have the same control.sample_period_s")
-    u = np.asarray(da_voltage_v, dtype=float)
+        raise ConfigError("simulate_batch", "vehicles", "must all have the same control.sample_period_s")
+    try:
+        u = np.asarray(da_voltage_v, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError("simulate_batch", "da_voltage_v", "expected an array of numbers") from None
     if u.ndim == 2:
         u = np.broadcast_to(u, (len(vs), *u.shape))
-    if u.shape[0] != len(vs):
-        raise ValueError(f"da_voltage_v has {u.shape[0]} rows of commands for {len(vs)} vehicles")
+    if u.ndim != 3 or u.shape[0] != len(vs):
+        raise ConfigError("simulate_batch", "da_voltage_v", f"must be (n, 2) or ({len(vs)}, n, 2) (got {u.shape})")
     for b in range(len(vs)):
         _check_inputs(u[b])
+    if initial_states is not None:
+        rows = np.asarray(initial_states, dtype=object)
+        if rows.ndim < 1 or len(rows) != len(vs):
+            raise ConfigError("simulate_batch", "initial_states", f"expected one state per vehicle ({len(vs)})")
+        states = [None if row is None else _check_state(row) for row in rows]
+        if any(state is None for state in states):
+            raise ConfigError("simulate_batch", "initial_states", "expected one state of 5 numbers per vehicle")
+        initial_states = np.array(states)
     plant = compiled_plant(options)
     splits = sample_splits(vs)
     motor_v = np.stack([Actuator(v).apply(u[b]).motor_voltage_v for b, v in enumerate(vs)])
