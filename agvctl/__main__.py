@@ -3,11 +3,13 @@ the package is still being imported, or while an error is printed — one line a
 
 from __future__ import annotations
 
+import _thread
 import atexit
 import contextlib
 import os
 import signal
 import sys
+import time
 
 __all__ = ["EXIT_INTERRUPTED", "console"]
 
@@ -27,6 +29,21 @@ def _interrupted(exc: BaseException | None) -> bool:
     return False
 
 
+def _send_interrupt(delay_s: float) -> None:
+    time.sleep(delay_s)
+    os.kill(os.getpid(), signal.SIGINT)
+
+
+def _redeliver(args: sys.UnraisableHookArgs) -> None:
+    """An interrupt that lands in a finaliser or a weak-reference callback is "ignored" by Python (printed, and the
+    command goes on): deliver it again, so that it interrupts the command where that can be handled. Any other
+    unraisable exception is reported as Python does."""
+    if _interrupted(args.exc_value):  # sent again from another thread, once this hook has returned
+        _thread.start_new_thread(_send_interrupt, (0.01,))
+        return
+    sys.__unraisablehook__(args)
+
+
 def _main() -> int:
     try:
         from agvctl.cli import main
@@ -42,6 +59,7 @@ def _main() -> int:
 def console() -> None:
     """Run the CLI and exit with its code. Once the command is done (its outputs written and its report printed),
     SIGINT is ignored: the interpreter's shutdown is not an interruption of the command."""
+    sys.unraisablehook = _redeliver
     code = _main()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if code == EXIT_INTERRUPTED:

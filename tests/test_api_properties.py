@@ -25,7 +25,10 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from agvctl.controllers.mpc.config import MpcConfig
+from agvctl.controllers.mpc.docking import DockingConfig
 from agvctl.errors import AgvctlError
+from agvctl.estimation.ekf import EkfSettings
 from agvctl.estimation.offline import read_log
 from agvctl.params import (
     AmplifierParams,
@@ -127,6 +130,9 @@ test_plant_spec = _constructor_test(PlantSpec)
 test_spread = _constructor_test(Spread)
 test_robustness_spec = _constructor_test(RobustnessSpec)
 test_pose = _constructor_test(Pose)
+test_mpc_config = _constructor_test(MpcConfig)
+test_docking_config = _constructor_test(DockingConfig)
+test_ekf_settings = _constructor_test(EkfSettings)
 
 
 @API

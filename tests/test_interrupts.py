@@ -106,3 +106,25 @@ def test_an_interrupt_at_any_moment_exits_130_with_no_partial_output(inputs: Pat
             assert tree in ([], tree_whole), f"{seen}: partial output {tree}"
         else:
             assert proc.returncode == code_whole and tree == tree_whole, f"{seen}: {tree}"
+
+
+def test_an_interrupt_lost_in_a_finaliser_is_delivered_again() -> None:
+    """Python only prints a KeyboardInterrupt raised in a weak-reference callback and goes on; the command's hook
+    delivers it again, so the command is interrupted rather than finishing with a traceback on stderr."""
+    code = (
+        "import sys, time, weakref\n"
+        "import agvctl.__main__ as entry\n"
+        "sys.unraisablehook = entry._redeliver\n"
+        "class Held: pass\n"
+        "def callback(_):\n"
+        "    raise KeyboardInterrupt\n"
+        "held = Held(); ref = weakref.ref(held, callback)\n"
+        "try:\n"
+        "    del held\n"
+        "    time.sleep(2.0)\n"
+        "    print('went on')\n"
+        "except KeyboardInterrupt:\n"
+        "    print('interrupted')\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert proc.stdout == "interrupted\n" and proc.stderr == "", proc

@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
+from agvctl.config import check_fields, number
 from agvctl.params import SIDES, VehicleParams
 from agvctl.sensing import Measurements, PositionFix, fix_delay_samples
 
@@ -57,19 +58,22 @@ class EkfSettings:
         How far back fixes are replayed, s (at least the believed latency).
     """
 
-    slip_sigma: float = 0.0005
+    slip_sigma: float = number(ge=0, default=0.0005)
     """Relative σ of each wheel's travel per sample: slip and floor unevenness (the simulated plant has none)."""
-    radius_sigma: float = 0.01
+    radius_sigma: float = number(gt=0, default=0.01)
     """Prior relative σ of each wheel radius (the ε states): tyre tolerance and wear."""
-    radius_walk_sigma_per_sqrt_s: float = 1e-5
+    radius_walk_sigma_per_sqrt_s: float = number(ge=0, default=1e-5)
     """Random walk of ε (1/√s): keeps the filter adapting to a radius that changes with load."""
-    initial_position_sigma_m: float = 0.005
-    initial_heading_sigma_rad: float = 0.005
+    initial_position_sigma_m: float = number(gt=0, default=0.005)
+    initial_heading_sigma_rad: float = number(gt=0, default=0.005)
     latency_compensation: bool = True
     """Apply each fix at the sample it was measured and replay the travels since (buffer and replay)."""
-    history_s: float = 2.0
+    history_s: float = number(gt=0, le=60.0, default=2.0)
     """How far back fixes are replayed (at least the believed latency); older ones are dropped (counted in
     :attr:`PoseEkf.dropped_fixes`)."""
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 class PoseEkf:

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
-from agvctl.config import number
+from agvctl.config import check_fields, number
 from agvctl.params import VehicleParams
 from agvctl.planning import PathLimits, PathSpec, StartPose, plan
 from agvctl.planning.reference import Reference
@@ -42,6 +42,9 @@ class DockingConfig:
     accel_m_s2: float = number(gt=0, default=0.3, doc="acceleration of the manoeuvre, m/s²")
     max_deviation_m: float = number(gt=0, default=0.01, doc="largest departure from a curved final segment, m")
     attempts: int = number(ge=0, default=2, doc="manoeuvres at most per run")
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 class Docking:
