@@ -45,8 +45,8 @@ from agvctl.params import (
 )
 from agvctl.planning import ArcSegment, LineSegment, TurnSegment, WheelLimits, plan_segments, plan_waypoints
 from agvctl.planning.geometry import Pose
-from agvctl.planning.spec import PathLimits, StartPose, Waypoint
-from agvctl.scenario.spec import PlantSpec, RobustnessSpec, Spread
+from agvctl.planning.spec import PathLimits, PathSpec, StartPose, Waypoint
+from agvctl.scenario.spec import ControllerSpec, ExperimentSpec, PlantSpec, RobustnessSpec, Spread
 from agvctl.sim.open_loop import simulate_batch, simulate_open_loop
 
 EXAMPLES = 1000
@@ -133,6 +133,9 @@ test_pose = _constructor_test(Pose)
 test_mpc_config = _constructor_test(MpcConfig)
 test_docking_config = _constructor_test(DockingConfig)
 test_ekf_settings = _constructor_test(EkfSettings)
+test_path_spec = _constructor_test(PathSpec)
+test_experiment_spec = _constructor_test(ExperimentSpec)
+test_controller_spec = _constructor_test(ControllerSpec)
 
 
 @API
