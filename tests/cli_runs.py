@@ -1,10 +1,14 @@
-"""Running the ``agvctl`` command line in-process in tests, and the one-line error it must give."""
+"""Running the ``agvctl`` command line in-process in tests, and the one-line error it (and the Python API) must
+give."""
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import pytest
 
 from agvctl.cli import main
+from agvctl.errors import AgvctlError
 
 
 def run(capsys: pytest.CaptureFixture[str], *argv: object) -> tuple[int, str, str]:
@@ -19,3 +23,14 @@ def one_line(err: str, *parts: str) -> None:
     assert err.count("\n") == 1 and "Traceback" not in err, err
     for part in parts:
         assert part in err, err
+
+
+def assert_clean(call: Callable[[], object], *sources: str) -> object:
+    """Run ``call``: success, or an AgvctlError of one line that starts with one of ``sources``."""
+    try:
+        return call()
+    except AgvctlError as exc:
+        message = str(exc)
+        assert len(message.splitlines()) == 1, message
+        assert message.startswith(sources), message
+        return None

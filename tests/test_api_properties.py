@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from cli_runs import assert_clean
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -63,17 +64,6 @@ WRONG_TYPES: list[Any] = [None, True, False, "1", "", "smoth", [], {}, (1.0,), o
 numbers = st.sampled_from(NASTY) | st.floats(allow_nan=True, allow_infinity=True) | st.integers(-(10**9), 10**9)
 sensible = st.floats(1e-3, 10.0) | st.floats(-10.0, -1e-3) | st.integers(1, 20)
 values = sensible | sensible | numbers | st.sampled_from(WRONG_TYPES)
-
-
-def assert_clean(call: Callable[[], object], *sources: str) -> object:
-    """Run ``call``: success, or an AgvctlError of one line that starts with one of ``sources``."""
-    try:
-        return call()
-    except AgvctlError as exc:
-        message = str(exc)
-        assert len(message.splitlines()) == 1, message
-        assert message.startswith(sources), message
-        return None
 
 
 def arguments(cls: type) -> st.SearchStrategy[dict[str, Any]]:

@@ -20,11 +20,12 @@ import json
 import math
 import tempfile
 import tomllib
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
+from cli_runs import assert_clean
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
@@ -32,7 +33,6 @@ from agvctl.calibration import read_friction_log, read_umbmark_log
 from agvctl.cli import main
 from agvctl.config import parse_override
 from agvctl.controllers.pi.wheel_loop import load_gains
-from agvctl.errors import AgvctlError
 from agvctl.params import default_vehicle_path, load_vehicle
 from agvctl.planning import load_path, plan
 from agvctl.scenario.experiment import load_experiment
@@ -191,17 +191,6 @@ def write(name: str, text: str | bytes) -> Path:
     else:
         path.write_text(text, encoding="utf-8")
     return path
-
-
-def assert_clean(call: Callable[[], object], *sources: str) -> object:
-    """Run ``call``: success, or an AgvctlError of one line that starts with one of ``sources``."""
-    try:
-        return call()
-    except AgvctlError as exc:
-        message = str(exc)
-        assert len(message.splitlines()) == 1, message
-        assert message.startswith(sources), message
-        return None
 
 
 # ----------------------------------------------------------------------------------------------------------------
