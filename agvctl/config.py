@@ -5,8 +5,8 @@ are rejected with a "did you mean", missing keys and wrong types are named, numb
 field declares with :func:`number`. Every problem raises :class:`~agvctl.errors.ConfigError` whose message is
 ``"<file>: <key.path>: <problem>"``.
 
-We use plain dataclasses rather than pydantic: the schemas are small, the runtime dependencies are fixed by the
-project, and the loader gives exactly the one-line messages the CLI promises.
+Plain dataclasses rather than pydantic: the schemas are small, the dependencies fixed, and the loader gives exactly
+the one-line messages the CLI promises.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numbers
 import tomllib
 import types
 import typing
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, Literal, TypeVar, Union, get_args, get_origin, get_type_hints
 
@@ -340,12 +340,34 @@ def _check_argument(tp: Any, value: Any, source: str, key: str, meta: Mapping[st
         _check_bounds(int(value), meta, source, key)
     elif tp in (str, bool) and not isinstance(value, tp):
         raise ConfigError(source, key, f"expected {_type_name(tp)} (got {value!r})")
+    elif origin in (tuple, list, dict):
+        _check_items(origin, get_args(tp), value, source, key)
+    elif isinstance(tp, type) and dataclasses.is_dataclass(tp) and not isinstance(value, tp):
+        raise ConfigError(source, key, f"expected a {tp.__name__} (got {value!r})")
+
+
+def _check_items(origin: Any, args: tuple[Any, ...], value: Any, source: str, key: str) -> None:
+    """A tuple, list or dict argument: its container kind, its length when fixed, and each item's type."""
+    if origin is dict:
+        if not isinstance(value, Mapping):
+            raise ConfigError(source, key, f"expected a mapping (got {value!r})")
+        for k, v in value.items():
+            _check_argument(args[0], k, source, key, {})
+            _check_argument(args[1], v, source, join_key(key, str(k)), {})
+        return
+    if not isinstance(value, (tuple, list)):
+        raise ConfigError(source, key, f"expected a tuple or list (got {value!r})")
+    fixed = origin is tuple and args[-1] is not Ellipsis
+    if fixed and len(value) != len(args):
+        raise ConfigError(source, key, f"expected {len(args)} items (got {len(value)})")
+    for i, v in enumerate(value):
+        _check_argument(args[i] if fixed else args[0], v, source, f"{key}[{i}]", {})
 
 
 def check_fields(obj: Any) -> None:
     """Check the fields of a dataclass made in Python as :func:`build` checks a file's: numbers finite and within
     their :func:`number` bounds, integers whole, choices among their ``Literal`` values, strings and booleans of
-    their type. Nested dataclasses check themselves.
+    their type, tuples, lists and dicts item by item; a nested dataclass must be one (it checks itself).
 
     Raises
     ------
@@ -355,6 +377,18 @@ def check_fields(obj: Any) -> None:
     source = type(obj).__name__
     for name, tp, meta in _init_fields(type(obj)):
         _check_argument(tp, getattr(obj, name), source, name, meta)
+
+
+@contextlib.contextmanager
+def as_file_error(cls: type, source: str, prefix: str) -> Iterator[None]:
+    """Re-raise a :class:`ConfigError` that ``cls``'s constructor names after itself (``"FuzzSpec: seed: …"``) as
+    the file's, its key under ``prefix``: a check made in Python reads, from a file, like the loader's own."""
+    try:
+        yield
+    except ConfigError as exc:
+        if exc.source != cls.__name__:
+            raise
+        raise ConfigError(source, join_key(prefix, exc.key), exc.problem) from None
 
 
 def _build_dataclass(cls: type, data: Mapping[str, Any], source: str, prefix: str) -> Any:
@@ -370,11 +404,8 @@ def build_fields(cls: type, data: Mapping[str, Any], *, source: str, prefix: str
     fields = {f.metadata.get("file_key", f.name): f for f in dataclasses.fields(cls) if not f.metadata.get("derived")}
     for k in data:
         if k not in fields:
-            raise ConfigError(
-                source,
-                join_key(prefix, k),
-                "unknown key" + did_you_mean(k, fields, prefix.split(".") if prefix else []),
-            )
+            hint = did_you_mean(k, fields, prefix.split(".") if prefix else [])
+            raise ConfigError(source, join_key(prefix, k), "unknown key" + hint)
     kwargs: dict[str, Any] = {}
     for file_key, f in fields.items():
         key = join_key(prefix, file_key)
@@ -382,7 +413,8 @@ def build_fields(cls: type, data: Mapping[str, Any], *, source: str, prefix: str
             kwargs[f.name] = convert_value(hints[f.name], data[file_key], source, key, f.metadata)
         elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
             raise ConfigError(source, key, "missing key")
-    obj = cls(**kwargs)
+    with as_file_error(cls, source, prefix):
+        obj = cls(**kwargs)
     check = getattr(obj, "validate", None)
     if check is not None:
         check(source=source, prefix=prefix)

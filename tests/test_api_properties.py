@@ -2,9 +2,11 @@
 the package's own one-line error.
 
 The segments and the other path dataclasses, the vehicle parameter dataclasses, the experiment's plant and
-robustness tables, :func:`plan_segments`, :func:`plan_waypoints`, :func:`simulate_open_loop` (a few samples each)
-and :func:`read_log` (random bytes) get random arguments: NaN, ±inf, huge and tiny numbers, zero, negative, wrong
-types, misspelled choices, mixed with sensible values so that success is reached too. The only accepted outcomes
+robustness tables, the fuzz configuration and the limits, :func:`plan_segments`, :func:`plan_waypoints`,
+:func:`simulate_open_loop` (a few samples each), :func:`read_log` (random bytes), :func:`run_closed_loop`,
+:func:`fuzz` and :func:`check_experiments` (on paths of a few centimetres) get random arguments: NaN, ±inf, huge
+and tiny numbers, zero, negative, wrong types, misspelled choices, mixed with sensible values so that success is
+reached too. The only accepted outcomes
 are success, or an :class:`~agvctl.errors.AgvctlError` whose message is one line starting with the class or
 function it names (the path's source for :func:`plan_waypoints`, the file for :func:`read_log`). Any other
 exception fails.
@@ -26,11 +28,16 @@ from cli_runs import assert_clean
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from agvctl.checks.runner import check_experiments
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.docking import DockingConfig
+from agvctl.controllers.registry import POSE_CONTROLLERS
 from agvctl.errors import AgvctlError
 from agvctl.estimation.ekf import EkfSettings
 from agvctl.estimation.offline import read_log
+from agvctl.evaluation.limits import LIMITS, LimitsSpec
+from agvctl.fuzz.run import fuzz, fuzz_tasks
+from agvctl.fuzz.spec import DEFAULT_ENVELOPE, FuzzSpec, PathGenSpec, StartSpec
 from agvctl.params import (
     AmplifierParams,
     BatteryParams,
@@ -126,6 +133,79 @@ test_ekf_settings = _constructor_test(EkfSettings)
 test_path_spec = _constructor_test(PathSpec)
 test_experiment_spec = _constructor_test(ExperimentSpec)
 test_controller_spec = _constructor_test(ControllerSpec)
+test_start_spec = _constructor_test(StartSpec)
+
+
+@st.composite
+def mostly(draw: st.DrawFn, good: st.SearchStrategy[Any], bad: st.SearchStrategy[Any], in_four: int = 3) -> Any:
+    """``good`` ``in_four`` times in four (a drawn selector: ``one_of`` would flatten ``bad``'s branches beside
+    ``good``), so that arguments of several fields reach success often enough to test it too."""
+    return draw(good) if draw(st.integers(0, 3)) < in_four else draw(bad)
+
+
+ranges = st.tuples(values, values) | st.lists(values, max_size=3)
+fractions = st.lists(st.floats(0.01, 1.0), min_size=2, max_size=2).map(sorted).map(tuple)
+words = st.lists(st.sampled_from(["line", "arc", "turn", "smooth", "stop", "lin", ""]) | values, max_size=3)
+path_gen_args = {
+    "segments": mostly(st.lists(st.integers(1, 4), min_size=2, max_size=2).map(sorted).map(tuple), ranges),
+    "segment_types": mostly(st.lists(st.sampled_from(["line", "arc", "turn"]), min_size=1, max_size=3), words),
+    "join": mostly(st.lists(st.sampled_from(["smooth", "stop"]), min_size=1, max_size=2), words),
+    "explicit_limits_fraction": mostly(st.floats(0.0, 1.0), values),
+    **{name: mostly(fractions, ranges) for name in ("line_length_m", "arc_radius_m", "wheel_speed_fraction")},
+    **{name: mostly(fractions.map(lambda r: (100 * r[0], 100 * r[1])), ranges) for name in ("arc_angle_deg",)},
+}
+
+
+@API
+@given(kwargs=st.fixed_dictionaries({}, optional=path_gen_args))
+def test_path_gen_spec(kwargs: dict[str, Any]) -> None:
+    assert_clean(lambda: PathGenSpec(**kwargs), "PathGenSpec")
+
+
+@API
+@given(bounds=st.dictionaries(st.sampled_from([*LIMITS, "tracking_eror_max_m", "", 1, 1.5, None]), values, max_size=4))
+def test_limits_spec(bounds: Any) -> None:
+    assert_clean(lambda: LimitsSpec(bounds), "LimitsSpec")
+
+
+required_fuzz_args = {
+    "seed": mostly(st.integers(0, 10**6), values),
+    "scenarios": mostly(st.integers(1, 3), values),
+}
+envelope = st.dictionaries(
+    st.sampled_from(list(DEFAULT_ENVELOPE)), st.floats(-0.05, 0.0).map(lambda lo: (lo, -lo)), max_size=3
+)
+fuzz_args = {
+    "controllers": mostly(
+        st.lists(st.sampled_from(list(POSE_CONTROLLERS)), min_size=1, max_size=2, unique=True),
+        st.lists(st.sampled_from([*POSE_CONTROLLERS, "Mpc", ""]) | values, max_size=3) | values,
+    ),
+    "settle_s": mostly(st.floats(0.0, 2.0), values),
+    "start": mostly(st.builds(StartSpec), values),
+    "plant": mostly(
+        envelope,
+        st.dictionaries(st.sampled_from([*DEFAULT_ENVELOPE, "body.mass", "wheels", 1, None]), ranges, max_size=3)
+        | values,
+    ),
+    "controller": mostly(
+        st.fixed_dictionaries({}, optional={"horizon": st.integers(5, 30), "coulomb_feedforward": st.booleans()}),
+        st.dictionaries(st.sampled_from(["horizon", "reach_lead", "coulomb_feedforward", "pose"]), values) | values,
+    ),
+    "limits": mostly(st.builds(LimitsSpec), values),
+    "name": mostly(st.sampled_from(["ok", ""]), st.sampled_from(["../x", "a/b", "\x00"]) | values),
+}
+
+
+@API
+@given(kwargs=st.fixed_dictionaries(required_fuzz_args, optional=fuzz_args))
+def test_fuzz_spec(kwargs: dict[str, Any]) -> None:
+    """A fuzz configuration made in Python, then its scenarios drawn (:func:`fuzz_tasks` checks it against the
+    vehicle before anything runs)."""
+
+    def call() -> object:
+        return fuzz_tasks(FuzzSpec(**kwargs), scenarios=[0])
+
+    assert_clean(call, "FuzzSpec", "LimitsSpec", "StartSpec", "PathGenSpec")
 
 
 @API
@@ -283,3 +363,65 @@ def test_run_closed_loop(initial_pose: Any, settle_s: Any, compute_delay: Any, s
         )
 
     assert_clean(call, "run_closed_loop", "simulate_open_loop")
+
+
+# The runs' options, on runs of a few centimetres. Only the local executor in this process is drawn (one job):
+# worker processes take seconds to start, and a Dask scheduler's address is a network connection; the fuzz and
+# check tests run both.
+options = {
+    "jobs": mostly(st.just(1), st.sampled_from([0, -1, 1.5, 10**6, True, "2"]), in_four=2),
+    "executor": mostly(st.just("local"), st.sampled_from(["Local", "", None, 1]), in_four=2),
+    "scheduler": mostly(st.none(), st.sampled_from([3, b"tcp://x"]), in_four=2),
+    "progress": mostly(st.sampled_from([None, lambda done, total: None]), st.sampled_from([3, "print"]), in_four=2),
+}
+TINY_FUZZ = FuzzSpec(
+    seed=1,
+    scenarios=1,
+    settle_s=0.1,
+    paths=PathGenSpec(segments=(1, 1), segment_types=("line",), line_length_m=(0.03, 0.05)),
+)
+indices = mostly(
+    st.sampled_from([None, [0], (1,)]),
+    st.lists(st.sampled_from([0, -1, 1.5, 10**10, None, "0"]), max_size=2) | values,
+)
+
+
+@API
+@given(spec=mostly(st.just(TINY_FUZZ), values), scenarios=indices, **options)
+def test_fuzz(spec: Any, scenarios: Any, jobs: Any, executor: Any, scheduler: Any, progress: Any) -> None:
+    assert_clean(
+        lambda: fuzz(spec, scenarios=scenarios, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress),
+        "fuzz",
+        "--jobs",
+        "--executor",
+        "--scheduler",
+        "progress",
+    )
+
+
+def _experiment_files() -> list[Any]:
+    (WORK / "tiny.toml").write_text('[[segments]]\ntype = "line"\nlength_m = 0.04\n')
+    (WORK / "tiny_exp.toml").write_text('name = "tiny"\ntrajectory = "tiny.toml"\nsettle_s = 0.1\n')
+    (WORK / "broken.toml").write_text('name = "broken"\ntrajectory = "missing.toml"\n')
+    return [str(WORK / "tiny_exp.toml"), WORK / "tiny_exp.toml"]
+
+
+BAD_EXPERIMENTS = [str(WORK / "broken.toml"), str(WORK), str(WORK / "none.toml"), 3, None]
+experiment_lists = st.lists(st.sampled_from(_experiment_files()), min_size=1, max_size=2)
+
+
+@API
+@given(
+    paths=mostly(experiment_lists, st.lists(st.sampled_from(BAD_EXPERIMENTS), max_size=2) | values),
+    **options,
+)
+def test_check_experiments(paths: Any, jobs: Any, executor: Any, scheduler: Any, progress: Any) -> None:
+    assert_clean(
+        lambda: check_experiments(paths, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress),
+        "check_experiments",
+        str(WORK),
+        "--jobs",
+        "--executor",
+        "--scheduler",
+        "progress",
+    )

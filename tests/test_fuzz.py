@@ -20,7 +20,7 @@ from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.fuzz.generate import generate_scenario, scenario_files
 from agvctl.fuzz.report import FuzzOutcome, FuzzReport, FuzzTask
 from agvctl.fuzz.run import fuzz, fuzz_tasks, run_fuzz_task
-from agvctl.fuzz.spec import DEFAULT_ENVELOPE, FuzzSpec, load_fuzz_config, nominal_value
+from agvctl.fuzz.spec import DEFAULT_ENVELOPE, FuzzSpec, StartSpec, load_fuzz_config, nominal_value
 from agvctl.params import VehicleParams
 from agvctl.planning import load_path
 from agvctl.scenario.experiment import load_experiment, run_experiment
@@ -86,6 +86,18 @@ def test_scenarios_stay_within_the_envelope(vehicle: VehicleParams) -> None:
         vehicle.with_overrides(list(s.plant_set.items()), source="test")  # a valid vehicle
     assert seen_types == {"line", "arc", "turn"} and seen_joins == {"smooth", "stop"}
     assert 0.35 * spec.scenarios < explicit < 0.65 * spec.scenarios  # about half
+
+
+def test_a_zero_width_range_written_minus_zero_draws_its_one_value(vehicle: VehicleParams) -> None:
+    spec = FuzzSpec(
+        seed=1,
+        scenarios=1,
+        plant={"body.mass_kg": (0.0, -0.0)},
+        start=StartSpec(offset_max_m=-0.0, heading_max_deg=-0.0),
+    )
+    s = generate_scenario(spec, vehicle, 0)
+    assert s.plant_set["body.mass_kg"] == pytest.approx(nominal_value(vehicle, "body.mass_kg"), rel=1e-6)
+    assert s.initial_pose["x_m"] == s.initial_pose["y_m"] == s.initial_pose["theta_deg"] == 0.0
 
 
 def test_written_files_load_as_the_scenario(tmp_path: Path, vehicle: VehicleParams) -> None:
@@ -213,6 +225,8 @@ def test_help_and_only_some_scenarios(tmp_path: Path, capsys: pytest.CaptureFixt
         ('seed = 1\nscenarios = 3\n[paths]\nsegment_types = ["line", "spiral"]\n', "paths.segment_types[1]"),
         ("seed = 1\nscenarios = 3\n[limits]\ncross_track_eror_max_m = 0.1\n", "limits.cross_track_eror_max_m"),
         ('seed = 1\nscenarios = 3\ncontrollers = ["ramsete"]\n[controller]\nhorizon = 20\n', "controller.horizon"),
+        ('seed = 1\nscenarios = 3\nname = "../up"\n', "name: must be a plain name"),
+        ("seed = 1\nscenarios = 3\n[start]\noffset_max_m = -0.1\n", "start.offset_max_m"),
     ],
 )
 def test_bad_config_is_one_line_naming_file_and_key(

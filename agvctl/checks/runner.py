@@ -16,6 +16,7 @@ import contextlib
 import dataclasses
 import functools
 import multiprocessing
+import numbers
 import os
 import signal
 import time
@@ -171,14 +172,26 @@ def _run(task: RunTask, t0: float) -> RunOutcome:
 _THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
 
 
-def resolved_jobs(jobs: int | None, executor: str) -> int:
-    """The number of local workers (default: every core), with ``jobs`` and ``executor`` checked: a one-line
-    :class:`ConfigError` naming the option otherwise."""
-    n = jobs if jobs is not None else (os.cpu_count() or 1)
-    if n < 1:
-        raise ConfigError("--jobs", "", f"must be >= 1 (got {n})")
+MAX_JOBS = 1024
+"""The most worker processes a run may ask for: far beyond any machine's cores, far below what exhausts one."""
+
+
+def resolved_jobs(
+    jobs: int | None, executor: str, scheduler: str | None = None, progress: Callable[..., Any] | None = None
+) -> int:
+    """The number of local workers (default: every core), with ``jobs``, ``executor``, ``scheduler`` and
+    ``progress`` checked: a one-line :class:`ConfigError` naming the option otherwise."""
+    if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, numbers.Integral)):
+        raise ConfigError("--jobs", "", f"expected an integer (got {jobs!r})")
+    n = int(jobs) if jobs is not None else (os.cpu_count() or 1)
+    if not 1 <= n <= MAX_JOBS:
+        raise ConfigError("--jobs", "", f"must be between 1 and {MAX_JOBS} (got {n})")
     if executor not in ("local", "dask"):
-        raise ConfigError("--executor", "", f"must be local or dask (got {executor})")
+        raise ConfigError("--executor", "", f"must be local or dask (got {executor!r})")
+    if scheduler is not None and not isinstance(scheduler, str):
+        raise ConfigError("--scheduler", "", f"expected an address such as tcp://host:8786 (got {scheduler!r})")
+    if progress is not None and not callable(progress):
+        raise ConfigError("progress", "", f"expected a function progress(done, total) (got {progress!r})")
     return n
 
 
@@ -328,8 +341,13 @@ def load_check(paths: Sequence[str | Path]) -> CheckWork:
     ConfigError
         No experiment at all, a file or key that cannot be used, or a sample that gives an invalid vehicle.
     """
+    if isinstance(paths, (str, bytes)) or not isinstance(paths, Sequence):
+        raise ConfigError("check_experiments", "paths", f"expected a sequence of experiment files (got {paths!r})")
     if not paths:
         raise ConfigError("check_experiments", "paths", "give at least one experiment file (got none)")
+    for i, path in enumerate(paths):
+        if not isinstance(path, (str, os.PathLike)):
+            raise ConfigError("check_experiments", f"paths[{i}]", f"expected a file name (got {path!r})")
     experiments: list[Experiment] = []
     tasks_of: list[tuple[RunTask, ...]] = []
     for path in paths:
@@ -377,14 +395,14 @@ def check_experiments(
     ------
     ConfigError
         On bad input, before any run: no experiment at all, a file or key that cannot be used, an invalid Monte
-        Carlo sample.
+        Carlo sample, or an option out of its range (as for :func:`~agvctl.fuzz.run.fuzz`).
 
     Local workers are spawned processes, which import the calling script again: from a script, call this under
     ``if __name__ == "__main__":``.
     """
     t0 = time.perf_counter()
+    jobs = resolved_jobs(jobs, executor, scheduler, progress)
     work = paths if isinstance(paths, CheckWork) else load_check(paths)
-    jobs = resolved_jobs(jobs, executor)
     all_tasks = [t for ts in work.tasks for t in ts]
     with open_executor(executor, jobs, scheduler, len(all_tasks)) as pool:
         outcomes = execute(pool, run_task, all_tasks, progress, on_error=run_error)

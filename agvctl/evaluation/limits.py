@@ -33,7 +33,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.config import convert_value, did_you_mean, join_key
+from agvctl.config import check_fields, convert_value, did_you_mean, join_key
 from agvctl.errors import ConfigError
 from agvctl.evaluation.metrics import (
     NON_FINITE_COMMAND_STATUS,
@@ -178,20 +178,24 @@ _VALUES: dict[str, tuple[type, dict[str, float]]] = {
 
 @dataclass(frozen=True)
 class LimitsSpec:
-    """``[limits]``: upper bounds by name of :data:`LIMITS` (all optional)."""
+    """``[limits]``: upper bounds by name of :data:`LIMITS` (all optional).
+
+    Raises
+    ------
+    ConfigError
+        ``LimitsSpec: bounds.<key>: <problem>``: an unknown key, or a bound that is not a finite value of its kind
+        (positive, a fraction, a count).
+    """
 
     bounds: dict[str, float] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        check_fields(self)
+        object.__setattr__(self, "bounds", _bounds(self.bounds, source=type(self).__name__, prefix="bounds"))
+
     @classmethod
     def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> LimitsSpec:
-        bounds: dict[str, float] = {}
-        for key, value in data.items():
-            if key not in LIMITS:
-                hint = did_you_mean(key, LIMITS, prefix.split(".") if prefix else [])
-                raise ConfigError(source, join_key(prefix, key), "unknown key" + hint)
-            tp, meta = _VALUES[LIMITS[key].values]
-            bounds[key] = convert_value(tp, value, source, join_key(prefix, key), meta)
-        return cls(bounds)
+        return cls(_bounds(data, source=source, prefix=prefix))
 
     def to_file(self) -> dict[str, Any]:
         return dict(self.bounds)
@@ -199,6 +203,18 @@ class LimitsSpec:
     def items(self) -> list[tuple[str, float]]:
         """The limits that are set, as (key, bound), in the order of :data:`LIMITS`."""
         return [(key, float(self.bounds[key])) for key in LIMITS if key in self.bounds]
+
+
+def _bounds(data: Mapping[str, Any], *, source: str, prefix: str) -> dict[str, float]:
+    """Each bound of ``data`` a known limit's key with a value of its kind (positive, a fraction, a count)."""
+    bounds: dict[str, float] = {}
+    for key, value in data.items():
+        if key not in LIMITS:
+            hint = did_you_mean(key, LIMITS, prefix.split(".") if prefix else [])
+            raise ConfigError(source, join_key(prefix, key), "unknown key" + hint)
+        tp, meta = _VALUES[LIMITS[key].values]
+        bounds[key] = convert_value(tp, value, source, join_key(prefix, key), meta)
+    return bounds
 
 
 def format_limit_message(

@@ -63,7 +63,12 @@ def _sig(value: float, digits: int = 6) -> float:
 
 def _draw(rng: np.random.Generator, bounds: tuple[float, ...]) -> float:
     """Uniform in [low, high]."""
-    return float(rng.uniform(bounds[0], bounds[1]))
+    return _uniform(rng, bounds[0], bounds[1])
+
+
+def _uniform(rng: np.random.Generator, low: float, high: float) -> float:
+    """``rng.uniform(low, high)``, with a bound of −0.0 read as 0.0 (numpy refuses ``uniform(0.0, -0.0)``)."""
+    return float(rng.uniform(low + 0.0, high + 0.0))
 
 
 def _segments(rng: np.random.Generator, p: PathGenSpec) -> list[dict[str, Any]]:
@@ -104,7 +109,7 @@ def _plant(rng: np.random.Generator, spec: FuzzSpec, vehicle: VehicleParams) -> 
         lo, hi = spec.plant[key]
         nominal = nominal_value(vehicle, key)
         assert nominal is not None  # checked when the configuration was loaded
-        values[key] = _sig(nominal * (1.0 + float(rng.uniform(lo, hi))))
+        values[key] = _sig(nominal * (1.0 + _uniform(rng, lo, hi)))
     return keep_stiction_above_coulomb(values, vehicle)
 
 
@@ -126,9 +131,9 @@ def generate_scenario(spec: FuzzSpec, vehicle: VehicleParams, index: int) -> Sce
     name = f"s{spec.seed}_{index:05d}"
     path = _path(rng, spec.paths, vehicle, name)
     plant = _plant(rng, spec, vehicle)
-    radius = float(rng.uniform(0.0, spec.start.offset_max_m))
+    radius = _uniform(rng, 0.0, spec.start.offset_max_m)
     direction = float(rng.uniform(-math.pi, math.pi))
-    heading = float(rng.uniform(-spec.start.heading_max_deg, spec.start.heading_max_deg))
+    heading = _uniform(rng, -spec.start.heading_max_deg, spec.start.heading_max_deg)
     pose = {
         "x_m": round(radius * math.cos(direction), 4),
         "y_m": round(radius * math.sin(direction), 4),

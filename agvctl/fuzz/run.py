@@ -22,6 +22,7 @@ The report and its statistics are :class:`~agvctl.fuzz.report.FuzzReport`::
 from __future__ import annotations
 
 import math
+import numbers
 import tempfile
 import time
 import warnings
@@ -37,11 +38,16 @@ from agvctl.evaluation.limits import LimitResult, evaluate_limits
 from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.fuzz.generate import generate_scenario, scenario_files
 from agvctl.fuzz.report import FuzzOutcome, FuzzReport, FuzzTask
-from agvctl.fuzz.spec import FuzzSpec
+from agvctl.fuzz.spec import FuzzSpec, check_against_vehicle
 from agvctl.log import SimLog
 from agvctl.params import load_vehicle
 from agvctl.scenario.experiment import load_experiment, run_experiment
 from agvctl.sim.loop import SENSOR_NAN_COLUMNS
+
+MAX_SCENARIOS = 1_000_000
+"""The most scenarios one fuzz runs, as a file's ``scenarios`` key allows."""
+MAX_SCENARIO_INDEX = 10**9
+"""Scenario indices are below this (a scenario's name holds its index)."""
 
 __all__ = ["FuzzRun", "fuzz", "fuzz_tasks", "run_fuzz", "run_fuzz_task"]
 
@@ -122,17 +128,34 @@ class FuzzRun:
     tasks: list[FuzzTask]
 
 
+def _check_indices(scenarios: Sequence[int]) -> None:
+    """A non-empty sequence of at most :data:`MAX_SCENARIOS` integers, each >= 0 and below
+    :data:`MAX_SCENARIO_INDEX`."""
+    if isinstance(scenarios, (str, bytes)) or not isinstance(scenarios, Sequence):
+        raise ConfigError("fuzz", "scenarios", f"expected a sequence of scenario indices (got {scenarios!r})")
+    if not scenarios:
+        raise ConfigError("fuzz", "scenarios", "give at least one scenario index (got none)")
+    if len(scenarios) > MAX_SCENARIOS:
+        raise ConfigError("fuzz", "scenarios", f"at most {MAX_SCENARIOS} (got {len(scenarios)})")
+    for i in scenarios:
+        if isinstance(i, bool) or not isinstance(i, numbers.Integral):
+            raise ConfigError("fuzz", "scenarios", f"indices must be integers (got {i!r})")
+        if not 0 <= i < MAX_SCENARIO_INDEX:
+            raise ConfigError("fuzz", "scenarios", f"indices must be >= 0 and < {MAX_SCENARIO_INDEX} (got {i})")
+
+
 def fuzz_tasks(spec: FuzzSpec, scenarios: Sequence[int] | None = None) -> FuzzRun:
     """Draw the scenarios (default: ``range(spec.scenarios)``) and make one task per scenario and controller.
 
     Everything is drawn and validated here, before anything runs; no scenario at all, a negative index or a
     scenario outside the envelope's valid vehicles raises a one-line :class:`ConfigError`.
     """
-    if scenarios is not None and not scenarios:
-        raise ConfigError("fuzz", "scenarios", "give at least one scenario index (got none)")
-    if scenarios is not None and min(int(i) for i in scenarios) < 0:
-        raise ConfigError("fuzz", "scenarios", f"scenario indices must be >= 0 (got {min(scenarios)})")
+    if not isinstance(spec, FuzzSpec):
+        raise ConfigError("fuzz", "spec", f"expected a FuzzSpec (got {spec!r})")
+    if scenarios is not None:
+        _check_indices(scenarios)
     vehicle = load_vehicle(None if spec.vehicle == "default" else spec.vehicle)
+    check_against_vehicle(spec, vehicle)
     indices = range(spec.scenarios) if scenarios is None else scenarios
     tasks: list[FuzzTask] = []
     for i in indices:
@@ -178,7 +201,10 @@ def fuzz(
     Raises
     ------
     ConfigError
-        On bad input, before any run (an empty ``scenarios`` among it).
+        On bad input, before any run: a configuration that does not fit its vehicle, scenario indices that are
+        not a non-empty sequence of integers >= 0, or an option out of its range (``jobs`` 1 to
+        :data:`~agvctl.checks.runner.MAX_JOBS`, ``executor``, a ``scheduler`` that is not an address, a
+        ``progress`` that is not callable).
 
     From a script, call this under ``if __name__ == "__main__":`` (local workers are spawned processes, which
     import the calling script again).
@@ -200,7 +226,7 @@ def run_fuzz(
     """Run the tasks of :func:`fuzz_tasks` (drawn already, so their files can be checked first): :func:`fuzz`'s
     second half, with its options; ``t0``, a :func:`time.perf_counter` reading, starts the report's wall time."""
     t0 = time.perf_counter() if t0 is None else t0
-    jobs = resolved_jobs(jobs, executor)
+    jobs = resolved_jobs(jobs, executor, scheduler, progress)
     spec = work.spec
     with open_executor(executor, jobs, scheduler, len(work.tasks)) as pool:
         outcomes = execute(pool, run_fuzz_task, work.tasks, progress, on_error=_lost_run)

@@ -50,7 +50,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from agvctl.config import build, build_fields, check_key, check_plain_name, convert_value, join_key, load_toml, number
+from agvctl.config import (
+    as_file_error,
+    build,
+    build_fields,
+    check_fields,
+    check_key,
+    check_plain_name,
+    convert_value,
+    join_key,
+    load_toml,
+    number,
+)
 from agvctl.controllers.registry import POSE_CONTROLLERS
 from agvctl.errors import ConfigError
 from agvctl.evaluation.limits import LimitsSpec
@@ -62,6 +73,7 @@ __all__ = [
     "FuzzSpec",
     "PathGenSpec",
     "StartSpec",
+    "check_against_vehicle",
     "keep_stiction_above_coulomb",
     "load_fuzz_config",
     "nominal_value",
@@ -101,7 +113,14 @@ def _ordered(
 
 @dataclass(frozen=True)
 class PathGenSpec:
-    """``[paths]``: how random paths are drawn (lengths in m, angles in degrees, fractions in [0, 1])."""
+    """``[paths]``: how random paths are drawn (lengths in m, angles in degrees, fractions in [0, 1]).
+
+    Raises
+    ------
+    ConfigError
+        ``PathGenSpec: <argument>: <problem>``: a range that is not ``(low, high)`` with low <= high within its
+        bounds, or an unknown segment type or join.
+    """
 
     segments: tuple[int, ...] = (2, 6)
     segment_types: tuple[str, ...] = ("line", "arc", "turn")
@@ -113,6 +132,10 @@ class PathGenSpec:
     explicit_limits_fraction: float = number(ge=0.0, le=1.0, default=0.5)
     wheel_speed_fraction: tuple[float, ...] = (0.3, 1.0)
     wheel_accel_fraction: tuple[float, ...] = (0.3, 1.0)
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+        self.validate(source=type(self).__name__, prefix="")
 
     def validate(self, *, source: str, prefix: str) -> None:
         def k(name: str) -> str:
@@ -143,6 +166,9 @@ class StartSpec:
 
     offset_max_m: float = number(ge=0.0, le=10.0, default=0.05)
     heading_max_deg: float = number(ge=0.0, le=180.0, default=5.0)
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 def nominal_value(vehicle: VehicleParams, key: str) -> float | None:
@@ -187,7 +213,16 @@ def keep_stiction_above_coulomb(values: Mapping[str, float], vehicle: VehiclePar
 @dataclass(frozen=True)
 class FuzzSpec:
     """A fuzz configuration, validated (see the module notes). ``plant`` maps dotted vehicle keys to relative
-    ranges; ``controller`` holds the extra ``[controller]`` keys of every run."""
+    ranges; ``controller`` holds the extra ``[controller]`` keys of every run.
+
+    Made in Python, it checks its fields as the file's loader does; what depends on the vehicle (the envelope's
+    keys, the controller table) is checked by :func:`check_against_vehicle` when the scenarios are drawn.
+
+    Raises
+    ------
+    ConfigError
+        ``FuzzSpec: <argument>: <problem>``, e.g. ``FuzzSpec: controllers[0]: must be one of 'mpc', …``.
+    """
 
     seed: int = number(ge=0)
     scenarios: int = number(ge=1, le=1_000_000)
@@ -200,7 +235,12 @@ class FuzzSpec:
     plant: dict[str, Range] = dataclasses.field(default_factory=lambda: dict(DEFAULT_ENVELOPE))
     controller: dict[str, Any] = dataclasses.field(default_factory=dict)
     limits: LimitsSpec = dataclasses.field(default_factory=LimitsSpec)
-    source: str = dataclasses.field(default="<fuzz>", metadata={"derived": True})
+    source: str = dataclasses.field(default="FuzzSpec", metadata={"derived": True})
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+        object.__setattr__(self, "controllers", tuple(self.controllers))
+        self.validate(source=type(self).__name__, prefix="")
 
     @classmethod
     def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> FuzzSpec:
@@ -220,9 +260,16 @@ class FuzzSpec:
             changes["controller"] = dict(data["controller"])
         if "limits" in data:
             changes["limits"] = LimitsSpec.from_file(data["limits"], source=source, prefix=join_key(prefix, "limits"))
-        return dataclasses.replace(base, **changes)
+        with as_file_error(cls, source, prefix):
+            return dataclasses.replace(base, **changes)
 
     def validate(self, *, source: str, prefix: str) -> None:
+        """Every controller a known one, once; every ``plant`` range ordered and above −99 %; a plain ``name`` (when
+        set: a file's stem fills it in)."""
+        for k, pair in self.plant.items():
+            _ordered(pair, source, join_key(join_key(prefix, "plant"), k), low=-0.99)
+        if self.name:
+            check_plain_name(self.name, source, join_key(prefix, "name"), "out/fuzz/<name>")
         key = join_key(prefix, "controllers")
         if not self.controllers:
             raise ConfigError(source, key, "give at least one pose controller")
@@ -240,10 +287,17 @@ def _range(value: Any, source: str, key: str) -> Range:
     return (float(pair[0]), float(pair[1]))
 
 
-def _check_against_vehicle(spec: FuzzSpec, vehicle: VehicleParams) -> None:
-    """Every envelope key a number of the vehicle, each range's ends a valid vehicle; the controller table valid
-    for every controller."""
+def check_against_vehicle(spec: FuzzSpec, vehicle: VehicleParams) -> None:
+    """Check ``spec`` against the vehicle it names: every envelope key a number of the vehicle, each range's ends a
+    valid vehicle, the controller table valid for every controller, a finite top speed.
+
+    Raises
+    ------
+    ConfigError
+        One line naming ``spec.source`` (the file, or ``FuzzSpec`` for one made in Python) and the key."""
     src = spec.source
+    if not math.isfinite(vehicle.derived.max_speed_m_s):
+        raise ConfigError(src, "vehicle", "the vehicle has no finite top speed")
     for key, (lo, hi) in spec.plant.items():
         where = f"plant.{key}"
         nominal = nominal_value(vehicle, key)
@@ -292,12 +346,9 @@ def load_fuzz_config(path: str | Path) -> FuzzSpec:
         if not resolved.exists():
             raise ConfigError(str(path), "vehicle", f"file not found: {resolved}")
         vehicle_path = str(resolved.resolve())
+    check_plain_name(spec.name or path.stem, str(path), "name", "out/fuzz/<name>")
     spec = dataclasses.replace(spec, source=str(path), name=spec.name or path.stem, vehicle=vehicle_path)
-    check_plain_name(spec.name, str(path), "name", "out/fuzz/<name>")
-    vehicle = load_vehicle(None if vehicle_path == "default" else vehicle_path)
-    _check_against_vehicle(spec, vehicle)
-    if not math.isfinite(vehicle.derived.max_speed_m_s):
-        raise ConfigError(str(path), "vehicle", "the vehicle has no finite top speed")
+    check_against_vehicle(spec, load_vehicle(None if vehicle_path == "default" else vehicle_path))
     return spec
 
 
@@ -325,7 +376,7 @@ def override_fuzz_config(
     if controllers is not None:
         out.validate(source="--controllers", prefix="")
         try:
-            _check_against_vehicle(out, load_vehicle(None if out.vehicle == "default" else out.vehicle))
+            check_against_vehicle(out, load_vehicle(None if out.vehicle == "default" else out.vehicle))
         except ConfigError as exc:
             raise ConfigError("--controllers", "", f"{exc}") from None
     return out
