@@ -29,8 +29,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from agvctl.checks.runner import check_experiments
+from agvctl.controllers.baselines.ltv_lqr import LtvLqrConfig
+from agvctl.controllers.baselines.ramsete import RamseteConfig
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.docking import DockingConfig
+from agvctl.controllers.pi.tuning import TuningSpec
+from agvctl.controllers.pi.wheel_loop import PIGains
 from agvctl.controllers.registry import POSE_CONTROLLERS
 from agvctl.errors import AgvctlError
 from agvctl.estimation.ekf import EkfSettings
@@ -134,6 +138,15 @@ test_path_spec = _constructor_test(PathSpec)
 test_experiment_spec = _constructor_test(ExperimentSpec)
 test_controller_spec = _constructor_test(ControllerSpec)
 test_start_spec = _constructor_test(StartSpec)
+test_ramsete_config = _constructor_test(RamseteConfig)
+test_ltv_lqr_config = _constructor_test(LtvLqrConfig)
+test_pi_gains = _constructor_test(PIGains)
+
+
+@API
+@given(kwargs=arguments(TuningSpec))
+def test_tuning_spec(kwargs: dict[str, Any]) -> None:
+    assert_clean(lambda: TuningSpec(**kwargs), "TuningSpec", "tuning specification")
 
 
 @st.composite

@@ -35,7 +35,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from agvctl.config import number
+from agvctl.config import check_fields, number
 from agvctl.controllers.baselines.unicycle import UnicycleTracker
 from agvctl.params import VehicleParams
 
@@ -58,6 +58,9 @@ class LtvLqrConfig:
     effort_yaw_rate_rad_s: float = number(gt=0, default=2.0, doc="largest wanted yaw-rate correction, rad/s")
     schedule_step_m_s: float = number(gt=0, default=0.01, doc="spacing of the gain schedule in v_d, m/s")
     max_wheel_speed_m_s: float | None = number(gt=0, default=None, doc="default: the vehicle's max speed")
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 def unicycle_error_model(speed_m_s: float, sample_period_s: float) -> tuple[FloatArray, FloatArray]:

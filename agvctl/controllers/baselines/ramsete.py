@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agvctl.config import number
+from agvctl.config import check_fields, number
 from agvctl.controllers.baselines.unicycle import UnicycleTracker
 from agvctl.params import VehicleParams
 
@@ -38,6 +38,9 @@ class RamseteConfig:
     b_rad2_m2: float = number(gt=0, default=2.0, doc="b, the convergence gain on the lateral error, rad²/m²")
     zeta: float = number(gt=0, le=1, default=0.7, doc="ζ, the damping ratio of the error dynamics")
     max_wheel_speed_m_s: float | None = number(gt=0, default=None, doc="default: the vehicle's max speed")
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 def ramsete_law(

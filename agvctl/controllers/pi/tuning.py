@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 from scipy.optimize import brentq
 
 from agvctl.actuator import Actuator
+from agvctl.config import check_fields
 from agvctl.controllers.pi.wheel_loop import PIGains
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
@@ -81,6 +82,7 @@ class TuningSpec:
     """Demanded gain crossover (bandwidth); ``None``: as fast as the margins allow."""
 
     def __post_init__(self) -> None:
+        check_fields(self)
         pm, gm, wc = self.phase_margin_deg, self.gain_margin_db, self.crossover_rad_s
         if not (math.isfinite(pm) and 0.0 < pm < 180.0):
             raise ConfigError(SPEC_SOURCE, "phase_margin_deg", f"must be between 0 and 180 degrees (got {pm:g})")

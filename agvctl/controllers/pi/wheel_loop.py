@@ -43,7 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.actuator import Actuator
-from agvctl.config import build, dump_toml, load_toml, number
+from agvctl.config import build, check_fields, dump_toml, load_toml, number
 from agvctl.errors import ConfigError
 from agvctl.params import SIDES, MotorParams, Side, VehicleParams
 
@@ -67,22 +67,15 @@ class PIGains:
     """Gains of the discrete PI ``C(z) = kp + ki·dt_s·z/(z − 1)``, motor-speed error (rad/s) → motor
     voltage (V)."""
 
-    kp: float
+    kp: float = number(ge=0)
     """Proportional gain k_p, V/(rad/s) = V s/rad."""
-    ki: float
+    ki: float = number(ge=0)
     """Integral gain k_i, V/rad (per second of integrated error in rad/s)."""
-    dt_s: float
+    dt_s: float = number(gt=0)
     """Sample period T_s."""
 
     def __post_init__(self) -> None:
-        for name in ("kp", "ki", "dt_s"):
-            value = getattr(self, name)
-            if not math.isfinite(value):
-                raise ValueError(f"PIGains.{name} must be finite (got {value})")
-        if self.kp < 0 or self.ki < 0:
-            raise ValueError(f"PIGains: kp and ki must be >= 0 (got kp={self.kp}, ki={self.ki})")
-        if self.dt_s <= 0:
-            raise ValueError(f"PIGains.dt_s must be > 0 (got {self.dt_s})")
+        check_fields(self)
 
     @property
     def num(self) -> tuple[float, float]:
