@@ -74,6 +74,15 @@ def format_summary(summary: dict[str, Any]) -> str:
         if m.get("nees_mean") is not None:
             line += f"   NEES mean {m['nees_mean']:.2f} (3 dof)"
         lines.append(line)
+        if "fixes_rejected" in m:
+            counts = ", ".join(f"{m['fixes_' + k]} {k}" for k in ("rejected", "dropped", "reordered"))
+            lines.append(f"  position fixes    {counts} (gate, too old, out of order)")
+    for key, c in summary.get("calibration", {}).items():
+        err = f"   ({c['error_sigmas']:+.1f}σ)" if c.get("error_sigmas") is not None else ""
+        lines.append(
+            f"  calibration       {key:<22} {c['believed'] * 1e3:.3f} → {c['estimate'] * 1e3:.3f} ± "
+            f"{c['sigma'] * 1e3:.3f} mm   truth {c['truth'] * 1e3:.3f} mm{err}"
+        )
     wall, sim = summary["wall_time_s"], summary["simulated_s"]
     lines.append(f"  wall time         {wall:.2f} s for {sim:.1f} s simulated ({sim / max(wall, 1e-9):.0f}x real time)")
     for r in summary["limits"]:

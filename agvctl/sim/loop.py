@@ -29,7 +29,13 @@ from numpy.typing import NDArray
 from agvctl.angles import wrap_angle
 from agvctl.controllers.base import PoseCommand, PoseController, WheelSpeedController
 from agvctl.errors import ConfigError
-from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator, consistency
+from agvctl.estimation.base import (
+    CALIBRATION_COLUMNS,
+    PoseEstimator,
+    WheelSpeedEstimator,
+    calibration_readout,
+    consistency,
+)
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
 from agvctl.evaluation.metrics import NON_FINITE_COMMAND_STATUS
 from agvctl.evaluation.path_metrics import path_error_columns
@@ -76,17 +82,29 @@ class _ControlRow(NamedTuple):
     est_sigma_theta_rad: float
     nees: float
     nis: float
+    est_radius_error_left: float
+    est_radius_error_right: float
+    est_separation_error: float
+    est_sigma_radius_error_left: float
+    est_sigma_radius_error_right: float
+    est_sigma_separation_error: float
+    fixes_rejected: float
+    fixes_dropped: float
+    fixes_reordered: float
 
 
 _SENSOR_COLUMNS = _ControlRow._fields[_ControlRow._fields.index("motor_angle_left_rad") :]
 """What the sensors read and the estimators made of it: the true shaft angles (the encoders' source), the motor
 speeds the wheel loops used, the latched counts (and the rest of :data:`~agvctl.sensing.SENSOR_READING_COLUMNS`: the
 gyro, the last fix arriving at the sample, NaN when none, with its measurement time), the estimate's σ and its NEES
-against the truth, and the NIS of a fix (NaN for estimators without a covariance)."""
+against the truth, and the NIS of a fix (NaN for estimators without a covariance), then the odometry calibration
+and the fixes' bookkeeping (:data:`~agvctl.estimation.base.CALIBRATION_COLUMNS`)."""
 assert set(SENSOR_READING_COLUMNS) <= set(_SENSOR_COLUMNS)
+assert _SENSOR_COLUMNS[-len(CALIBRATION_COLUMNS) :] == CALIBRATION_COLUMNS
 
 SENSOR_NAN_COLUMNS = _SENSOR_COLUMNS[_SENSOR_COLUMNS.index("gyro_rate_rad_s") :]
-"""The columns that are NaN where there is no reading: no gyro, no fix arriving, no covariance, no fix's NIS."""
+"""The columns that are NaN where there is no reading: no gyro, no fix arriving, no covariance, no fix's NIS, no
+calibration."""
 
 CONTROL_LOG_COLUMNS = (
     "ref_x_m",
@@ -301,7 +319,7 @@ def run_closed_loop(
             plant.step(da_cmd)
         else:
             plant.finish(da_cmd)
-        checks = consistency(estimator, est, meas.true_pose)
+        checks = (*consistency(estimator, est, meas.true_pose), *calibration_readout(estimator))
         rows.append(_control_row(est, setpoint, sp_motor, da_cmd, solve, status, angle, omega, counts, meas, checks))
         if progress is not None and k % progress_every == 0:
             progress(k / n)
@@ -349,36 +367,11 @@ def _control_row(
     count_l, count_r = counts.tolist()
     fix = meas.fixes[-1].pose if meas.fixes else (math.nan, math.nan, math.nan)
     fix_t = meas.fixes[-1].measured_t_s if meas.fixes else math.nan
-    sigma_x, sigma_y, sigma_theta, nees, nis = checks
     return _ControlRow(
-        est_x_m=x,
-        est_y_m=y,
-        est_theta_rad=theta,
-        setpoint_wheel_speed_left_m_s=sp_l,
-        setpoint_wheel_speed_right_m_s=sp_r,
-        setpoint_omega_motor_left_rad_s=spm_l,
-        setpoint_omega_motor_right_rad_s=spm_r,
-        da_command_left_v=da_l,
-        da_command_right_v=da_r,
-        solve_time_s=solve_s,
-        solver_status=float(status),
-        motor_angle_left_rad=angle_l,
-        motor_angle_right_rad=angle_r,
-        measured_omega_motor_left_rad_s=omega_l,
-        measured_omega_motor_right_rad_s=omega_r,
-        encoder_count_left=float(count_l),
-        encoder_count_right=float(count_r),
-        gyro_rate_rad_s=meas.gyro_rate_rad_s,
-        fix_x_m=float(fix[0]),
-        fix_y_m=float(fix[1]),
-        fix_theta_rad=float(fix[2]),
-        fix_measured_t_s=fix_t,
-        est_sigma_x_m=sigma_x,
-        est_sigma_y_m=sigma_y,
-        est_sigma_theta_rad=sigma_theta,
-        nees=nees,
-        nis=nis,
-    )
+        x, y, theta, sp_l, sp_r, spm_l, spm_r, da_l, da_r, solve_s, float(status), angle_l, angle_r, omega_l, omega_r,
+        float(count_l), float(count_r), meas.gyro_rate_rad_s, float(fix[0]), float(fix[1]), float(fix[2]), fix_t,
+        *checks,
+    )  # fmt: skip
 
 
 def _closed_loop_log(
