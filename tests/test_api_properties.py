@@ -28,6 +28,7 @@ from hypothesis import strategies as st
 
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.docking import DockingConfig
+from agvctl.controllers.mpc.rest import RestConfig
 from agvctl.errors import AgvctlError
 from agvctl.estimation.ekf import EkfSettings
 from agvctl.estimation.offline import read_log
@@ -122,6 +123,7 @@ test_robustness_spec = _constructor_test(RobustnessSpec)
 test_pose = _constructor_test(Pose)
 test_mpc_config = _constructor_test(MpcConfig)
 test_docking_config = _constructor_test(DockingConfig)
+test_rest_config = _constructor_test(RestConfig)
 test_ekf_settings = _constructor_test(EkfSettings)
 test_path_spec = _constructor_test(PathSpec)
 test_experiment_spec = _constructor_test(ExperimentSpec)

@@ -7,11 +7,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_runs import run
 from scipy.stats import chi2
 
 from agvctl.checks.summary import run_summary
 from agvctl.estimation.calibration import calibrated_vehicle, calibration_summary, calibration_truth
 from agvctl.estimation.offline import filter_log, resense_log
+from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.params import load_vehicle
 from agvctl.scenario.experiment import load_experiment, run_experiment
 
@@ -105,3 +107,24 @@ def test_the_calibrated_vehicle_reads_back_and_closes_the_loop_on_the_true_geome
     assert calibration_summary(log, vehicle) is not None
     again = calibration_truth(load_vehicle(None, [f"wheels.separation_m={vehicle.wheels.separation_m!r}"]), vehicle)
     assert again[2] == 0.0
+
+
+def test_agvctl_run_writes_the_calibrated_vehicle_that_an_experiment_then_takes(tmp_path, capsys):
+    code, out, _ = run(capsys, "run", EXPERIMENTS / "figure8_ekf.toml", "--no-plot", "--out", tmp_path / "out")
+    assert code == 0 and "calibration       wheels.right.radius_m" in out
+    path = tmp_path / "out" / "calibrated_vehicle.toml"
+    text = path.read_text()
+    assert text.startswith("# 'IAU AGV' calibrated online by the pose EKF in the run of figure8_ekf")
+    vehicle = load_vehicle(path)
+    plant = load_vehicle(None, ["wheels.right.radius_m=0.1005"])  # figure8_ekf.toml's plant
+    assert np.all(np.abs(calibration_truth(vehicle, plant)) < 3 * vehicle.wheels.radius_tolerance)
+    # the calibrated vehicle as an experiment's believed vehicle: its odometry now matches the plant
+    src = (EXPERIMENTS / "figure8_odometry.toml").read_text().replace("../", f"{EXPERIMENTS.parent}/")
+    exp_file = tmp_path / "odometry.toml"
+    exp_file.write_text(src.replace('vehicle = "default"', f'vehicle = "{path}"'))
+    calibrated = run_experiment(load_experiment(exp_file))
+    nominal = run_experiment(load_experiment(EXPERIMENTS / "figure8_odometry.toml"))
+    assert (
+        closed_loop_metrics(calibrated)["estimate_error_max_m"]
+        < 0.2 * closed_loop_metrics(nominal)["estimate_error_max_m"]
+    )

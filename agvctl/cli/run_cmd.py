@@ -13,7 +13,7 @@ from agvctl.cli.progress import ProgressBar
 from agvctl.cli.staging import check_replaceable, staged_outputs
 from agvctl.planning.headroom import limits_report
 from agvctl.plots import CLOSED_LOOP_PLOTS
-from agvctl.reports import RUN_FILES, write_run_outputs
+from agvctl.reports import CALIBRATED_VEHICLE_FILE, RUN_FILES, write_run_outputs
 from agvctl.scenario.experiment import load_experiment, run_experiment
 
 
@@ -94,7 +94,8 @@ def run(args: argparse.Namespace) -> int:
     experiment = load_experiment(args.experiment)
     name = experiment.spec.name
     out_dir = Path(args.out) if args.out else Path("out") / name
-    names = RUN_FILES if args.no_plot else (*RUN_FILES, *CLOSED_LOOP_PLOTS, "estimate.png")
+    plots = () if args.no_plot else (*CLOSED_LOOP_PLOTS, "estimate.png")
+    names: tuple[str, ...] = (*RUN_FILES, CALIBRATED_VEHICLE_FILE, *plots)
     check_outputs(files_in("--out", out_dir, names), experiment.input_files, [("--out", out_dir)])
     check_replaceable("--out", out_dir, experiment.input_files)
     bar = ProgressBar(f"{name}:")

@@ -220,6 +220,24 @@ def _estimators(
     return estimator, speeds
 
 
+def _estimate_step(
+    estimator: PoseEstimator, pose_controller: PoseController
+) -> Callable[[Measurements], NDArray[np.float64]]:
+    """The estimator's update, then, for a controller that wants to know how good its pose is (one with an
+    ``observe_pose_covariance``) and an estimator that knows (one with a ``pose_covariance``), the estimate's
+    covariance handed to the controller."""
+    observe = getattr(pose_controller, "observe_pose_covariance", None)
+    if observe is None or getattr(estimator, "pose_covariance", None) is None:
+        return estimator.update
+
+    def step(meas: Measurements) -> NDArray[np.float64]:
+        est = estimator.update(meas)
+        observe(np.asarray(getattr(estimator, "pose_covariance"), dtype=np.float64))  # noqa: B009 - not in the protocol
+        return est
+
+    return step
+
+
 MAX_SETTLE_S = 600.0
 """The longest settling time after the reference (s), as in an experiment file."""
 
@@ -294,6 +312,7 @@ def run_closed_loop(
     pose_controller.reset(reference)
     wheel_controller.reset()
     rows: list[_ControlRow] = []
+    estimate = _estimate_step(estimator, pose_controller)
     failures, n, k = 0, length.samples, 0
     progress_every = max(1, int(round(1.0 / ts)))
     setup = time.perf_counter() - t_setup
@@ -304,7 +323,7 @@ def run_closed_loop(
         omega = speeds.update(counts, plant.measure())
         wheel_meas = omega * rim_per_motor
         meas = sensors.read(k, counts, plant.pose, wheel_meas)
-        est = estimator.update(meas)
+        est = estimate(meas)
         tc = time.perf_counter()  # 2. pose controller
         cmd = pose_controller.update(k * ts, est, wheel_meas)
         solve = time.perf_counter() - tc
@@ -319,8 +338,7 @@ def run_closed_loop(
             plant.step(da_cmd)
         else:
             plant.finish(da_cmd)
-        checks = (*consistency(estimator, est, meas.true_pose), *calibration_readout(estimator))
-        rows.append(_control_row(est, setpoint, sp_motor, da_cmd, solve, status, angle, omega, counts, meas, checks))
+        rows.append(_control_row(est, setpoint, sp_motor, da_cmd, solve, status, angle, omega, counts, meas, estimator))
         if progress is not None and k % progress_every == 0:
             progress(k / n)
         if k >= n:
@@ -355,9 +373,10 @@ def _control_row(
     omega: NDArray[np.float64],
     counts: NDArray[np.int64],
     meas: Measurements,
-    checks: tuple[float, ...],
+    estimator: PoseEstimator,
 ) -> _ControlRow:
-    """One sample's record."""
+    """One sample's record, with the estimator's consistency and calibration."""
+    checks = (*consistency(estimator, est, meas.true_pose), *calibration_readout(estimator))
     x, y, theta = np.asarray(est, dtype=np.float64).tolist()
     sp_l, sp_r = setpoint.tolist()
     spm_l, spm_r = sp_motor.tolist()
