@@ -54,10 +54,11 @@ def test_rest_holds_within_the_estimates_uncertainty_and_lets_go_beyond_it():
     still = np.zeros(2)
     assert not rest(end, still, done=False)  # never before the controller is done
     assert not rest(end, np.array([0.05, 0.05]), done=True)  # nor while the wheels turn
-    rest.observe(np.diag([0.003**2, 0.003**2, 0.002**2]))
-    assert rest(end + [0.005, 0.0, 0.0], still, done=True)  # 5 mm off, σ 3 mm: no evidence of an error
-    assert rest(end + [0.008, 0.0, 0.0], still, done=True)  # held until the error leaves the release bound
-    assert not rest(end + [0.02, 0.0, 0.0], still, done=True)  # pushed 2 cm: let go
+    rest.observe(np.diag([0.002**2, 0.002**2, 0.002**2]))
+    assert not rest(end + [0.004, 0.0, 0.0], still, done=True)  # 4 mm off, σ 2 mm: not yet within it
+    assert rest(end + [0.002, 0.0, 0.0], still, done=True)  # 2 mm off: no evidence of an error
+    assert rest(end + [0.0045, 0.0, 0.0], still, done=True)  # held until the error leaves the release bound
+    assert not rest(end + [0.006, 0.0, 0.0], still, done=True)  # beyond max_error_m (5 mm): let go
     rest.observe(np.zeros((3, 3)))  # a perfect estimate: the tolerances decide (1 mm)
-    assert not rest(end + [0.005, 0.0, 0.0], still, done=True)
     assert rest(end + [0.001, 0.0, 0.0], still, done=True)
+    assert not rest(end + [0.0048, 0.0, 0.0], still, done=True)  # 4.8 mm is now certain: let go

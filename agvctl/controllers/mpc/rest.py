@@ -7,8 +7,10 @@ no evidence that the vehicle is off. :class:`Rest` holds the wheels (setpoints z
 stiction) once the controller is done with its references, the wheels have stopped and the estimated error e
 (x, y, θ) from the path's end pose is within the estimate's covariance P (eᵀ(P + T)⁻¹e ≤ the chi-square quantile
 ``enter_probability``, 3 degrees of freedom; T = diag(``tolerance_m``², ``tolerance_m``², ``heading_tolerance_rad``²),
-the tolerance of a perfect estimate). It lets go when the error leaves it at ``release_probability``: a push, or a
-drift the fixes have made certain.
+the tolerance of a perfect estimate) and within ``max_error_m``. It lets go when the error leaves it at
+``release_probability`` or grows beyond ``max_error_m``: a push, or an error the later fixes have made certain (at
+rest they keep coming, and an estimate that was a few mm off when the vehicle stopped is corrected; whatever its
+σ, a vehicle that knows it is that far off moves).
 
 The covariance comes from the closed loop (:meth:`Rest.observe`, for an estimator that has one); without it
 (``localization = "truth"`` or odometry) P is zero and the tolerances alone decide.
@@ -40,9 +42,10 @@ class RestConfig:
     """Hold the wheels at the end when the error is within the estimate's uncertainty."""
     tolerance_m: float = number(gt=0, default=0.001, doc="position tolerance of a perfect estimate, m")
     heading_tolerance_rad: float = number(gt=0, default=0.003, doc="heading tolerance of a perfect estimate, rad")
-    enter_probability: float = number(gt=0, le=0.999999, default=0.99, doc="chi-square quantile to start holding")
+    enter_probability: float = number(gt=0, le=0.999999, default=0.5, doc="chi-square quantile to start holding")
     release_probability: float = number(gt=0, le=0.999999, default=0.9999, doc="chi-square quantile to let go")
     stopped_m_s: float = number(gt=0, default=0.01, doc="wheel speed below which the wheels count as stopped, m/s")
+    max_error_m: float = number(gt=0, default=0.005, doc="largest estimated position error to hold at, m")
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -92,9 +95,10 @@ class Rest:
             self.holding = False
             return False
         d = self.distance(pose)
+        near = math.hypot(float(pose[0]) - self._end[0], float(pose[1]) - self._end[1]) <= self.config.max_error_m
         if self.holding:
-            self.holding = d <= self._release
+            self.holding = near and d <= self._release
         else:
             stopped = max(abs(float(v)) for v in wheel_speed_m_s) < self.config.stopped_m_s
-            self.holding = stopped and d <= self._enter and math.isfinite(d)
+            self.holding = stopped and near and d <= self._enter
         return self.holding
