@@ -90,7 +90,11 @@ def consistency(estimator: object, estimate: FloatArray, true_pose: FloatArray) 
 
 def calibration_readout(estimator: object) -> tuple[float, ...]:
     """The values of :data:`CALIBRATION_COLUMNS` for an estimator with ``calibration``, ``calibration_sigma`` and
-    ``fix_counts`` (:class:`~agvctl.estimation.ekf.PoseEkf`), NaN for one without."""
+    ``fix_counts`` (:class:`~agvctl.estimation.ekf.PoseEkf`), NaN for one without; an estimator's own
+    ``readout()`` of them, when it has one, is used instead (it runs every sample)."""
+    readout = getattr(estimator, "readout", None)
+    if readout is not None:
+        return tuple(readout())
     cal = getattr(estimator, "calibration", None)
     if cal is None:
         return (math.nan,) * len(CALIBRATION_COLUMNS)

@@ -287,26 +287,31 @@ class PoseEkf:
         return x_new, F, Q
 
     def innovation(self, x: FloatArray, P: FloatArray, z: FloatArray) -> tuple[FloatArray, FloatArray, float]:
-        """The fix z = (x, y, θ) against (x, P): the innovation ν (heading wrapped), its covariance S = P₃ + R
-        and the NIS νᵀS⁻¹ν."""
+        """The fix z = (x, y, θ) against (x, P): the innovation ν (heading wrapped), the inverse of its covariance
+        S = P₃ + R and the NIS νᵀS⁻¹ν. S⁻¹ by the adjugate in plain floats (S is symmetric 3×3): a general solve
+        costs more in numpy's per-call overhead than the arithmetic."""
+        (a, b, c), (_, d, e), (_, _, f) = (P[:3, :3] + self._fix_r).tolist()
+        A, B, C = d * f - e * e, c * e - b * f, b * e - c * d
+        D, E, F = a * f - c * c, b * c - a * e, a * d - b * b
+        det = a * A + b * B + c * C
+        s_inv = np.array([[A, B, C], [B, D, E], [C, E, F]]) / det
         nu = z - x[:3]
         nu[2] = wrap_angle(nu[2])
-        S = P[:3, :3] + self._fix_r
-        return nu, S, float(nu @ np.linalg.solve(S, nu))
+        return nu, s_inv, float(nu @ s_inv @ nu)
 
     def fix_update(self, x: FloatArray, P: FloatArray, z: FloatArray) -> tuple[FloatArray, FloatArray, float]:
         """A fix z = (x, y, θ) applied to (x, P): H = [I₃ 0], R from the believed sensor table; returns the
         updated state and covariance and the NIS."""
-        nu, S, nis = self.innovation(x, P, z)
-        K = np.linalg.solve(S, P[:3, :]).T  # P Hᵀ S⁻¹ (S symmetric)
-        x_new = x + K @ nu
-        P_new = P - K @ P[:3, :]
+        nu, s_inv, nis = self.innovation(x, P, z)
+        K = np.dot(P[:, :3], s_inv)  # P Hᵀ S⁻¹
+        x_new = x + np.dot(K, nu)
+        P_new = P - np.dot(K, P[:3, :])
         P_new = 0.5 * (P_new + P_new.T)
         return x_new, P_new, nis
 
     def _gate(self, x: FloatArray, P: FloatArray, z: FloatArray) -> bool:
         """Whether the fix z passes the gate at (x, P) (counting a rejection)."""
-        _nu, _S, nis = self.innovation(x, P, z)
+        _nu, _s_inv, nis = self.innovation(x, P, z)
         self.last_nis = nis
         if nis <= self.gate_nis or self._consecutive_rejections >= self.settings.max_consecutive_rejections:
             self._consecutive_rejections = 0
@@ -314,6 +319,20 @@ class PoseEkf:
         self._consecutive_rejections += 1
         self.rejected_fixes += 1
         return False
+
+    def readout(self) -> tuple[float, ...]:
+        """The calibration (ε_l, ε_r, ε_b), its σ and the fixes rejected, dropped and reordered, as plain floats:
+        what the closed loop logs every sample (:data:`~agvctl.estimation.base.CALIBRATION_COLUMNS`)."""
+        _, _, _, v_l, v_r, v_b = self.P.diagonal().tolist()
+        return (
+            *self.x[3:].tolist(),
+            math.sqrt(v_l),
+            math.sqrt(v_r),
+            math.sqrt(v_b),
+            float(self.rejected_fixes),
+            float(self.dropped_fixes),
+            float(self.reordered_fixes),
+        )
 
     def _apply_fix(self, fix: PositionFix, k: int) -> None:
         if not self.settings.latency_compensation:
