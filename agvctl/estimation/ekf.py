@@ -249,7 +249,7 @@ class PoseEkf:
         """Eqs 39-43 over one sample from state ``x`` with ``travel`` = (d_l m, d_r m, gyro Δθ rad or NaN):
         the next state, its Jacobian F (6×6) and the process noise Q (6×6). Scalars in plain floats, one array
         built per result: numpy's per-call cost would exceed the arithmetic."""
-        d_l, d_r, gyro_dtheta = (float(v) for v in travel)
+        d_l, d_r, gyro_dtheta = travel.tolist() if isinstance(travel, np.ndarray) else travel
         px, py, th, e_l, e_r, e_b = x.tolist()
         s_l, s_r = (1.0 + e_l) * d_l, (1.0 + e_r) * d_r
         ds = 0.5 * (s_l + s_r)  # eq 39
