@@ -6,16 +6,47 @@ import json
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from agvctl.config import dump_toml, to_dict
+from agvctl.estimation.base import CALIBRATION_COLUMNS
+from agvctl.estimation.calibration import calibrated_vehicle
 from agvctl.fileio import write_text
 from agvctl.plots import save_closed_loop_plots
 from agvctl.scenario.experiment import Experiment
 from agvctl.sim.loop import ClosedLoopResult
 
-__all__ = ["RUN_FILES", "write_run_outputs"]
+__all__ = ["CALIBRATED_VEHICLE_FILE", "RUN_FILES", "calibrated_vehicle_toml", "write_run_outputs"]
 
 RUN_FILES = ("log.csv", "summary.json", "experiment.toml", "plant_vehicle.toml")
 """The files :func:`write_run_outputs` writes into the output directory besides the plots."""
+CALIBRATED_VEHICLE_FILE = "calibrated_vehicle.toml"
+"""The controller's vehicle with the odometry calibration the pose estimator learnt, written by
+:func:`write_run_outputs` when it learnt one (``localization = "ekf"``)."""
+
+
+def calibrated_vehicle_toml(experiment: Experiment, result: ClosedLoopResult) -> str | None:
+    """The text of :data:`CALIBRATED_VEHICLE_FILE`: the controller's vehicle with the radii and wheel base the
+    estimator ended the run with and its tolerances narrowed to 3σ
+    (:func:`~agvctl.estimation.calibration.calibrated_vehicle`), a header saying how they were obtained; None
+    for a run whose estimator learns no calibration."""
+    log = result.log
+    eps, sig = (
+        np.array([float(log[c][-1]) for c in names]) for names in (CALIBRATION_COLUMNS[:3], CALIBRATION_COLUMNS[3:6])
+    )
+    if not np.all(np.isfinite(eps)):
+        return None
+    vehicle = calibrated_vehicle(experiment.controller_vehicle, eps, sig)
+    w = vehicle.wheels
+    header = "\n".join(
+        [
+            f"'{vehicle.name}' calibrated online by the pose EKF in the run of {experiment.spec.name}",
+            f"({result.n_samples * result.sample_period_s:.1f} s, from {experiment.spec.source}): the wheel radii and",
+            "wheel base it learnt from the position fixes, tolerances narrowed to 3 sigma of its estimate:",
+            f"r_l = {w.left.radius_m:.6g} m, r_r = {w.right.radius_m:.6g} m, b = {w.separation_m:.6g} m.",
+        ]
+    )
+    return dump_toml(to_dict(vehicle), header=header)
 
 
 def write_run_outputs(
@@ -26,8 +57,9 @@ def write_run_outputs(
     *,
     plots: bool = True,
 ) -> list[Path]:
-    """Write ``log.csv``, ``summary.json``, the resolved ``experiment.toml`` and the true vehicle, and (optionally)
-    the plots. Every text is made before the first file is written, and each file is written atomically."""
+    """Write ``log.csv``, ``summary.json``, the resolved ``experiment.toml``, the true vehicle, the calibrated one
+    (:data:`CALIBRATED_VEHICLE_FILE`, when the estimator learnt a calibration) and (optionally) the plots. Every
+    text is made before the first file is written, and each file is written atomically."""
     exp = experiment.spec
     resolved = to_dict(exp)
     resolved["trajectory"] = str(exp.resolve(exp.trajectory).resolve())
@@ -38,6 +70,9 @@ def write_run_outputs(
         "experiment.toml": dump_toml(resolved, header=f"resolved from {exp.source}"),
         "plant_vehicle.toml": dump_toml(to_dict(experiment.plant_vehicle), header="the simulated truth of this run"),
     }
+    calibrated = calibrated_vehicle_toml(experiment, result)
+    if calibrated is not None:
+        texts[CALIBRATED_VEHICLE_FILE] = calibrated
     out_dir.mkdir(parents=True, exist_ok=True)
     result.log.to_csv(out_dir / "log.csv")
     for name, text in texts.items():

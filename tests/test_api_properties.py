@@ -33,6 +33,7 @@ from agvctl.controllers.baselines.ltv_lqr import LtvLqrConfig
 from agvctl.controllers.baselines.ramsete import RamseteConfig
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.docking import DockingConfig
+from agvctl.controllers.mpc.rest import RestConfig
 from agvctl.controllers.pi.tuning import TuningSpec
 from agvctl.controllers.pi.wheel_loop import PIGains
 from agvctl.controllers.registry import POSE_CONTROLLERS
@@ -41,7 +42,7 @@ from agvctl.estimation.ekf import EkfSettings
 from agvctl.estimation.offline import read_log
 from agvctl.evaluation.limits import LIMITS, LimitsSpec
 from agvctl.fuzz.run import fuzz, fuzz_tasks
-from agvctl.fuzz.spec import DEFAULT_ENVELOPE, FuzzSpec, PathGenSpec, StartSpec
+from agvctl.fuzz.spec import DEFAULT_ENVELOPE, EstimatorsSpec, FuzzSpec, PathGenSpec, StartSpec
 from agvctl.params import (
     AmplifierParams,
     BatteryParams,
@@ -133,11 +134,23 @@ test_robustness_spec = _constructor_test(RobustnessSpec)
 test_pose = _constructor_test(Pose)
 test_mpc_config = _constructor_test(MpcConfig)
 test_docking_config = _constructor_test(DockingConfig)
+test_rest_config = _constructor_test(RestConfig)
 test_ekf_settings = _constructor_test(EkfSettings)
 test_path_spec = _constructor_test(PathSpec)
 test_experiment_spec = _constructor_test(ExperimentSpec)
 test_controller_spec = _constructor_test(ControllerSpec)
 test_start_spec = _constructor_test(StartSpec)
+
+
+@API
+@given(
+    localization=st.lists(st.sampled_from(["ekf", "odometry", "truth", "ekff", ""]) | values, max_size=2) | values,
+    wheel_speed=st.lists(st.sampled_from(["kalman", "exact", "count_difference", "kalmn"]) | values, max_size=2) | values,
+)
+def test_estimators_spec(localization: Any, wheel_speed: Any) -> None:
+    assert_clean(lambda: EstimatorsSpec(localization=localization, wheel_speed=wheel_speed), "EstimatorsSpec")
+
+
 test_ramsete_config = _constructor_test(RamseteConfig)
 test_ltv_lqr_config = _constructor_test(LtvLqrConfig)
 test_pi_gains = _constructor_test(PIGains)
@@ -205,6 +218,7 @@ fuzz_args = {
         st.dictionaries(st.sampled_from(["horizon", "reach_lead", "coulomb_feedforward", "pose"]), values) | values,
     ),
     "limits": mostly(st.builds(LimitsSpec), values),
+    "estimators": mostly(st.builds(EstimatorsSpec), values),
     "name": mostly(st.sampled_from(["ok", ""]), st.sampled_from(["../x", "a/b", "\x00"]) | values),
 }
 

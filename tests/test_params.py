@@ -81,12 +81,14 @@ def test_wheel_radius_per_side_and_common():
     v = load_vehicle()
     assert v.wheels.left.radius_m == v.wheels.right.radius_m == 0.10
     assert v.wheels.side("right") is v.wheels.right
-    assert to_dict(v)["wheels"] == {"separation_m": 0.54, "radius_m": 0.10}
+    tol = {"radius_tolerance": 0.01, "separation_tolerance": 0.02}
+    assert to_dict(v)["wheels"] == {"separation_m": 0.54, **tol, "radius_m": 0.10}
     both = v.with_overrides(["wheels.radius_m=0.12"])
     assert both.wheels.left.radius_m == both.wheels.right.radius_m == 0.12
     left = v.with_overrides(["wheels.left.radius_m=0.101"])
     assert (left.wheels.left.radius_m, left.wheels.right.radius_m) == (0.101, 0.10)
-    assert to_dict(left)["wheels"] == {"separation_m": 0.54, "left": {"radius_m": 0.101}, "right": {"radius_m": 0.10}}
+    sides = {"left": {"radius_m": 0.101}, "right": {"radius_m": 0.10}}
+    assert to_dict(left)["wheels"] == {"separation_m": 0.54, **tol, **sides}
     assert left.with_overrides([]) == left
 
 

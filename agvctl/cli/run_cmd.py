@@ -13,7 +13,7 @@ from agvctl.cli.progress import ProgressBar
 from agvctl.cli.staging import check_replaceable, staged_outputs
 from agvctl.planning.headroom import limits_report
 from agvctl.plots import CLOSED_LOOP_PLOTS
-from agvctl.reports import RUN_FILES, write_run_outputs
+from agvctl.reports import CALIBRATED_VEHICLE_FILE, RUN_FILES, write_run_outputs
 from agvctl.scenario.experiment import load_experiment, run_experiment
 
 
@@ -74,6 +74,15 @@ def format_summary(summary: dict[str, Any]) -> str:
         if m.get("nees_mean") is not None:
             line += f"   NEES mean {m['nees_mean']:.2f} (3 dof)"
         lines.append(line)
+        if "fixes_rejected" in m:
+            counts = ", ".join(f"{m['fixes_' + k]} {k}" for k in ("rejected", "dropped", "reordered"))
+            lines.append(f"  position fixes    {counts} (gate, too old, out of order)")
+    for key, c in summary.get("calibration", {}).items():
+        err = f"   ({c['error_sigmas']:+.1f}σ)" if c.get("error_sigmas") is not None else ""
+        lines.append(
+            f"  calibration       {key:<22} {c['believed'] * 1e3:.3f} → {c['estimate'] * 1e3:.3f} ± "
+            f"{c['sigma'] * 1e3:.3f} mm   truth {c['truth'] * 1e3:.3f} mm{err}"
+        )
     wall, sim = summary["wall_time_s"], summary["simulated_s"]
     lines.append(f"  wall time         {wall:.2f} s for {sim:.1f} s simulated ({sim / max(wall, 1e-9):.0f}x real time)")
     for r in summary["limits"]:
@@ -85,7 +94,8 @@ def run(args: argparse.Namespace) -> int:
     experiment = load_experiment(args.experiment)
     name = experiment.spec.name
     out_dir = Path(args.out) if args.out else Path("out") / name
-    names = RUN_FILES if args.no_plot else (*RUN_FILES, *CLOSED_LOOP_PLOTS, "estimate.png")
+    plots = () if args.no_plot else (*CLOSED_LOOP_PLOTS, "estimate.png")
+    names: tuple[str, ...] = (*RUN_FILES, CALIBRATED_VEHICLE_FILE, *plots)
     check_outputs(files_in("--out", out_dir, names), experiment.input_files, [("--out", out_dir)])
     check_replaceable("--out", out_dir, experiment.input_files)
     bar = ProgressBar(f"{name}:")

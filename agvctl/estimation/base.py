@@ -4,7 +4,9 @@ Every sample the closed loop hands the pose estimator the :class:`~agvctl.sensin
 vehicle's sensors (latched encoder counts, the gyro, the position fixes arriving, the rim speeds the wheel loops
 measured, and the true pose: a perfect pose sensor, for the ``truth`` estimator only), and the wheel-speed estimator
 the latched counts. An estimator that also has a ``pose_covariance`` (3×3) and a ``last_nis`` attribute is checked
-for consistency (NEES, NIS) in the log, as :class:`~agvctl.estimation.ekf.PoseEkf` is.
+for consistency (NEES, NIS) in the log, as :class:`~agvctl.estimation.ekf.PoseEkf` is; one that also has a
+``calibration`` and a ``calibration_sigma`` (ε_l, ε_r, ε_b) and a ``fix_counts`` has them logged too
+(:data:`CALIBRATION_COLUMNS`, :func:`calibration_readout`).
 """
 
 from __future__ import annotations
@@ -18,7 +20,23 @@ from numpy.typing import NDArray
 from agvctl.angles import wrap_angle
 from agvctl.sensing import Measurements
 
-__all__ = ["PoseEstimator", "WheelSpeedEstimator", "consistency"]
+__all__ = ["CALIBRATION_COLUMNS", "PoseEstimator", "WheelSpeedEstimator", "calibration_readout", "consistency"]
+
+CALIBRATION_COLUMNS = (
+    "est_radius_error_left",
+    "est_radius_error_right",
+    "est_separation_error",
+    "est_sigma_radius_error_left",
+    "est_sigma_radius_error_right",
+    "est_sigma_separation_error",
+    "fixes_rejected",
+    "fixes_dropped",
+    "fixes_reordered",
+)
+"""The log columns of an estimator's odometry calibration and its fix bookkeeping at each sample: the relative
+errors ε of the believed left and right wheel radii and wheel base (true = believed · (1 + ε)) and their σ, and
+the fixes rejected by the gate, dropped as too old and applied out of order since the start (NaN for an estimator
+without them)."""
 
 FloatArray = NDArray[np.float64]
 
@@ -68,3 +86,22 @@ def consistency(estimator: object, estimate: FloatArray, true_pose: FloatArray) 
     nees = (A * x * x + D * y * y + F * t * t + 2 * (B * x * y + C * x * t + E * y * t)) / det
     nis = float(getattr(estimator, "last_nis", math.nan))
     return (math.sqrt(a), math.sqrt(d), math.sqrt(f), nees, nis)
+
+
+def calibration_readout(estimator: object) -> tuple[float, ...]:
+    """The values of :data:`CALIBRATION_COLUMNS` for an estimator with ``calibration``, ``calibration_sigma`` and
+    ``fix_counts`` (:class:`~agvctl.estimation.ekf.PoseEkf`), NaN for one without; an estimator's own
+    ``readout()`` of them, when it has one, is used instead (it runs every sample)."""
+    readout = getattr(estimator, "readout", None)
+    if readout is not None:
+        return tuple(readout())
+    cal = getattr(estimator, "calibration", None)
+    if cal is None:
+        return (math.nan,) * len(CALIBRATION_COLUMNS)
+    counts = getattr(estimator, "fix_counts", {})
+    sigma = getattr(estimator, "calibration_sigma", np.full(3, math.nan))
+    return (
+        *np.asarray(cal, dtype=float).tolist(),
+        *np.asarray(sigma, dtype=float).tolist(),
+        *(float(counts.get(k, math.nan)) for k in ("rejected", "dropped", "reordered")),
+    )

@@ -31,7 +31,7 @@ from agvctl.angles import wrap_angle
 from agvctl.config import read_text
 from agvctl.errors import ConfigError
 from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator
-from agvctl.estimation.ekf import EkfSettings, PoseEkf
+from agvctl.estimation.ekf import CALIBRATION_STATES, EkfSettings, PoseEkf
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
 from agvctl.log import SimLog
 from agvctl.params import SIDES, VehicleParams
@@ -59,11 +59,12 @@ ESTIMATE_COLUMNS = (
     "est_sigma_x_m",
     "est_sigma_y_m",
     "est_sigma_theta_rad",
-    "radius_error_left",
-    "radius_error_right",
+    *CALIBRATION_STATES,
+    *(f"{name}_sigma" for name in CALIBRATION_STATES),
     "nees",
 )
-"""The columns :func:`filter_log` and :func:`smooth_log` return (``radius_error_*``: the ε states, relative;
+"""The columns :func:`filter_log` and :func:`smooth_log` return (``radius_error_*``, ``separation_error``: the
+calibration states ε, relative, and their σ;
 ``nees``: eᵀP⁻¹e of the pose against the log's true pose, 3 degrees of freedom, NaN for a log without it)."""
 
 
@@ -156,7 +157,7 @@ def _table(log: SimLog, states: FloatArray, covs: FloatArray) -> SimLog:
         e = states[:, :3] - np.column_stack([log["x_m"], log["y_m"], log["theta_rad"]])
         e[:, 2] = wrap_angle(e[:, 2])
         nees = np.einsum("ki,ki->k", e, np.linalg.solve(covs[:, :3, :3], e[:, :, None])[:, :, 0])
-    cols = [log["t_s"], *states[:, :3].T, *sig[:, :3].T, states[:, 3], states[:, 4], nees]
+    cols = [log["t_s"], *states[:, :3].T, *sig[:, :3].T, *states[:, 3:].T, *sig[:, 3:].T, nees]
     return SimLog({name: np.asarray(c, dtype=float) for name, c in zip(ESTIMATE_COLUMNS, cols, strict=True)})
 
 
@@ -230,7 +231,8 @@ def filter_log(
         log["gyro_rate_rad_s"],
         log_fixes(log, vehicle.control.sample_period_s),
     )
-    states, covs = np.empty((len(log), 5)), np.empty((len(log), 5, 5))
+    n = len(ekf.x)
+    states, covs = np.empty((len(log), n)), np.empty((len(log), n, n))
     for k in range(len(log)):
         ekf.step(k, counts[k], float(gyro[k]), fixes[k])
         states[k], covs[k] = ekf.x, ekf.P
@@ -256,15 +258,15 @@ def smooth_log(log: SimLog, vehicle: VehicleParams, settings: EkfSettings | None
         The smoothed estimate per sample, in the columns of :func:`filter_log`."""
     ekf = PoseEkf(vehicle, settings)
     ekf.reset(_start(log))
-    n, ts = len(log), vehicle.control.sample_period_s
+    n, m, ts = len(log), len(ekf.x), vehicle.control.sample_period_s
     counts, gyro = log_encoder_counts(log), log["gyro_rate_rad_s"]
     by_sample: dict[int, list[PositionFix]] = {}
     for arrived in log_fixes(log, ts):
         for fix in arrived:
             by_sample.setdefault(fix.measured_sample, []).append(fix)
     x, P = ekf.x.copy(), ekf.P.copy()
-    xs, Ps = np.empty((n, 5)), np.empty((n, 5, 5))
-    x_pred, P_pred, Fs = np.empty((n, 5)), np.empty((n, 5, 5)), np.empty((n, 5, 5))
+    xs, Ps = np.empty((n, m)), np.empty((n, m, m))
+    x_pred, P_pred, Fs = np.empty((n, m)), np.empty((n, m, m)), np.empty((n, m, m))
     for k in range(n):
         if k > 0:
             d = (counts[k] - counts[k - 1]) * ekf.metres_per_count

@@ -134,7 +134,8 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
 
 def estimate_metrics(log: SimLog) -> dict[str, float]:
     """The pose estimate against the truth (zero with ``localization = "truth"``); with an estimator that has a
-    covariance also its mean NEES (3 degrees of freedom) and mean NIS over the fixes."""
+    covariance also its mean NEES (3 degrees of freedom) and mean NIS over the fixes; with one that gates its fixes
+    the fixes rejected, dropped (older than it keeps) and applied out of order over the run."""
     est = estimate_position_error_m(log)
     out = {
         "estimate_error_rms_m": float(np.sqrt(np.mean(est**2))),
@@ -145,4 +146,8 @@ def estimate_metrics(log: SimLog) -> dict[str, float]:
         out["nees_mean"] = float(np.nanmean(log["nees"]))
         nis = log["nis"][np.isfinite(log["nis"])]
         out["nis_mean"] = float(np.mean(nis)) if nis.size else math.nan
+    for what in ("rejected", "dropped", "reordered"):
+        column = f"fixes_{what}"
+        if column in log and math.isfinite(float(log[column][-1])):
+            out[column] = int(log[column][-1])
     return out

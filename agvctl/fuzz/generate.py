@@ -18,7 +18,8 @@ What is drawn, in this order:
   exchanged (with equal ranges, as by default, that draws the pair uniformly over the part of the box where
   τ_s ≥ τ_c); if only one of them is drawn, stiction is raised to the Coulomb friction;
 - the start: an offset uniform in [0, ``start.offset_max_m``] in a uniformly random direction, and a heading
-  off by up to ``start.heading_max_deg``.
+  off by up to ``start.heading_max_deg``;
+- the sensors' noise seed (``[plant] sensor_seed``), and for each list of ``[estimators]`` one of its names.
 
 Values are rounded for readable files (1 mm, 0.1°, six significant digits for the plant) before use.
 """
@@ -26,7 +27,7 @@ Values are rounded for readable files (1 mm, 0.1°, six significant digits for t
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -51,6 +52,10 @@ class Scenario:
     """``[plant] set``: dotted vehicle keys and their true values."""
     initial_pose: dict[str, float]
     """``[plant] initial_pose``: ``x_m``, ``y_m``, ``theta_deg``."""
+    sensor_seed: int = 0
+    """``[plant] sensor_seed``: the true sensors' noise."""
+    estimators: dict[str, str] = field(default_factory=dict)
+    """The ``[controller]`` estimator keys drawn (``localization``, ``wheel_speed``)."""
 
     @property
     def name(self) -> str:
@@ -143,7 +148,9 @@ def generate_scenario(spec: FuzzSpec, vehicle: VehicleParams, index: int) -> Sce
         vehicle.with_overrides(list(plant.items()), source="plant")
     except ConfigError as exc:  # the envelope's ends were checked one at a time; combinations can still fail
         raise ConfigError(spec.source, "plant", f"scenario {index} gives an invalid vehicle: {exc}") from None
-    return Scenario(spec.seed, index, path, plant, pose)
+    sensor_seed = int(rng.integers(0, 2**31))
+    estimators = {key: str(choices[int(rng.integers(len(choices)))]) for key, choices in spec.estimators.items()}
+    return Scenario(spec.seed, index, path, plant, pose, sensor_seed, estimators)
 
 
 def scenario_files(spec: FuzzSpec, scenario: Scenario, controller: str) -> dict[str, str]:
@@ -157,8 +164,12 @@ def scenario_files(spec: FuzzSpec, scenario: Scenario, controller: str) -> dict[
         "trajectory": path_name,
         "vehicle": spec.vehicle,
         "settle_s": spec.settle_s,
-        "plant": {"set": dict(scenario.plant_set), "initial_pose": dict(scenario.initial_pose)},
-        "controller": {"pose": controller, **spec.controller},
+        "plant": {
+            "set": dict(scenario.plant_set),
+            "initial_pose": dict(scenario.initial_pose),
+            "sensor_seed": scenario.sensor_seed,
+        },
+        "controller": {"pose": controller, **spec.controller, **scenario.estimators},
         "limits": spec.limits.to_file(),
     }
     return {

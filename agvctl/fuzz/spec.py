@@ -31,11 +31,18 @@ heading_max_deg = 5.0
 [controller]                        # more keys for every run's [controller] table (pose comes from controllers)
 coulomb_feedforward = true
 
+[estimators]                        # optional: each scenario draws one of each list (uniformly)
+localization = ["ekf"]              # names of agvctl.estimation.registry.ESTIMATORS
+wheel_speed = ["kalman", "count_difference"]
+
 [limits]                            # experiment-file limit keys, each replacing the default gate's bound of its key
 cross_track_error_max_m = 0.05
 ```
 
-Without ``[plant]``, the envelope is :data:`DEFAULT_ENVELOPE`. Every run is judged exactly as ``agvctl check`` judges
+Without ``[plant]``, the envelope is :data:`DEFAULT_ENVELOPE`. ``[plant]`` may name the true sensors too
+(``"sensors.position_fix_sigma_m"``, ``"sensors.position_fix_rate_hz"``, ``"sensors.position_fix_latency_s"``, …):
+the estimators keep believing the vehicle file's. Every scenario draws its own ``sensor_seed``.
+Every run is judged exactly as ``agvctl check`` judges
 it: the default gate (:func:`~agvctl.evaluation.limits.default_limits`) and the ``[limits]`` keys, each of which
 replaces the default of its key.
 Every problem is a one-line :class:`~agvctl.errors.ConfigError` naming the file and key, before anything runs.
@@ -64,12 +71,14 @@ from agvctl.config import (
 )
 from agvctl.controllers.registry import POSE_CONTROLLERS
 from agvctl.errors import ConfigError
+from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
 from agvctl.evaluation.limits import LimitsSpec
 from agvctl.params import VehicleParams, load_vehicle
 from agvctl.scenario.spec import ControllerSpec
 
 __all__ = [
     "DEFAULT_ENVELOPE",
+    "EstimatorsSpec",
     "FuzzSpec",
     "PathGenSpec",
     "StartSpec",
@@ -171,6 +180,32 @@ class StartSpec:
         check_fields(self)
 
 
+@dataclass(frozen=True)
+class EstimatorsSpec:
+    """``[estimators]``: the pose and wheel-speed estimators each scenario draws one of (uniformly); an empty list
+    draws none (the ``[controller]`` table's, or the default)."""
+
+    localization: tuple[str, ...] = ()
+    wheel_speed: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+        self.validate(source=type(self).__name__, prefix="")
+
+    def validate(self, *, source: str, prefix: str) -> None:
+        for name, table in (("localization", ESTIMATORS), ("wheel_speed", WHEEL_SPEED_ESTIMATORS)):
+            for i, value in enumerate(getattr(self, name)):
+                if value not in table:
+                    allowed = ", ".join(map(repr, table))
+                    raise ConfigError(
+                        source, f"{join_key(prefix, name)}[{i}]", f"must be one of {allowed} (got {value!r})"
+                    )
+
+    def items(self) -> list[tuple[str, tuple[str, ...]]]:
+        """The ``[controller]`` keys drawn, with their choices."""
+        return [(name, getattr(self, name)) for name in ("localization", "wheel_speed") if getattr(self, name)]
+
+
 def nominal_value(vehicle: VehicleParams, key: str) -> float | None:
     """The value of a dotted vehicle key (``"motor.left.stiction_n_m"``), or None if it names no number."""
     node: Any = vehicle
@@ -234,6 +269,7 @@ class FuzzSpec:
     start: StartSpec = dataclasses.field(default_factory=StartSpec)
     plant: dict[str, Range] = dataclasses.field(default_factory=lambda: dict(DEFAULT_ENVELOPE))
     controller: dict[str, Any] = dataclasses.field(default_factory=dict)
+    estimators: EstimatorsSpec = dataclasses.field(default_factory=EstimatorsSpec)
     limits: LimitsSpec = dataclasses.field(default_factory=LimitsSpec)
     source: str = dataclasses.field(default="FuzzSpec", metadata={"derived": True})
 
@@ -315,6 +351,9 @@ def check_against_vehicle(spec: FuzzSpec, vehicle: VehicleParams) -> None:
                 raise ConfigError(src, where, f"gives an invalid vehicle at {end:+g}: {exc.problem}") from None
     if "pose" in spec.controller:
         raise ConfigError(src, "controller.pose", "set by controllers = [...]; remove it here")
+    for key, _choices in spec.estimators.items():
+        if key in spec.controller:
+            raise ConfigError(src, f"controller.{key}", f"drawn by [estimators] {key}; remove it here")
     for name in spec.controllers:
         ControllerSpec.from_file({"pose": name, **spec.controller}, source=src, prefix="controller")
 

@@ -79,6 +79,7 @@ class WheelSide:
 
 
 _WHEEL_SIDE_KEYS = tuple(f.name for f in dataclasses.fields(WheelSide))
+_TOLERANCE_KEYS = ("radius_tolerance", "separation_tolerance")
 _RENAMED_WHEEL_KEYS = {"radius_left_m": "left.radius_m", "radius_right_m": "right.radius_m"}
 
 
@@ -86,11 +87,21 @@ _RENAMED_WHEEL_KEYS = {"radius_left_m": "left.radius_m", "radius_right_m": "righ
 class WheelParams:
     """The driving wheels: the left and right wheel (radii r_l, r_r) and their separation b. In a file,
     ``[wheels]`` holds ``separation_m`` and the common ``radius_m``; ``[wheels.left]`` / ``[wheels.right]``
-    override it for one side."""
+    override it for one side. The tolerances say how well the file knows them (appendix A.1: "Wheel base and wheel
+    radius ... are particularly important to know precisely"); the pose EKF's calibration priors follow from them."""
 
     left: WheelSide
     right: WheelSide
     separation_m: float = number(gt=0)
+    radius_tolerance: float = number(
+        ge=0.0, le=0.2, default=0.01, doc="relative half-width of the range each true radius lies in (±)"
+    )
+    separation_tolerance: float = number(
+        ge=0.0, le=0.2, default=0.02, doc="relative half-width of the range the true separation lies in (±)"
+    )
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
     @classmethod
     def extra_file_keys(cls) -> dict[str, Any]:
@@ -102,7 +113,7 @@ class WheelParams:
 
     @classmethod
     def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> WheelParams:
-        allowed = ["separation_m", *_WHEEL_SIDE_KEYS, "left", "right"]
+        allowed = ["separation_m", *_TOLERANCE_KEYS, *_WHEEL_SIDE_KEYS, "left", "right"]
         for k in data:
             if k in _RENAMED_WHEEL_KEYS:
                 raise ConfigError(source, join_key(prefix, k), renamed(join_key(prefix, _RENAMED_WHEEL_KEYS[k])))
@@ -113,11 +124,15 @@ class WheelParams:
             raise ConfigError(source, key, "missing key")
         meta = {f.name: f.metadata for f in dataclasses.fields(cls)}
         separation = convert_value(float, data["separation_m"], source, key, meta["separation_m"])
+        tolerances = {
+            k: convert_value(float, data[k], source, join_key(prefix, k), meta[k]) for k in _TOLERANCE_KEYS if k in data
+        }
         left, right = _sides_from_file(WheelSide, data, source=source, prefix=prefix)
-        return cls(separation_m=separation, left=left, right=right)
+        return cls(separation_m=separation, left=left, right=right, **tolerances)
 
     def to_file(self) -> dict[str, Any]:
-        return {"separation_m": self.separation_m, **_sides_to_file(self.left, self.right)}
+        tolerances = {k: getattr(self, k) for k in _TOLERANCE_KEYS}
+        return {"separation_m": self.separation_m, **tolerances, **_sides_to_file(self.left, self.right)}
 
     def side(self, name: Side) -> WheelSide:
         return self.left if name == "left" else self.right

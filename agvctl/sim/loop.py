@@ -29,7 +29,13 @@ from numpy.typing import NDArray
 from agvctl.angles import wrap_angle
 from agvctl.controllers.base import PoseCommand, PoseController, WheelSpeedController
 from agvctl.errors import ConfigError
-from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator, consistency
+from agvctl.estimation.base import (
+    CALIBRATION_COLUMNS,
+    PoseEstimator,
+    WheelSpeedEstimator,
+    calibration_readout,
+    consistency,
+)
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
 from agvctl.evaluation.metrics import NON_FINITE_COMMAND_STATUS
 from agvctl.evaluation.path_metrics import path_error_columns
@@ -76,17 +82,29 @@ class _ControlRow(NamedTuple):
     est_sigma_theta_rad: float
     nees: float
     nis: float
+    est_radius_error_left: float
+    est_radius_error_right: float
+    est_separation_error: float
+    est_sigma_radius_error_left: float
+    est_sigma_radius_error_right: float
+    est_sigma_separation_error: float
+    fixes_rejected: float
+    fixes_dropped: float
+    fixes_reordered: float
 
 
 _SENSOR_COLUMNS = _ControlRow._fields[_ControlRow._fields.index("motor_angle_left_rad") :]
 """What the sensors read and the estimators made of it: the true shaft angles (the encoders' source), the motor
 speeds the wheel loops used, the latched counts (and the rest of :data:`~agvctl.sensing.SENSOR_READING_COLUMNS`: the
 gyro, the last fix arriving at the sample, NaN when none, with its measurement time), the estimate's σ and its NEES
-against the truth, and the NIS of a fix (NaN for estimators without a covariance)."""
+against the truth, and the NIS of a fix (NaN for estimators without a covariance), then the odometry calibration
+and the fixes' bookkeeping (:data:`~agvctl.estimation.base.CALIBRATION_COLUMNS`)."""
 assert set(SENSOR_READING_COLUMNS) <= set(_SENSOR_COLUMNS)
+assert _SENSOR_COLUMNS[-len(CALIBRATION_COLUMNS) :] == CALIBRATION_COLUMNS
 
 SENSOR_NAN_COLUMNS = _SENSOR_COLUMNS[_SENSOR_COLUMNS.index("gyro_rate_rad_s") :]
-"""The columns that are NaN where there is no reading: no gyro, no fix arriving, no covariance, no fix's NIS."""
+"""The columns that are NaN where there is no reading: no gyro, no fix arriving, no covariance, no fix's NIS, no
+calibration."""
 
 CONTROL_LOG_COLUMNS = (
     "ref_x_m",
@@ -202,6 +220,24 @@ def _estimators(
     return estimator, speeds
 
 
+def _estimate_step(
+    estimator: PoseEstimator, pose_controller: PoseController
+) -> Callable[[Measurements], NDArray[np.float64]]:
+    """The estimator's update, then, for a controller that wants to know how good its pose is (one with an
+    ``observe_pose_covariance``) and an estimator that knows (one with a ``pose_covariance``), the estimate's
+    covariance handed to the controller."""
+    observe = getattr(pose_controller, "observe_pose_covariance", None)
+    if observe is None or getattr(estimator, "pose_covariance", None) is None:
+        return estimator.update
+
+    def step(meas: Measurements) -> NDArray[np.float64]:
+        est = estimator.update(meas)
+        observe(np.asarray(getattr(estimator, "pose_covariance"), dtype=np.float64))  # noqa: B009 - not in the protocol
+        return est
+
+    return step
+
+
 MAX_SETTLE_S = 600.0
 """The longest settling time after the reference (s), as in an experiment file."""
 
@@ -276,6 +312,7 @@ def run_closed_loop(
     pose_controller.reset(reference)
     wheel_controller.reset()
     rows: list[_ControlRow] = []
+    estimate = _estimate_step(estimator, pose_controller)
     failures, n, k = 0, length.samples, 0
     progress_every = max(1, int(round(1.0 / ts)))
     setup = time.perf_counter() - t_setup
@@ -286,7 +323,7 @@ def run_closed_loop(
         omega = speeds.update(counts, plant.measure())
         wheel_meas = omega * rim_per_motor
         meas = sensors.read(k, counts, plant.pose, wheel_meas)
-        est = estimator.update(meas)
+        est = estimate(meas)
         tc = time.perf_counter()  # 2. pose controller
         cmd = pose_controller.update(k * ts, est, wheel_meas)
         solve = time.perf_counter() - tc
@@ -301,8 +338,7 @@ def run_closed_loop(
             plant.step(da_cmd)
         else:
             plant.finish(da_cmd)
-        checks = consistency(estimator, est, meas.true_pose)
-        rows.append(_control_row(est, setpoint, sp_motor, da_cmd, solve, status, angle, omega, counts, meas, checks))
+        rows.append(_control_row(est, setpoint, sp_motor, da_cmd, solve, status, angle, omega, counts, meas, estimator))
         if progress is not None and k % progress_every == 0:
             progress(k / n)
         if k >= n:
@@ -337,9 +373,10 @@ def _control_row(
     omega: NDArray[np.float64],
     counts: NDArray[np.int64],
     meas: Measurements,
-    checks: tuple[float, ...],
+    estimator: PoseEstimator,
 ) -> _ControlRow:
-    """One sample's record."""
+    """One sample's record, with the estimator's consistency and calibration."""
+    checks = (*consistency(estimator, est, meas.true_pose), *calibration_readout(estimator))
     x, y, theta = np.asarray(est, dtype=np.float64).tolist()
     sp_l, sp_r = setpoint.tolist()
     spm_l, spm_r = sp_motor.tolist()
@@ -349,36 +386,11 @@ def _control_row(
     count_l, count_r = counts.tolist()
     fix = meas.fixes[-1].pose if meas.fixes else (math.nan, math.nan, math.nan)
     fix_t = meas.fixes[-1].measured_t_s if meas.fixes else math.nan
-    sigma_x, sigma_y, sigma_theta, nees, nis = checks
     return _ControlRow(
-        est_x_m=x,
-        est_y_m=y,
-        est_theta_rad=theta,
-        setpoint_wheel_speed_left_m_s=sp_l,
-        setpoint_wheel_speed_right_m_s=sp_r,
-        setpoint_omega_motor_left_rad_s=spm_l,
-        setpoint_omega_motor_right_rad_s=spm_r,
-        da_command_left_v=da_l,
-        da_command_right_v=da_r,
-        solve_time_s=solve_s,
-        solver_status=float(status),
-        motor_angle_left_rad=angle_l,
-        motor_angle_right_rad=angle_r,
-        measured_omega_motor_left_rad_s=omega_l,
-        measured_omega_motor_right_rad_s=omega_r,
-        encoder_count_left=float(count_l),
-        encoder_count_right=float(count_r),
-        gyro_rate_rad_s=meas.gyro_rate_rad_s,
-        fix_x_m=float(fix[0]),
-        fix_y_m=float(fix[1]),
-        fix_theta_rad=float(fix[2]),
-        fix_measured_t_s=fix_t,
-        est_sigma_x_m=sigma_x,
-        est_sigma_y_m=sigma_y,
-        est_sigma_theta_rad=sigma_theta,
-        nees=nees,
-        nis=nis,
-    )
+        x, y, theta, sp_l, sp_r, spm_l, spm_r, da_l, da_r, solve_s, float(status), angle_l, angle_r, omega_l, omega_r,
+        float(count_l), float(count_r), meas.gyro_rate_rad_s, float(fix[0]), float(fix[1]), float(fix[2]), fix_t,
+        *checks,
+    )  # fmt: skip
 
 
 def _closed_loop_log(

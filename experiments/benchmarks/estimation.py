@@ -1,7 +1,7 @@
 """Benchmark of the estimation: the pose EKF's step, the Kalman wheel-speed step, the sensors, and the closed loop
 closed on estimates.
 
-Per-step times (goal: EKF step median ≤ 50 µs) are measured on the figure-8 of ``experiments/figure8_ekf.toml``:
+Per-step times (goal: EKF step median ≤ 30 µs) are measured on the figure-8 of ``experiments/figure8_ekf.toml``:
 its logged sensor readings are replayed through each component, one call timed at a time. The closed loop is
 timed as ``agvctl run`` runs it (plots excluded), with the MPC and with the reference feed-forward in its place,
 each with ``localization = "ekf"``, ``wheel_speed = "kalman"`` and with the truth and exact speeds: the difference
@@ -79,7 +79,7 @@ def main() -> int:
             speed_times.append(t2 - t1)
 
     print(f"per sample, figure-8 of {EXPERIMENT.name} ({n} samples x {args.repeat}; one call timed at a time)")
-    print(f"  EKF step, odometry only           {_percentiles_us(ekf_times)}   (goal: median <= 50 µs)")
+    print(f"  EKF step, odometry only           {_percentiles_us(ekf_times)}   (goal: median <= 30 µs)")
     print(f"  EKF step with a late fix (replay) {_percentiles_us(fix_times)}   ({len(fix_times) // args.repeat} fixes)")
     print(f"  Kalman wheel speeds (both)        {_percentiles_us(speed_times)}")
     print(f"  sensors (counts, gyro, fixes)     {_percentiles_us(sensor_times)}")

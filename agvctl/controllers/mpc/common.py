@@ -36,6 +36,7 @@ from agvctl.controllers.mpc.docking import Docking, EndOfPath
 from agvctl.controllers.mpc.fallback import SetpointFallback
 from agvctl.controllers.mpc.governor import ReferenceGovernor
 from agvctl.controllers.mpc.horizon import HorizonReference
+from agvctl.controllers.mpc.rest import Rest
 from agvctl.controllers.mpc.shaping import (
     CommandShaper,
     HorizonStep,
@@ -63,7 +64,9 @@ class MpcStepper:
       (:class:`~agvctl.controllers.mpc.fallback.SetpointFallback`: the shifted plan, then the feed-forward) does;
     * the command shaper (:class:`~agvctl.controllers.mpc.shaping.CommandShaper`) applies the rules of motion,
       the window and the hard limits;
-    * at the end of the path, :class:`~agvctl.controllers.mpc.docking.EndOfPath` decides whether to dock.
+    * at the end of the path, :class:`~agvctl.controllers.mpc.docking.EndOfPath` decides whether to dock, and
+      :class:`~agvctl.controllers.mpc.rest.Rest` whether to hold the wheels instead of solving: done, the error
+      within the pose estimate's uncertainty (:meth:`observe_pose_covariance`).
 
     A subclass builds its solver in its constructor (after this one's) and implements :meth:`_retarget` (the grid
     of a new reference, and whatever the solver precomputes for it), :meth:`_solve` and, if a failed solve can spoil
@@ -82,6 +85,7 @@ class MpcStepper:
         rules = (NoBackingAtStart(c.horizon), TowardTurningPoint(self.separation_m))
         self._shaper = CommandShaper(rules, self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 * self.sample_period_s)
         self._end = EndOfPath(Docking(vehicle, c.docking), self.sample_period_s)
+        self._rest = Rest(c.rest)
         self._fallback = SetpointFallback(c.horizon)
         self._grid: HorizonReference | None = None
         self._failures = 0
@@ -121,6 +125,12 @@ class MpcStepper:
         grid = self._track(reference)
         self._shaper.reset(grid)
         self._end.reset(reference)
+        self._rest.reset(reference)
+
+    def observe_pose_covariance(self, covariance: NDArray[np.float64]) -> None:
+        """The pose estimate's 3×3 covariance at this sample (the closed loop passes it for an estimator that has
+        one): how far the end pose the controller sees can be from the truth."""
+        self._rest.observe(covariance)
 
     def _solve_or_fall_back(self, step: HorizonStep) -> tuple[float, float, SolveStatus]:
         try:
@@ -149,7 +159,11 @@ class MpcStepper:
         window = self._window(measured)
         previous = self._shaper.previous(measured, window)
         step = HorizonStep(grid, k, self._governor.fraction, pose, measured, window, previous, self._end.on_path)
-        left, right, status = self._solve_or_fall_back(step)
+        status: SolveStatus = "solved"
+        if self._rest(pose, measured, self._end.done):
+            left, right = 0.0, 0.0  # within what the estimate knows: hold, nothing to solve
+        else:
+            left, right, status = self._solve_or_fall_back(step)
         left, right = self._shaper(step, left, right)
         if window is not None:
             clock_s = self._governor.clock * self.sample_period_s

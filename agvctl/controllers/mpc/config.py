@@ -11,6 +11,7 @@ from typing import Literal
 
 from agvctl.config import check_fields, number
 from agvctl.controllers.mpc.docking import DockingConfig
+from agvctl.controllers.mpc.rest import RestConfig
 from agvctl.params import VehicleParams
 
 __all__ = [
@@ -72,6 +73,9 @@ class MpcConfig:
     docking: DockingConfig = DockingConfig()
     """When and how to dock, stopped beside the end of the path (:mod:`~agvctl.controllers.mpc.docking`): the
     ``[controller.docking]`` table."""
+    rest: RestConfig = RestConfig()
+    """When to hold the wheels at the end of the path, the error within the estimate's uncertainty
+    (:mod:`~agvctl.controllers.mpc.rest`): the ``[controller.rest]`` table."""
     reference_governor: bool = True
     """Slow the reference's clock down while the vehicle lags behind it (graceful lag:
     :mod:`~agvctl.controllers.mpc.governor`)."""

@@ -27,6 +27,11 @@ current available during a current-limited acceleration: the full back-calculati
 the limit as soon as the error shrinks, since k_p exceeds k_e. The prediction holds at
 the start of the sample; over the sample the speed moves towards the command, so |i| only decreases.
 
+Standstill: with the setpoint exactly zero and the measured speed below ``standstill_rad_s`` (one encoder count
+per sample, the resolution of the measurement), the wheel rests, held by stiction; the loop holds its last output
+and integrator, so that the speed estimate's sub-count wander cannot make the DA converter's last bit chatter (a
+pose controller that holds at the end of its path commands exactly zero).
+
 Optional Coulomb-friction feed-forward: ``u_ff = τ_c R / k_t · sign(ω_ref)`` (the voltage that balances the
 Coulomb torque τ_c at standstill, eq 1 with the friction of eqs 2-4), off by default.
 """
@@ -116,6 +121,7 @@ class PISpeedLoop:
         anti_windup: bool = True,
         braking_current_limit_a: float | None = None,
         braking_limit_below_rad_s: float = math.inf,
+        standstill_rad_s: float = 0.0,
     ) -> None:
         if not voltage_min_v < voltage_max_v:
             raise ValueError(f"voltage_min_v must be below voltage_max_v (got {voltage_min_v}, {voltage_max_v})")
@@ -134,8 +140,11 @@ class PISpeedLoop:
         self.quantum_v = quantum_v
         self.coulomb_feedforward = coulomb_feedforward
         self.anti_windup = anti_windup
+        self.standstill_rad_s = standstill_rad_s
+        """Below this measured speed, with a zero setpoint, the wheel rests and the output is held (0: never)."""
         self.integrator_v = 0.0
         """The integrator state I (V of motor voltage)."""
+        self._last_v: float | None = None
         self.limited = False
         """Whether the last :meth:`update` was clamped by the current window or the DA range."""
 
@@ -143,6 +152,7 @@ class PISpeedLoop:
         """Zero the integrator."""
         self.integrator_v = 0.0
         self.limited = False
+        self._last_v = None
 
     def predicted_current_a(self, motor_voltage_v: float, measured_rad_s: float) -> float:
         """Armature current of eq 1 at the start of the sample: ``(u − k_e ω)/R``."""
@@ -180,7 +190,14 @@ class PISpeedLoop:
         return self.tau_c * self.R / self.k_t * ramp
 
     def update(self, setpoint_rad_s: float, measured_rad_s: float) -> float:
-        """The motor voltage (V) for this sample."""
+        """The motor voltage (V) for this sample (the last one, held, at standstill)."""
+        if setpoint_rad_s == 0.0 and abs(measured_rad_s) < self.standstill_rad_s and self._last_v is not None:
+            self.limited = False
+            return self._last_v
+        self._last_v = u = self._pi(setpoint_rad_s, measured_rad_s)
+        return u
+
+    def _pi(self, setpoint_rad_s: float, measured_rad_s: float) -> float:
         g = self.gains
         e = setpoint_rad_s - measured_rad_s
         ff = self.feedforward_v(setpoint_rad_s)
@@ -229,7 +246,8 @@ class PIWheelController:
     """Both wheels' PI loops: a :class:`~agvctl.controllers.base.WheelSpeedController`.
 
     ``update`` takes motor-speed setpoints and measurements (rad/s, left and right) and returns DA voltage
-    commands (V) = motor voltage / k_pow.
+    commands (V) = motor voltage / k_pow. Each loop rests (holds its output) with a zero setpoint and a measured
+    speed below one encoder count per sample (:class:`PISpeedLoop`'s ``standstill_rad_s``).
 
     Parameters
     ----------
@@ -282,6 +300,10 @@ class PIWheelController:
                 braking_limit_below_rad_s=(
                     math.inf if symmetric_braking or not gentle_stop else gentle_stop_speed_rad_s(vehicle, side)
                 ),
+                standstill_rad_s=2.0
+                * math.pi
+                / vehicle.sensors.encoder_counts_per_rev
+                / vehicle.control.sample_period_s,
             )
             for side in SIDES
         )
