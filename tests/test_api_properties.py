@@ -145,7 +145,8 @@ test_start_spec = _constructor_test(StartSpec)
 @API
 @given(
     localization=st.lists(st.sampled_from(["ekf", "odometry", "truth", "ekff", ""]) | values, max_size=2) | values,
-    wheel_speed=st.lists(st.sampled_from(["kalman", "exact", "count_difference", "kalmn"]) | values, max_size=2) | values,
+    wheel_speed=st.lists(st.sampled_from(["kalman", "exact", "count_difference", "kalmn"]) | values, max_size=2)
+    | values,
 )
 def test_estimators_spec(localization: Any, wheel_speed: Any) -> None:
     assert_clean(lambda: EstimatorsSpec(localization=localization, wheel_speed=wheel_speed), "EstimatorsSpec")

@@ -99,3 +99,11 @@ def test_rim_per_motor_radian_is_r_over_n():
     q = 2.0 * math.pi / 2000
     assert v.to_rim("right", q) == q * 0.1004 / 35.5
     assert v.to_motor("right", 0.3) == 0.3 * 35.5 / 0.1004
+
+
+def test_an_inertia_far_out_of_range_is_refused_in_one_line() -> None:
+    from agvctl.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="mass matrix is singular") as info:
+        load_vehicle(None, [("body.inertia_kg_m2", 2.67e17)])
+    assert len(str(info.value).splitlines()) == 1

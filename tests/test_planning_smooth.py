@@ -214,3 +214,18 @@ def test_join_stop_keeps_the_stopping_rule(vehicle):
         s = ref.sample([m.t_start_s])
         assert s.wheel_speed_left_m_s[0] == pytest.approx(0, abs=1e-9)
         assert s.wheel_speed_right_m_s[0] == pytest.approx(0, abs=1e-9)
+
+
+def test_a_segment_too_short_for_a_join_stops_the_reference_at_its_corner() -> None:
+    limits = WheelLimits(wheel_speed_m_s=0.5, wheel_accel_m_s2=0.4, wheel_jerk_m_s3=3.0)
+    arc = ArcSegment(radius_m=0.5, angle_deg=90.0)
+    ref = plan_segments(
+        [arc, LineSegment(length_m=5.8e-101), dataclasses.replace(arc, angle_deg=-90.0)],
+        limits=limits,
+        separation_m=0.5,
+        sample_period_s=0.04,
+        join="smooth",
+    )
+    alone = plan_segments([arc], limits=limits, separation_m=0.5, sample_period_s=0.04)
+    assert ref.duration_s == pytest.approx(2.0 * alone.duration_s, rel=1e-3)  # two arcs, each from rest to rest
+    assert np.all(np.isfinite(ref.sample(np.linspace(0.0, ref.duration_s, 200)).x_m))

@@ -249,7 +249,13 @@ class VehicleParams:
             derived = {}
         if not derived or not all(math.isfinite(v) for v in derived.values()):
             raise ConfigError(source, prefix, "the derived constants overflow: a value is far out of range")
-        substeps = self.control.sample_period_s * self.stiffest_rate_1_s() / PLANT_STIFFNESS_STEP
+        try:
+            rate_1_s = self.stiffest_rate_1_s()
+        except np.linalg.LinAlgError:  # k_ll k_rr − k_lr² cancels to nothing for an inertia far out of range
+            raise ConfigError(
+                source, prefix, "the motor-side mass matrix is singular: a mass or inertia is far out of range"
+            ) from None
+        substeps = self.control.sample_period_s * rate_1_s / PLANT_STIFFNESS_STEP
         if not substeps <= MAX_PLANT_SUBSTEPS:
             raise ConfigError(
                 source,

@@ -243,6 +243,11 @@ def _worth_driving(
     return w.length_m / lim.speed_m_s <= w.length_m / speed + speed / a + a / j
 
 
+MIN_JOIN_WINDOW_M = 1e-6
+"""A join window has room for at least a micrometre, else the reference stops at the corner: a shorter window's
+curvature polynomial (coefficients over powers of its length) overflows, and no vehicle drives it."""
+
+
 def _windows(parts: list[_Part], limits: WheelLimits, half_b: float) -> list[JoinWindow | None | bool]:
     """The smooth join after each part: ``None`` where the curvature does not change (and after the last),
     ``False`` where the segments are too short for a join worth driving (the reference stops there)."""
@@ -261,6 +266,9 @@ def _windows(parts: list[_Part], limits: WheelLimits, half_b: float) -> list[Joi
         caps = [p[3] for p in (a, b) if p[3] is not None]
         cap = min(caps) if caps else None
         speed = min(speeds + caps)
+        if 2.0 * min(room_a, room_b) < MIN_JOIN_WINDOW_M:
+            out.append(False)
+            continue
         try:
             w = design_join(
                 a[2],
