@@ -41,3 +41,15 @@ def exception_line(exc: BaseException, limit: int = 300) -> str:
     at = f" (at {Path(frames[-1].filename).name}:{frames[-1].lineno})" if frames else ""
     text = " ".join(f"{type(exc).__name__}: {exc}{at}".split())
     return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def expect_instance(value: object, cls: type | tuple[type, ...], source: str, argument: str) -> None:
+    """Refuse an argument of the wrong type with a one-line :class:`ConfigError` naming the function or class
+    (``source``) and the argument, as the file loaders name a key: ``"PoseEkf: vehicle: expected a VehicleParams
+    (got 'x')"``."""
+    if not isinstance(value, cls):
+        names = " or ".join(c.__name__ for c in (cls if isinstance(cls, tuple) else (cls,)))
+        shown = repr(value)
+        raise ConfigError(
+            source, argument, f"expected a {names} (got {shown if len(shown) <= 60 else shown[:59] + '…'})"
+        )

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pytest
 from cli_runs import assert_clean
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -453,3 +454,72 @@ def test_check_experiments(paths: Any, jobs: Any, executor: Any, scheduler: Any,
         "--scheduler",
         "progress",
     )
+
+
+# Every other entry point of the API reference, each argument its type or something else: a wrong type is the
+# package's one-line error naming the function (or class) and the argument, never an AttributeError from inside.
+@st.composite
+def one_in(draw: st.DrawFn, good: st.SearchStrategy[Any], n: int) -> Any:
+    """``good`` once in ``n`` draws, else a value of the wrong type."""
+    return draw(good) if draw(st.integers(0, n - 1)) == 0 else draw(values | st.sampled_from([VEHICLE, "x", b""]))
+
+
+def _tiny_run() -> tuple[Any, Any]:
+    from agvctl.scenario.experiment import load_experiment, run_experiment
+
+    _experiment_files()
+    experiment = load_experiment(WORK / "tiny_exp.toml")
+    return experiment, run_experiment(experiment)
+
+
+TINY_EXPERIMENT, TINY_RUN = _tiny_run()
+
+
+def _entry_points() -> dict[str, tuple[Callable[..., object], list[st.SearchStrategy[Any]]]]:
+    from agvctl.controllers.baselines.ltv_lqr import LtvLqrController
+    from agvctl.controllers.baselines.ramsete import RamseteController
+    from agvctl.controllers.mpc.ltv import LtvMpcController
+    from agvctl.controllers.pi.tuning import design_pi
+    from agvctl.controllers.pi.wheel_loop import PIWheelController
+    from agvctl.estimation.ekf import PoseEkf
+    from agvctl.estimation.odometry import OdometryEstimator
+    from agvctl.estimation.offline import filter_log, smooth_log
+    from agvctl.evaluation.metrics import closed_loop_metrics
+    from agvctl.planning import plan
+    from agvctl.plant import decoupled_wheel_models, linear_model
+    from agvctl.scenario.experiment import run_experiment
+
+    vehicle = one_in(st.just(VEHICLE), 4)
+    log = one_in(st.just(TINY_RUN.log), 4)
+    gains = PIGains(kp=0.02, ki=0.3, dt_s=0.04)
+    return {
+        "linear_model": (linear_model, [vehicle]),
+        "decoupled_wheel_models": (decoupled_wheel_models, [vehicle]),
+        "plan": (plan, [one_in(st.just(PathSpec(segments=(LineSegment(length_m=0.04),))), 4), vehicle]),
+        "run_experiment": (run_experiment, [one_in(st.just(TINY_EXPERIMENT), 8)]),
+        "closed_loop_metrics": (closed_loop_metrics, [one_in(st.just(TINY_RUN), 4)]),
+        "LtvMpcController": (LtvMpcController, [vehicle, one_in(st.none() | st.builds(MpcConfig), 4)]),
+        "PIWheelController": (PIWheelController, [vehicle, one_in(st.just(gains), 4)]),
+        "design_pi": (design_pi, [one_in(st.just(VEHICLE), 16), one_in(st.none(), 16)]),
+        "RamseteController": (RamseteController, [vehicle, one_in(st.none() | st.builds(RamseteConfig), 4)]),
+        "LtvLqrController": (LtvLqrController, [vehicle, one_in(st.none() | st.builds(LtvLqrConfig), 4)]),
+        "PoseEkf": (PoseEkf, [vehicle, one_in(st.none() | st.builds(EkfSettings), 4)]),
+        "OdometryEstimator": (OdometryEstimator, [vehicle]),
+        "filter_log": (filter_log, [log, vehicle, one_in(st.none(), 4)]),
+        "smooth_log": (smooth_log, [log, vehicle, one_in(st.none(), 4)]),
+    }
+
+
+ENTRY_POINTS = _entry_points()
+
+
+@pytest.mark.parametrize("name", list(ENTRY_POINTS))
+def test_entry_point_arguments(name: str) -> None:
+    function, arguments = ENTRY_POINTS[name]
+
+    @API
+    @given(args=st.tuples(*arguments))
+    def check(args: tuple[Any, ...]) -> None:
+        assert_clean(lambda: function(*args), name)
+
+    check()

@@ -43,6 +43,7 @@ from scipy.special import chdtri
 
 from agvctl.angles import wrap_angle
 from agvctl.config import check_fields, number
+from agvctl.errors import expect_instance
 from agvctl.params import SIDES, VehicleParams
 from agvctl.sensing import Measurements, PositionFix, fix_delay_samples
 
@@ -129,6 +130,9 @@ class PoseEkf:
     """
 
     def __init__(self, vehicle: VehicleParams, settings: EkfSettings | None = None) -> None:
+        expect_instance(vehicle, VehicleParams, "PoseEkf", "vehicle")
+        if settings is not None:
+            expect_instance(settings, EkfSettings, "PoseEkf", "settings")
         self.settings = s = settings or EkfSettings()
         sens, wheels = vehicle.sensors, vehicle.wheels
         q = 2.0 * math.pi / sens.encoder_counts_per_rev

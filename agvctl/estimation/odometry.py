@@ -7,6 +7,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from agvctl.errors import expect_instance
 from agvctl.params import SIDES, VehicleParams
 from agvctl.sensing import Measurements
 
@@ -40,6 +41,7 @@ class OdometryEstimator:
     """
 
     def __init__(self, vehicle: VehicleParams) -> None:
+        expect_instance(vehicle, VehicleParams, "OdometryEstimator", "vehicle")
         q = 2.0 * math.pi / vehicle.sensors.encoder_counts_per_rev
         self.metres_per_count = np.array([vehicle.to_rim(side, q) for side in SIDES])
         self.separation_m = vehicle.wheels.separation_m

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
 from agvctl.config import read_text
-from agvctl.errors import ConfigError
+from agvctl.errors import ConfigError, expect_instance
 from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator
 from agvctl.estimation.ekf import CALIBRATION_STATES, EkfSettings, PoseEkf
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
@@ -224,6 +224,10 @@ def filter_log(
     SimLog
         The estimate per sample: ``est_x_m``, ``est_y_m``, ``est_theta_rad``, their σ, the radius errors, NEES
         and NIS."""
+    expect_instance(log, SimLog, "filter_log", "log")
+    expect_instance(vehicle, VehicleParams, "filter_log", "vehicle")
+    if settings is not None:
+        expect_instance(settings, EkfSettings, "filter_log", "settings")
     ekf = PoseEkf(vehicle, settings)
     ekf.reset(_start(log) if initial_pose is None else np.asarray(initial_pose, dtype=float))
     counts, gyro, fixes = (
@@ -256,6 +260,10 @@ def smooth_log(log: SimLog, vehicle: VehicleParams, settings: EkfSettings | None
     -------
     SimLog
         The smoothed estimate per sample, in the columns of :func:`filter_log`."""
+    expect_instance(log, SimLog, "smooth_log", "log")
+    expect_instance(vehicle, VehicleParams, "smooth_log", "vehicle")
+    if settings is not None:
+        expect_instance(settings, EkfSettings, "smooth_log", "settings")
     ekf = PoseEkf(vehicle, settings)
     ekf.reset(_start(log))
     n, m, ts = len(log), len(ekf.x), vehicle.control.sample_period_s

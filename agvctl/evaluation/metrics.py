@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
+from agvctl.errors import ConfigError
 from agvctl.log import SimLog
 
 __all__ = [
@@ -96,6 +97,10 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
     dict of str to float
         Each metric by name, its unit in the name (``tracking_error_rms_m``, ``heading_error_max_deg``, ...).
     """
+    if not isinstance(getattr(result, "log", None), SimLog) or not hasattr(result, "sample_period_s"):
+        raise ConfigError(
+            "closed_loop_metrics", "result", f"expected a closed-loop run with a log (got {result!r:.60})"
+        )
     log = result.log
     err = log["position_error_m"]
     cross = log["cross_track_error_m"]

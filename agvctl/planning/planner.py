@@ -24,7 +24,7 @@ from typing import Literal
 
 import numpy as np
 
-from agvctl.errors import ConfigError, PlanningError
+from agvctl.errors import ConfigError, PlanningError, expect_instance
 from agvctl.params import VehicleParams, load_vehicle
 from agvctl.planning.arguments import MAX_DURATION_S, check_arguments, check_reference
 from agvctl.planning.curve import Curve
@@ -75,6 +75,9 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
         One line naming the file and the segment or waypoint: a failure to plan (numerical ones included), a
         limit above the physical one without ``force``, a reference longer than :data:`MAX_DURATION_S`.
     """
+    expect_instance(spec, PathSpec, "plan", "spec")
+    if vehicle is not None:
+        expect_instance(vehicle, VehicleParams, "plan", "vehicle")
     vehicle = vehicle if vehicle is not None else load_vehicle()
     limits = resolve_limits(spec, vehicle, force=force)
     common = {

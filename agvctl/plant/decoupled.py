@@ -10,6 +10,7 @@ from typing import NamedTuple
 
 import control
 
+from agvctl.errors import expect_instance
 from agvctl.params import VehicleParams
 
 __all__ = ["DecoupledModels", "decoupled_wheel_models"]
@@ -35,6 +36,7 @@ def decoupled_wheel_models(vehicle: VehicleParams) -> DecoupledModels:
     DecoupledModels
         ``(left, right)``: each a ``control.TransferFunction`` from motor voltage (V) to motor speed (rad/s).
     """
+    expect_instance(vehicle, VehicleParams, "decoupled_wheel_models", "vehicle")
     d = vehicle.derived
     out = []
     for side, consts in (("left", d.left), ("right", d.right)):

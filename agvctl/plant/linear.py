@@ -10,6 +10,7 @@ from __future__ import annotations
 import control
 import numpy as np
 
+from agvctl.errors import expect_instance
 from agvctl.params import VehicleParams
 
 __all__ = ["linear_model", "linear_model_speed_yaw_rate", "linear_model_matrices"]
@@ -45,6 +46,7 @@ def linear_model(vehicle: VehicleParams) -> control.StateSpace:
         Inputs ``voltage_left_v``, ``voltage_right_v`` (V); states and outputs ``omega_motor_left_rad_s``,
         ``omega_motor_right_rad_s``.
     """
+    expect_instance(vehicle, VehicleParams, "linear_model", "vehicle")
     A, B = linear_model_matrices(vehicle)
     return control.ss(
         A, B, np.eye(2), np.zeros((2, 2)), states=_STATES, inputs=_INPUTS, outputs=_STATES, name="agv_linear"

@@ -38,7 +38,7 @@ from pathlib import Path
 from agvctl.config import build, load_toml
 from agvctl.controllers.base import PoseController, WheelSpeedController
 from agvctl.controllers.registry import POSE_CONTROLLERS, WheelLoops, design_wheel_loops
-from agvctl.errors import ConfigError
+from agvctl.errors import ConfigError, expect_instance
 from agvctl.params import VehicleParams, default_vehicle_path, load_vehicle
 from agvctl.planning import PathSpec, load_path, plan
 from agvctl.planning.reference import Reference
@@ -157,6 +157,7 @@ def run_experiment(
     ClosedLoopResult
         The log (every signal per sample), the reference, and the wall and setup times in s.
     """
+    expect_instance(experiment, Experiment, "run_experiment", "experiment")
     e = experiment
     c = e.spec.controller
     if pose_controller is None:

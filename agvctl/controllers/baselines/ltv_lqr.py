@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 
 from agvctl.config import check_fields, number
 from agvctl.controllers.baselines.unicycle import UnicycleTracker
+from agvctl.errors import expect_instance
 from agvctl.params import VehicleParams
 
 __all__ = ["LtvLqrConfig", "LtvLqrController", "gain_schedule", "unicycle_error_model", "unicycle_lqr_gain"]
@@ -113,6 +114,9 @@ class LtvLqrController(UnicycleTracker):
     """
 
     def __init__(self, vehicle: VehicleParams, config: LtvLqrConfig | None = None) -> None:
+        expect_instance(vehicle, VehicleParams, "LtvLqrController", "vehicle")
+        if config is not None:
+            expect_instance(config, LtvLqrConfig, "LtvLqrController", "config")
         super().__init__(vehicle)
         self.config = config if config is not None else LtvLqrConfig()
         limit = self.config.max_wheel_speed_m_s

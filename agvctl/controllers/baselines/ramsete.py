@@ -26,6 +26,7 @@ import numpy as np
 
 from agvctl.config import check_fields, number
 from agvctl.controllers.baselines.unicycle import UnicycleTracker
+from agvctl.errors import expect_instance
 from agvctl.params import VehicleParams
 
 __all__ = ["RamseteConfig", "RamseteController", "ramsete_law"]
@@ -69,6 +70,9 @@ class RamseteController(UnicycleTracker):
     """
 
     def __init__(self, vehicle: VehicleParams, config: RamseteConfig | None = None) -> None:
+        expect_instance(vehicle, VehicleParams, "RamseteController", "vehicle")
+        if config is not None:
+            expect_instance(config, RamseteConfig, "RamseteController", "config")
         super().__init__(vehicle)
         self.config = config if config is not None else RamseteConfig()
         limit = self.config.max_wheel_speed_m_s

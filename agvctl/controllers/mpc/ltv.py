@@ -38,6 +38,7 @@ from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
 from agvctl.controllers.mpc.ltv_qp import QpLayout, constraint_pattern, cost_matrix
 from agvctl.controllers.mpc.matrix_exponential import expm_batch
 from agvctl.controllers.mpc.shaping import HorizonStep, SetpointWindow
+from agvctl.errors import ConfigError, expect_instance
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 
@@ -93,7 +94,12 @@ class LtvMpcController(MpcStepper):
         *,
         osqp_settings: Mapping[str, Any] | None = None,
     ) -> None:
+        expect_instance(vehicle, VehicleParams, "LtvMpcController", "vehicle")
+        if config is not None:
+            expect_instance(config, MpcConfig, "LtvMpcController", "config")
         super().__init__(vehicle, config)
+        if osqp_settings is not None:
+            expect_instance(osqp_settings, Mapping, "LtvMpcController", "osqp_settings")
         self._osqp_overrides = dict(osqp_settings or {})
         self._lag = self.config.prediction_model == "kinematic+wheel_loop"
         self.nx = 5 if self._lag else 3
@@ -159,21 +165,19 @@ class LtvMpcController(MpcStepper):
         self._zeros_y = np.zeros(n_rows)
 
         self._solver = osqp.OSQP()
-        self._solver.setup(
-            P,
-            self._q,
-            A,
-            self._l,
-            self._u,
-            **{
-                "eps_abs": c.tolerance,
-                "eps_rel": c.tolerance,
-                "max_iter": c.max_iterations,
-                "time_limit": c.max_solve_time_s if c.max_solve_time_s is not None else 1.0e10,
-                **OSQP_SETTINGS,
-                **self._osqp_overrides,
-            },
-        )
+        settings = {
+            "eps_abs": c.tolerance,
+            "eps_rel": c.tolerance,
+            "max_iter": c.max_iterations,
+            "time_limit": c.max_solve_time_s if c.max_solve_time_s is not None else 1.0e10,
+            **OSQP_SETTINGS,
+            **self._osqp_overrides,
+        }
+        try:
+            self._solver.setup(P, self._q, A, self._l, self._u, **settings)
+        except (TypeError, ValueError) as exc:  # OSQP's own refusal of a setting's name or value
+            problem = " ".join(str(exc).split())
+            raise ConfigError("LtvMpcController", "osqp_settings", problem) from None
         # at rest the problem above is the zero problem: A's varying entries are set at reset
 
     def _precompute(self, g: HorizonReference) -> None:

@@ -44,7 +44,7 @@ from scipy.optimize import brentq
 from agvctl.actuator import Actuator
 from agvctl.config import check_fields
 from agvctl.controllers.pi.wheel_loop import PIGains
-from agvctl.errors import ConfigError
+from agvctl.errors import ConfigError, expect_instance
 from agvctl.params import VehicleParams
 from agvctl.plant.decoupled import decoupled_wheel_models
 
@@ -366,6 +366,9 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
     ConfigError
         One line, when no PI meets the spec.
     """
+    expect_instance(vehicle, VehicleParams, "design_pi", "vehicle")
+    if spec is not None:
+        expect_instance(spec, TuningSpec, "design_pi", "spec")
     spec = spec or TuningSpec()
     ts = vehicle.control.sample_period_s
     plants = sampled_wheel_models(vehicle)

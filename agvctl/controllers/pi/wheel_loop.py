@@ -49,7 +49,7 @@ from numpy.typing import NDArray
 
 from agvctl.actuator import Actuator
 from agvctl.config import build, check_fields, dump_toml, load_toml, number
-from agvctl.errors import ConfigError
+from agvctl.errors import ConfigError, expect_instance
 from agvctl.params import SIDES, MotorParams, Side, VehicleParams
 
 __all__ = [
@@ -278,6 +278,8 @@ class PIWheelController:
         symmetric_braking: bool = False,
         gentle_stop: bool = False,
     ) -> None:
+        expect_instance(vehicle, VehicleParams, "PIWheelController", "vehicle")
+        expect_instance(gains, PIGains, "PIWheelController", "gains")
         act = Actuator(vehicle)
         self.amplifier_gain = act.gain
         u_max = vehicle.amplifier.voltage_limit_v
