@@ -33,6 +33,8 @@ from agvctl.calibration import read_friction_log, read_umbmark_log
 from agvctl.cli import main
 from agvctl.config import parse_override
 from agvctl.controllers.pi.wheel_loop import load_gains
+from agvctl.fuzz.run import fuzz_tasks
+from agvctl.fuzz.spec import load_fuzz_config
 from agvctl.params import default_vehicle_path, load_vehicle
 from agvctl.planning import load_path, plan
 from agvctl.scenario.experiment import load_experiment
@@ -305,6 +307,21 @@ EXPERIMENT_DOCS = [_experiment_doc(p) for p in EXPERIMENTS]
 def test_experiment_file(text: str) -> None:
     path = write("experiment.toml", text)
     assert_clean(lambda: load_experiment(path), str(path), str(WORK), str(ROOT / "trajectories"))
+
+
+FUZZ_DOCS = [_read(p) for p in sorted((ROOT / "experiments" / "fuzz").glob("*.toml"))]
+
+
+@LOADERS
+@given(text=documents(FUZZ_DOCS))
+def test_fuzz_file(text: str) -> None:
+    """A fuzz configuration loads, then draws its first scenario, or is refused in one line naming the file."""
+    path = write("fuzz.toml", text)
+
+    def load_and_draw() -> object:
+        return fuzz_tasks(load_fuzz_config(path), scenarios=[0])
+
+    assert_clean(load_and_draw, str(path))
 
 
 @LOADERS
