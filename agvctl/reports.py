@@ -12,10 +12,21 @@ from agvctl.plots import save_closed_loop_plots
 from agvctl.scenario.experiment import Experiment
 from agvctl.sim.loop import ClosedLoopResult
 
-__all__ = ["RUN_FILES", "write_run_outputs"]
+__all__ = ["RUN_FILES", "resolved_experiment_toml", "write_run_outputs"]
 
 RUN_FILES = ("log.csv", "summary.json", "experiment.toml", "plant_vehicle.toml")
 """The files :func:`write_run_outputs` writes into the output directory besides the plots."""
+
+
+def resolved_experiment_toml(experiment: Experiment) -> str:
+    """The experiment's file as it was run: every key with its value, the trajectory and vehicle files by their
+    absolute paths, headed by the file it was resolved from."""
+    exp = experiment.spec
+    resolved = to_dict(exp)
+    resolved["trajectory"] = str(exp.resolve(exp.trajectory).resolve())
+    if exp.vehicle != "default":
+        resolved["vehicle"] = str(exp.resolve(exp.vehicle).resolve())
+    return dump_toml(resolved, header=f"resolved from {exp.source}")
 
 
 def write_run_outputs(
@@ -29,13 +40,9 @@ def write_run_outputs(
     """Write ``log.csv``, ``summary.json``, the resolved ``experiment.toml`` and the true vehicle, and (optionally)
     the plots. Every text is made before the first file is written, and each file is written atomically."""
     exp = experiment.spec
-    resolved = to_dict(exp)
-    resolved["trajectory"] = str(exp.resolve(exp.trajectory).resolve())
-    if exp.vehicle != "default":
-        resolved["vehicle"] = str(exp.resolve(exp.vehicle).resolve())
     texts = {
         "summary.json": json.dumps(summary, indent=2) + "\n",
-        "experiment.toml": dump_toml(resolved, header=f"resolved from {exp.source}"),
+        "experiment.toml": resolved_experiment_toml(experiment),
         "plant_vehicle.toml": dump_toml(to_dict(experiment.plant_vehicle), header="the simulated truth of this run"),
     }
     out_dir.mkdir(parents=True, exist_ok=True)
