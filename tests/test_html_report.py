@@ -10,48 +10,12 @@ from typing import Any
 
 import pytest
 from cli_runs import one_line, run
-from html_pages import Page, png_size, read_page
+from html_pages import FAILING, FUZZ_CONFIG, ROOT, Page, png_size, read_page
 
 from agvctl.checks.runner import check_experiments
 from agvctl.htmlreport import check_html, check_run_figures
 
-ROOT = Path(__file__).resolve().parents[1]
-PASSING = ROOT / "experiments" / "line.toml"
-FAILING = ROOT / "tests" / "data" / "line_impossible.toml"
 MC_FAILING = ROOT / "tests" / "data" / "line_mc_impossible.toml"
-
-FUZZ_CONFIG = """seed = 3
-scenarios = 2
-controllers = ["mpc", "ramsete"]
-settle_s = 0.5
-
-[limits]
-cross_track_error_max_m = 0.001  # a millimetre: most random starts are further off, so runs fail
-"""
-
-
-@pytest.fixture(scope="module")
-def pages(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
-    """The pages of a failing check (the failure given last), of a passing one and of a small failing fuzz run,
-    each through the command line, with the JSON reports of the same runs."""
-    d = tmp_path_factory.mktemp("pages")
-    capsys = _NoCapture()
-    codes = {
-        "check_failing": run(
-            capsys, "check", PASSING, FAILING, "--jobs", "1", "--html", d / "failing.html", "--json", d / "f.json"
-        )[0],
-        "check_passing": run(capsys, "check", PASSING, "--jobs", "1", "--html", d / "passing.html")[0],
-    }
-    (d / "fz.toml").write_text(FUZZ_CONFIG, encoding="utf-8")
-    codes["fuzz"] = run(capsys, "fuzz", d / "fz.toml", "--jobs", "1", "--out", d / "fz", "--html", d / "fuzz.html")[0]
-    return {"dir": d, "codes": codes}
-
-
-class _NoCapture:
-    """A stand-in for pytest's ``capsys`` in a module fixture (output is left to pytest's own capture)."""
-
-    def readouterr(self) -> tuple[str, str]:
-        return "", ""
 
 
 def _page(pages: dict[str, Any], name: str) -> Page:

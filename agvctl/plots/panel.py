@@ -13,8 +13,8 @@ from agvctl.plots.figures import png_bytes, subplots
 
 __all__ = ["PANEL_DPI", "render_run_panel"]
 
-PANEL_DPI = 60
-"""Dots per inch of the panel: the figure is 660 × 540 pixels, legible on a screen and some 60 kB as PNG."""
+PANEL_DPI = 64
+"""Dots per inch of the panel: the figure is 704 × 576 pixels, legible on a screen and some 100 kB as PNG."""
 
 
 def render_run_panel(
@@ -53,20 +53,27 @@ def render_run_panel(
     bytes
         The PNG.
     """
+    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter, NullLocator
+
     fig, axes = subplots(3, 2, figsize=(11, 9))
     (a_path, a_err), (a_left, a_right), (a_cur, a_acc) = axes
     draw_path(a_path, log, mark_time_s=mark_time_s, mark_label=mark_label)
     a_path.set_aspect("equal", adjustable="datalim")  # the panel's full size, the scale kept
     draw_errors(a_err, log, bounds)
     a_err.set_yscale("log")  # a millimetre and a bound of ten centimetres both readable
-    a_err.set_ylim(bottom=1e-3)
+    a_err.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))  # plain numbers: no mathtext to lay out
+    a_err.yaxis.set_minor_formatter(NullFormatter())
+    a_err.yaxis.set_major_locator(LogLocator(numticks=6))
+    a_err.yaxis.set_minor_locator(NullLocator())
+    error_bounds_cm = [bounds[k] * 100 for k in ("cross_track_error_max_m", "tracking_error_max_m") if k in bounds]
+    a_err.set_ylim(bottom=min([1e-3, *(b / 2 for b in error_bounds_cm)]))
     speed_bound = bounds.get("wheel_speed_m_s")
     for ax, side in ((a_left, "left"), (a_right, "right")):
         draw_wheel_speed(ax, log, side)
         if speed_bound is not None:
             ax.axhline(speed_bound, color="r", ls="--", lw=1, label=f"wheel_speed_m_s {speed_bound:.3g}")
             ax.axhline(-speed_bound, color="r", ls="--", lw=1)
-        ax.legend(loc="best", fontsize=8)
+    a_left.legend(fontsize=8)  # the same lines on the right: one legend for both
     i_max = vehicle.amplifier.current_limit_a
     draw_both_sides(a_cur, log, "current_{side}_a", i_max, "amplifier limit", "armature current [A]")
     current_bound = bounds.get("motor_current_a")
@@ -79,6 +86,17 @@ def render_run_panel(
         ax.set(xlabel="t [s]")
         if mark_time_s is not None:
             ax.axvline(mark_time_s, color="r", lw=0.8, alpha=0.6)
+    for ax in (a_path, a_err, a_left, a_right, a_cur, a_acc):
+        # a few ticks each: making a tick and its label is most of the time the figure takes
+        ax.xaxis.set_major_locator(MaxNLocator(5))
+        if ax is not a_err:
+            ax.yaxis.set_major_locator(MaxNLocator(4))
+        legend = ax.get_legend()
+        if legend is not None:  # a fixed place: the search for the best one costs more than the whole panel
+            legend.set_loc("upper right")
+            legend.get_frame().set_alpha(0.7)
+            for text in legend.get_texts():
+                text.set_fontsize(8)
     fig.suptitle(title)
     # a fixed layout: the tight layout's measuring pass costs as much as drawing the figure again
     fig.subplots_adjust(left=0.07, right=0.98, top=0.93, bottom=0.06, hspace=0.35, wspace=0.22)
