@@ -5,6 +5,7 @@ speeds, the currents and the wheel acceleration, each against the gate's bounds 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 from agvctl.log import SimLog
 from agvctl.params import VehicleParams
@@ -53,18 +54,12 @@ def render_run_panel(
     bytes
         The PNG.
     """
-    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter, NullLocator
-
     fig, axes = subplots(3, 2, figsize=(11, 9))
     (a_path, a_err), (a_left, a_right), (a_cur, a_acc) = axes
     draw_path(a_path, log, mark_time_s=mark_time_s, mark_label=mark_label)
     a_path.set_aspect("equal", adjustable="datalim")  # the panel's full size, the scale kept
     draw_errors(a_err, log, bounds)
     a_err.set_yscale("log")  # a millimetre and a bound of ten centimetres both readable
-    a_err.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))  # plain numbers: no mathtext to lay out
-    a_err.yaxis.set_minor_formatter(NullFormatter())
-    a_err.yaxis.set_major_locator(LogLocator(numticks=6))
-    a_err.yaxis.set_minor_locator(NullLocator())
     error_bounds_cm = [bounds[k] * 100 for k in ("cross_track_error_max_m", "tracking_error_max_m") if k in bounds]
     a_err.set_ylim(bottom=min([1e-3, *(b / 2 for b in error_bounds_cm)]))
     speed_bound = bounds.get("wheel_speed_m_s")
@@ -86,18 +81,30 @@ def render_run_panel(
         ax.set(xlabel="t [s]")
         if mark_time_s is not None:
             ax.axvline(mark_time_s, color="r", lw=0.8, alpha=0.6)
-    for ax in (a_path, a_err, a_left, a_right, a_cur, a_acc):
-        # a few ticks each: making a tick and its label is most of the time the figure takes
-        ax.xaxis.set_major_locator(MaxNLocator(5))
-        if ax is not a_err:
-            ax.yaxis.set_major_locator(MaxNLocator(4))
-        legend = ax.get_legend()
-        if legend is not None:  # a fixed place: the search for the best one costs more than the whole panel
-            legend.set_loc("upper right")
-            legend.get_frame().set_alpha(0.7)
-            for text in legend.get_texts():
-                text.set_fontsize(8)
+    _tidy((a_path, a_err, a_left, a_right, a_cur, a_acc), log_axis=a_err)
     fig.suptitle(title)
     # a fixed layout: the tight layout's measuring pass costs as much as drawing the figure again
     fig.subplots_adjust(left=0.07, right=0.98, top=0.93, bottom=0.06, hspace=0.35, wspace=0.22)
     return png_bytes(fig, dpi)
+
+
+def _tidy(axes: tuple[Any, ...], log_axis: Any) -> None:
+    """A few ticks on each axis (making a tick and its label is most of the time a figure takes), plain numbers on
+    the log axis (no mathtext to lay out), and each legend in a fixed place in small type (the search for the best
+    place costs more than the rest of the figure)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter, NullLocator
+
+    log_axis.yaxis.set_major_locator(LogLocator(numticks=6))
+    log_axis.yaxis.set_minor_locator(NullLocator())
+    log_axis.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))
+    log_axis.yaxis.set_minor_formatter(NullFormatter())
+    for ax in axes:
+        ax.xaxis.set_major_locator(MaxNLocator(5))
+        if ax is not log_axis:
+            ax.yaxis.set_major_locator(MaxNLocator(4))
+        legend = ax.get_legend()
+        if legend is not None:
+            legend.set_loc("upper right")
+            legend.get_frame().set_alpha(0.7)
+            for text in legend.get_texts():
+                text.set_fontsize(8)
