@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 from cli_runs import one_line, run
-from html_pages import FAILING, FUZZ_CONFIG, ROOT, Page, png_size, read_page
+from html_pages import FAILING, FUZZ_CONFIG, PASSING, ROOT, Page, png_size, read_page
 
 from agvctl.checks.runner import check_experiments
 from agvctl.htmlreport import check_html, check_run_figures
@@ -146,3 +146,11 @@ def test_an_html_path_that_cannot_be_written_stops_the_command_before_it_runs(
     assert code == 2 and out == ""
     one_line(err, "agvctl: --html: ", problem)
     assert _files(tmp_path) == before  # nothing written, the input untouched
+
+
+def test_a_render_that_is_not_a_function_is_refused_before_anything_runs() -> None:
+    from agvctl.errors import ConfigError
+
+    with pytest.raises(ConfigError) as info:
+        check_experiments([PASSING], jobs=1, render=42)  # type: ignore[arg-type]
+    assert str(info.value).startswith("render: expected a function") and "\n" not in str(info.value)

@@ -393,12 +393,14 @@ def check_experiments(
     ------
     ConfigError
         On bad input, before any run: no experiment at all, a file or key that cannot be used, an invalid Monte
-        Carlo sample.
+        Carlo sample, a ``render`` that is not a function.
 
     Local workers are spawned processes, which import the calling script again: from a script, call this under
     ``if __name__ == "__main__":``.
     """
     t0 = time.perf_counter()
+    if render is not None and not callable(render):
+        raise ConfigError("render", "", f"expected a function render(experiment, result, limits) (got {render!r})")
     work = paths if isinstance(paths, CheckWork) else load_check(paths)
     jobs = resolved_jobs(jobs, executor)
     all_tasks = [t for ts in work.tasks for t in ts]
