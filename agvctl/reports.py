@@ -16,7 +16,13 @@ from agvctl.plots import save_closed_loop_plots
 from agvctl.scenario.experiment import Experiment
 from agvctl.sim.loop import ClosedLoopResult
 
-__all__ = ["CALIBRATED_VEHICLE_FILE", "RUN_FILES", "calibrated_vehicle_toml", "write_run_outputs"]
+__all__ = [
+    "CALIBRATED_VEHICLE_FILE",
+    "RUN_FILES",
+    "calibrated_vehicle_toml",
+    "resolved_experiment_toml",
+    "write_run_outputs",
+]
 
 RUN_FILES = ("log.csv", "summary.json", "experiment.toml", "plant_vehicle.toml")
 """The files :func:`write_run_outputs` writes into the output directory besides the plots."""
@@ -49,6 +55,17 @@ def calibrated_vehicle_toml(experiment: Experiment, result: ClosedLoopResult) ->
     return dump_toml(to_dict(vehicle), header=header)
 
 
+def resolved_experiment_toml(experiment: Experiment) -> str:
+    """The experiment's file as it was run: every key with its value, the trajectory and vehicle files by their
+    absolute paths, headed by the file it was resolved from."""
+    exp = experiment.spec
+    resolved = to_dict(exp)
+    resolved["trajectory"] = str(exp.resolve(exp.trajectory).resolve())
+    if exp.vehicle != "default":
+        resolved["vehicle"] = str(exp.resolve(exp.vehicle).resolve())
+    return dump_toml(resolved, header=f"resolved from {exp.source}")
+
+
 def write_run_outputs(
     experiment: Experiment,
     result: ClosedLoopResult,
@@ -61,13 +78,9 @@ def write_run_outputs(
     (:data:`CALIBRATED_VEHICLE_FILE`, when the estimator learnt a calibration) and (optionally) the plots. Every
     text is made before the first file is written, and each file is written atomically."""
     exp = experiment.spec
-    resolved = to_dict(exp)
-    resolved["trajectory"] = str(exp.resolve(exp.trajectory).resolve())
-    if exp.vehicle != "default":
-        resolved["vehicle"] = str(exp.resolve(exp.vehicle).resolve())
     texts = {
         "summary.json": json.dumps(summary, indent=2) + "\n",
-        "experiment.toml": dump_toml(resolved, header=f"resolved from {exp.source}"),
+        "experiment.toml": resolved_experiment_toml(experiment),
         "plant_vehicle.toml": dump_toml(to_dict(experiment.plant_vehicle), header="the simulated truth of this run"),
     }
     calibrated = calibrated_vehicle_toml(experiment, result)

@@ -11,6 +11,8 @@ settings.load_profile("agvctl")
 # Compiled plant code is cached per user; tests use a private cache so they never depend on an earlier run.
 os.environ.setdefault("AGVCTL_CACHE_DIR", os.path.join(tempfile.gettempdir(), "agvctl-test-cache"))
 
+from html_pages import pages  # noqa: E402, F401  (the pages of check --html and fuzz --html, built once)
+
 from agvctl.params import VehicleParams, load_vehicle  # noqa: E402
 
 

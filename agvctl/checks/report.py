@@ -19,6 +19,7 @@ import numpy as np
 
 from agvctl.evaluation.limits import LimitResult, format_limit_message
 from agvctl.fileio import json_safe
+from agvctl.scenario.experiment import Experiment
 
 __all__ = [
     "TIMING_METRICS",
@@ -59,6 +60,9 @@ class RunOutcome:
     error: str | None = None
     """Why the run could not be completed: the exception's type, message and innermost frame, on one line (no
     metrics nor limits then); None for a completed run."""
+    figures: dict[str, bytes] = field(default_factory=dict, repr=False)
+    """The run's figures drawn where it ran (PNG bytes by name), when the check was asked to draw them
+    (:func:`~agvctl.checks.runner.check_experiments`'s ``render``); empty otherwise."""
 
 
 @dataclass(frozen=True)
@@ -151,6 +155,8 @@ class ExperimentReport:
     outcomes: list[RunOutcome]
     wall_time_s: float
     """The runs' summed wall time (they may have run in parallel)."""
+    experiment: Experiment | None = field(default=None, repr=False, compare=False)
+    """The experiment as loaded and validated for the check (None: only its file's path is known)."""
 
     @property
     def errors(self) -> list[RunOutcome]:

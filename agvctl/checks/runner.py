@@ -31,15 +31,17 @@ import numpy as np
 from agvctl.checks.report import CheckReport, ExperimentReport, Overrides, RunOutcome, RunTask, worst_run_verdicts
 from agvctl.config import check_key, to_dict
 from agvctl.errors import ConfigError, exception_line
-from agvctl.evaluation.limits import evaluate_limits
+from agvctl.evaluation.limits import LimitResult, evaluate_limits
 from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.params import SIDES, VehicleParams
 from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
+from agvctl.sim.loop import ClosedLoopResult
 
 __all__ = [
     "CheckWork",
     "ExecutorKind",
     "InlineExecutor",
+    "RunRender",
     "check_experiments",
     "execute",
     "load_check",
@@ -50,6 +52,9 @@ __all__ = [
 ]
 
 ExecutorKind = Literal["local", "dask"]
+RunRender = Callable[[Experiment, ClosedLoopResult, Sequence[LimitResult]], dict[str, bytes]]
+"""Draws a run's figures where the run is (its log never travels): the experiment as run (a Monte Carlo sample's
+plant), its result and its limit verdicts in, PNG bytes by name out. A module-level function (it is pickled)."""
 T = TypeVar("T")
 R = TypeVar("R")
 
@@ -135,14 +140,20 @@ def _prepared(path: str) -> Experiment:
     return load_experiment(path)
 
 
-def run_task(task: RunTask) -> RunOutcome:
-    """Run one task (in this process). Used by every executor; module-level so it pickles. Never raises for a run
-    that fails: an exception is the outcome's ``error``."""
+def run_task(task: RunTask, render: RunRender | None = None) -> RunOutcome:
+    """Run one task (in this process), and with ``render`` draw its figures into the outcome. Used by every
+    executor; module-level so it pickles. Never raises for a run that fails: an exception is the outcome's
+    ``error``."""
     t0 = time.perf_counter()
     try:
-        return _run(task, t0)
+        return _run(task, t0, render)
     except Exception as exc:  # a run that raised is that run's result, reported with its experiment
         return run_error(task, exc, time.perf_counter() - t0)
+
+
+def _run_drawn(task: RunTask, render: RunRender) -> RunOutcome:
+    """:func:`run_task`, drawing the figures of a nominal run only."""
+    return run_task(task, render if task.sample is None else None)
 
 
 def run_error(task: RunTask, exc: BaseException, wall_time_s: float = 0.0) -> RunOutcome:
@@ -150,7 +161,7 @@ def run_error(task: RunTask, exc: BaseException, wall_time_s: float = 0.0) -> Ru
     return RunOutcome(task, {}, (), wall_time_s, error=exception_line(exc))
 
 
-def _run(task: RunTask, t0: float) -> RunOutcome:
+def _run(task: RunTask, t0: float, render: RunRender | None) -> RunOutcome:
     """The task's run and its verdicts (its plant and sensor noise those of its Monte Carlo sample, if any)."""
     base = _prepared(task.experiment_path)
     prepared = base
@@ -166,7 +177,8 @@ def _run(task: RunTask, t0: float) -> RunOutcome:
     limits = evaluate_limits(
         prepared.spec.limits, result.log, metrics, prepared.controller_vehicle, result.sample_period_s
     )
-    return RunOutcome(task, metrics, tuple(limits), time.perf_counter() - t0)
+    figures = render(prepared, result, limits) if render is not None else {}
+    return RunOutcome(task, metrics, tuple(limits), time.perf_counter() - t0, figures=figures)
 
 
 _THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
@@ -367,6 +379,7 @@ def check_experiments(
     executor: ExecutorKind = "local",
     scheduler: str | None = None,
     progress: Callable[[int, int], None] | None = None,
+    render: RunRender | None = None,
 ) -> CheckReport:
     """Run every experiment (its Monte Carlo samples too) and check its limits.
 
@@ -383,6 +396,9 @@ def check_experiments(
         The Dask scheduler's address (``tcp://host:8786``); ``None`` with ``executor="dask"``: a local cluster.
     progress
         Called as ``progress(done, total)`` in this thread after each run.
+    render
+        Draws each nominal run's figures where it runs (:data:`RunRender`), into :attr:`RunOutcome.figures`; the
+        Monte Carlo samples are not drawn.
 
     Returns
     -------
@@ -395,17 +411,21 @@ def check_experiments(
     ------
     ConfigError
         On bad input, before any run: no experiment at all, a file or key that cannot be used, an invalid Monte
-        Carlo sample, or an option out of its range (as for :func:`~agvctl.fuzz.run.fuzz`).
+        Carlo sample, an option out of its range (as for :func:`~agvctl.fuzz.run.fuzz`), or a ``render`` that is
+        not a function.
 
     Local workers are spawned processes, which import the calling script again: from a script, call this under
     ``if __name__ == "__main__":``.
     """
     t0 = time.perf_counter()
     jobs = resolved_jobs(jobs, executor, scheduler, progress)
+    if render is not None and not callable(render):
+        raise ConfigError("render", "", f"expected a function render(experiment, result, limits) (got {render!r})")
     work = paths if isinstance(paths, CheckWork) else load_check(paths)
     all_tasks = [t for ts in work.tasks for t in ts]
     with open_executor(executor, jobs, scheduler, len(all_tasks)) as pool:
-        outcomes = execute(pool, run_task, all_tasks, progress, on_error=run_error)
+        run = run_task if render is None else functools.partial(_run_drawn, render=render)
+        outcomes = execute(pool, run, all_tasks, progress, on_error=run_error)
     report = CheckReport()
     pos = 0
     for exp, path, tasks in zip(work.experiments, work.paths, work.tasks, strict=True):
@@ -413,6 +433,6 @@ def check_experiments(
         pos += len(tasks)
         wall_time_s = sum(o.wall_time_s for o in mine)
         verdicts = worst_run_verdicts(mine)
-        report.experiments.append(ExperimentReport(exp.spec.name, path, verdicts, mine, wall_time_s))
+        report.experiments.append(ExperimentReport(exp.spec.name, path, verdicts, mine, wall_time_s, exp))
     report.wall_time_s = time.perf_counter() - t0
     return report

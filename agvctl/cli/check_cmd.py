@@ -1,7 +1,8 @@
 """``agvctl check``: run experiments and enforce their limits — a CI gate.
 
 Every run is accounted for: a run that raises (the product's code or a user's controller) is that experiment's
-error, and every other experiment is still run and reported; the JUnit XML and JSON are always written. Exit codes:
+error, and every other experiment is still run and reported; the JUnit XML, JSON and HTML page are always
+written. Exit codes:
 
 * 0 — every run completed and every limit held;
 * 1 — a limit was violated (every run completed);
@@ -26,6 +27,7 @@ from agvctl.cli.outputs import Output, check_outputs, writing
 from agvctl.cli.progress import ProgressBar
 from agvctl.cli.staging import check_replaceable, staged_outputs
 from agvctl.errors import ConfigError
+from agvctl.htmlreport import check_html, check_run_figures
 from agvctl.plots import save_metric_histograms
 
 EXIT_PASSED, EXIT_VIOLATED, EXIT_RUN_ERROR = 0, 1, 3
@@ -52,6 +54,9 @@ def register(sub: Any) -> None:
     p.add_argument("experiments", nargs="+", metavar="EXPERIMENT.toml")
     p.add_argument("--junit", metavar="FILE", help="write JUnit XML: one test case per experiment and limit")
     p.add_argument("--json", metavar="FILE", dest="json_out", help="write the same results as JSON")
+    p.add_argument(
+        "--html", metavar="FILE", help="write one self-contained HTML page: every verdict beside its run's plots"
+    )
     p.add_argument("--jobs", type=int, default=None, metavar="N", help="local worker processes (default: all cores)")
     p.add_argument("--executor", choices=("local", "dask"), default="local", help="where the runs go (default local)")
     p.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
@@ -97,7 +102,8 @@ def run(args: argparse.Namespace) -> int:
     if args.scheduler and args.executor != "dask":
         raise ConfigError("--scheduler", "", "only with --executor dask")
     work = load_check(args.experiments)  # every file validated, every output checked: then the runs
-    outputs = [Output(flag, Path(name)) for flag, name in (("--junit", args.junit), ("--json", args.json_out)) if name]
+    named = (("--junit", args.junit), ("--json", args.json_out), ("--html", args.html))
+    outputs = [Output(flag, Path(name)) for flag, name in named if name]
     report_dir = Path(args.report_dir or "out/check")
     monte_carlo = any(len(tasks) > 1 or tasks[0].sample is not None for tasks in work.tasks)
     check_outputs(outputs, work.input_files, [("--report-dir", report_dir)] if monte_carlo else [])
@@ -112,11 +118,14 @@ def run(args: argparse.Namespace) -> int:
             executor=args.executor,
             scheduler=args.scheduler,
             progress=lambda done, total: bar(done / total),
+            render=check_run_figures if args.html else None,
         )
     finally:
         bar.close()
     # everything is computed before anything is written
     texts = {"--junit": junit_xml(report), "--json": json.dumps(report.as_dict(), indent=2) + "\n"}
+    if args.html:
+        texts["--html"] = check_html(report)
     with staged_outputs("check") as staging:  # every output moved into place once all are written
         if report.monte_carlo:
             staged = staging.directory("--report-dir", report_dir)

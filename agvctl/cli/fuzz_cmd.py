@@ -26,6 +26,7 @@ from agvctl.evaluation.limits import LIMITS
 from agvctl.fuzz.report import FUZZ_METRICS, FuzzOutcome, FuzzReport
 from agvctl.fuzz.run import FuzzRun, fuzz_tasks, run_fuzz
 from agvctl.fuzz.spec import load_fuzz_config, override_fuzz_config
+from agvctl.htmlreport import fuzz_html
 from agvctl.plots import save_fuzz_plot
 
 __all__ = ["format_fuzz_report", "register", "run"]
@@ -47,6 +48,9 @@ def register(sub: Any) -> None:
     p.add_argument("--executor", choices=("local", "dask"), default="local", help="where the runs go (default local)")
     p.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
     p.add_argument("--junit", metavar="FILE", help="write JUnit XML: one test case per scenario and controller")
+    p.add_argument(
+        "--html", metavar="FILE", help="write one self-contained HTML page: counts, distributions, the worst runs"
+    )
     p.add_argument("--seed", type=int, default=None, help="instead of the file's seed")
     p.add_argument("--scenarios", type=int, default=None, metavar="N", help="instead of the file's number")
     p.add_argument("--controllers", metavar="A,B", help="instead of the file's pose controllers (comma-separated)")
@@ -157,8 +161,7 @@ def _check_outputs(args: argparse.Namespace, work: FuzzRun, out_dir: Path) -> No
     outputs = files_in("--out", out_dir, names)
     failures = {name for task in work.tasks for name, _text in task.files}
     outputs += files_in("--out", out_dir / "failures", sorted(failures))
-    if args.junit:
-        outputs.append(Output("--junit", Path(args.junit)))
+    outputs += [Output(flag, Path(name)) for flag, name in (("--junit", args.junit), ("--html", args.html)) if name]
     inputs = [Path(args.config), vehicle_input(work.spec.vehicle)]
     check_outputs(outputs, inputs, [("--out", out_dir)])
     check_replaceable("--out", out_dir, inputs)
@@ -187,19 +190,25 @@ def run(args: argparse.Namespace) -> int:
     texts = {out_dir / "summary.json": json.dumps(report.as_dict(), indent=2) + "\n"}
     failures = report.failure_files()
     texts.update({out_dir / "failures" / name: text for name, text in failures.items()})
+    flags = {}
     if args.junit:
         texts[Path(args.junit)] = report.junit()
+        flags[Path(args.junit)] = "--junit"
+    if args.html:
+        texts[Path(args.html)] = fuzz_html(report, failures_dir=out_dir / "failures")
+        flags[Path(args.html)] = "--html"
     with staged_outputs("fuzz") as staging:  # the folder replaced whole, once every file is written
         staged = staging.directory("--out", out_dir)
         for path, text in texts.items():
-            staging.write_text("--junit" if args.junit and path == Path(args.junit) else "--out", path, text)
+            staging.write_text(flags.get(path, "--out"), path, text)
         written = [str(out_dir / "summary.json")]
         if not args.no_plot:
             with writing("--out", out_dir / "fuzz.png"):
                 save_fuzz_plot(report, staged / "fuzz.png")
             written.append(str(out_dir / "fuzz.png"))
     print(format_fuzz_report(report))
-    print(f"wrote {', '.join(written)}" + (f", {args.junit}" if args.junit else ""))
+    written += [name for name in (args.junit, args.html) if name]
+    print(f"wrote {', '.join(written)}")
     if failures:
         first = next(t.files[-1][0] for t, o in zip(report.tasks, report.outcomes, strict=True) if not o.passed)
         n_fail = sum(not o.passed for o in report.outcomes)

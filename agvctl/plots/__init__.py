@@ -24,10 +24,13 @@ from agvctl.plots.closed_loop import CLOSED_LOOP_PLOTS, save_closed_loop_plots
 from agvctl.plots.figures import new_figure as _figure
 from agvctl.plots.figures import save_png as _save
 from agvctl.plots.figures import subplots as _subplots
+from agvctl.plots.panel import render_run_panel
 from agvctl.sim.wheel_step import WheelStepResult
 
 __all__ = [
     "CLOSED_LOOP_PLOTS",
+    "fuzz_figure",
+    "render_run_panel",
     "render_tuning_plots",
     "save_closed_loop_plots",
     "save_fuzz_plot",
@@ -70,7 +73,14 @@ def save_metric_histograms(report: CheckReport, out_dir: str | Path) -> list[Pat
 
 
 def save_fuzz_plot(report: FuzzReport, path: str | Path) -> Path:
-    """One PNG of a fuzz run: per metric of :data:`~agvctl.fuzz.report.FUZZ_METRICS`, the cumulative
+    """One PNG of a fuzz run (:func:`fuzz_figure`)."""
+    out = Path(path)
+    _save(fuzz_figure(report), out)
+    return out
+
+
+def fuzz_figure(report: FuzzReport) -> Any:
+    """The figure of a fuzz run: per metric of :data:`~agvctl.fuzz.report.FUZZ_METRICS`, the cumulative
     distribution over the scenarios for each controller (log scale), with the configured limit; crashed runs
     count as beyond the right edge."""
     metrics = FUZZ_METRICS[:4]
@@ -93,9 +103,7 @@ def save_fuzz_plot(report: FuzzReport, path: str | Path) -> Path:
         ax.legend(loc="lower right", fontsize=8)
     fig.suptitle(f"fuzz {report.spec.name}: seed {report.spec.seed}, {len(report.outcomes)} runs")
     fig.tight_layout()
-    out = Path(path)
-    _save(fig, out)
-    return out
+    return fig
 
 
 def render_tuning_plots(

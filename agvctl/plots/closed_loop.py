@@ -4,7 +4,7 @@ the gate's bound, the controller's step times and (with an EKF) the estimate aga
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +16,15 @@ from agvctl.log import SimLog
 from agvctl.params import VehicleParams
 from agvctl.plots.figures import save_png, subplots
 
-__all__ = ["CLOSED_LOOP_PLOTS", "save_closed_loop_plots"]
+__all__ = [
+    "CLOSED_LOOP_PLOTS",
+    "draw_both_sides",
+    "draw_errors",
+    "draw_path",
+    "draw_wheel_accel",
+    "draw_wheel_speed",
+    "save_closed_loop_plots",
+]
 
 CLOSED_LOOP_PLOTS = (
     "path.png",
@@ -93,15 +101,24 @@ def save_closed_loop_plots(
 def _path_figure(log: SimLog) -> Any:
     """The vehicle's path (and its estimate, where it differs) against the reference."""
     fig, ax = subplots(figsize=(6.5, 6))
+    draw_path(ax, log)
+    return fig
+
+
+def draw_path(ax: Any, log: SimLog, *, mark_time_s: float | None = None, mark_label: str = "") -> None:
+    """On ``ax``: the vehicle's path (and its estimate, where it differs) against the reference; with
+    ``mark_time_s``, the vehicle's position then marked (a red cross labelled ``mark_label``)."""
     ax.plot(log["ref_x_m"], log["ref_y_m"], "k--", lw=1, label="reference")
     ax.plot(log["x_m"], log["y_m"], "C0", lw=1.5, label="vehicle (true)")
     if not np.allclose(log["est_x_m"], log["x_m"]):
         ax.plot(log["est_x_m"], log["est_y_m"], "C2", lw=1, alpha=0.8, label="estimate")
     ax.plot(log["x_m"][0], log["y_m"][0], "o", color="C0")
+    if mark_time_s is not None:
+        k = int(np.argmin(np.abs(log["t_s"] - mark_time_s)))
+        ax.plot(log["x_m"][k], log["y_m"][k], "x", color="r", ms=10, mew=2, label=mark_label or None)
     ax.set(xlabel="x [m]", ylabel="y [m]", aspect="equal", title="path")
     ax.legend(loc="best")
     ax.grid(alpha=0.3)
-    return fig
 
 
 def _tracking_error_figure(log: SimLog) -> Any:
@@ -119,17 +136,22 @@ def _tracking_error_figure(log: SimLog) -> Any:
 
 def _wheel_speed_figure(log: SimLog) -> Any:
     """Each wheel's reference, setpoint and measured speed."""
-    t = log["t_s"]
     fig, axes = subplots(2, 1, figsize=(8, 5), sharex=True)
     for a, side in zip(axes, ("left", "right"), strict=True):
-        a.plot(t, log[f"ref_wheel_speed_{side}_m_s"], "k--", lw=1, label="reference")
-        a.plot(t, log[f"setpoint_wheel_speed_{side}_m_s"], "C1", lw=1, label="setpoint")
-        a.plot(t, log[f"wheel_speed_{side}_m_s"], "C0", lw=1.2, label="measured")
-        a.set(ylabel=f"{side} wheel [m/s]")
-        a.grid(alpha=0.3)
+        draw_wheel_speed(a, log, side)
     axes[0].legend(loc="best", fontsize=8)
     axes[-1].set(xlabel="t [s]")
     return fig
+
+
+def draw_wheel_speed(ax: Any, log: SimLog, side: str) -> None:
+    """On ``ax``: one wheel's reference, setpoint and measured speed (``side``: ``"left"`` or ``"right"``)."""
+    t = log["t_s"]
+    ax.plot(t, log[f"ref_wheel_speed_{side}_m_s"], "k--", lw=1, label="reference")
+    ax.plot(t, log[f"setpoint_wheel_speed_{side}_m_s"], "C1", lw=1, label="setpoint")
+    ax.plot(t, log[f"wheel_speed_{side}_m_s"], "C0", lw=1.2, label="measured")
+    ax.set(ylabel=f"{side} wheel [m/s]")
+    ax.grid(alpha=0.3)
 
 
 def _da_figure(log: SimLog, vehicle: VehicleParams) -> Any:
@@ -155,8 +177,14 @@ def _da_figure(log: SimLog, vehicle: VehicleParams) -> Any:
 
 def _both_sides_figure(log: SimLog, column: str, bound: float, bound_label: str, ylabel: str) -> Any:
     """``column`` (with ``{side}``) for both wheels against ±``bound``."""
-    t = log["t_s"]
     fig, ax = subplots(figsize=(8, 3.5))
+    draw_both_sides(ax, log, column, bound, bound_label, ylabel)
+    return fig
+
+
+def draw_both_sides(ax: Any, log: SimLog, column: str, bound: float, bound_label: str, ylabel: str) -> None:
+    """On ``ax``: ``column`` (a log column name with ``{side}``) for both wheels against ±``bound``."""
+    t = log["t_s"]
     for side, c in (("left", "C0"), ("right", "C1")):
         ax.plot(t, log[column.format(side=side)], color=c, lw=1, label=side)
     ax.axhline(bound, color="r", ls=":", lw=1, label=bound_label)
@@ -164,15 +192,21 @@ def _both_sides_figure(log: SimLog, column: str, bound: float, bound_label: str,
     ax.set(xlabel="t [s]", ylabel=ylabel)
     ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
-    return fig
 
 
 def _wheel_accel_figure(log: SimLog, vehicle: VehicleParams, bound_m_s2: float | None) -> Any:
-    """Each wheel's mean rim acceleration over each sample, as the gate judges it, against the gate's bound, with
-    the instantaneous acceleration faint behind it and eq 5's a_lim for reference."""
+    """Each wheel's mean rim acceleration over each sample against the gate's bound (:func:`draw_wheel_accel`)."""
+    fig, ax = subplots(figsize=(8, 3.5))
+    draw_wheel_accel(ax, log, vehicle, bound_m_s2)
+    return fig
+
+
+def draw_wheel_accel(ax: Any, log: SimLog, vehicle: VehicleParams, bound_m_s2: float | None) -> None:
+    """On ``ax``: each wheel's mean rim acceleration over each sample, as the gate judges it, against the gate's
+    bound ``bound_m_s2`` (m/s²; None: the default gate's), with the instantaneous acceleration faint behind it and
+    eq 5's a_lim for reference."""
     t = log["t_s"]
     bound = torque_accel_limit_m_s2(vehicle) if bound_m_s2 is None else bound_m_s2
-    fig, ax = subplots(figsize=(8, 3.5))
     for side, c in (("left", "C0"), ("right", "C1")):
         ax.plot(t, log[f"wheel_accel_{side}_m_s2"], color=c, lw=0.6, alpha=0.3)
         speed = log[f"wheel_speed_{side}_m_s"]
@@ -186,7 +220,6 @@ def _wheel_accel_figure(log: SimLog, vehicle: VehicleParams, bound_m_s2: float |
     ax.set(xlabel="t [s]", ylabel="wheel acceleration [m/s²]")
     ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
-    return fig
 
 
 def _solve_time_figure(log: SimLog) -> Any:
@@ -206,17 +239,28 @@ def _path_error_figure(log: SimLog) -> Any:
     """Cross-track error and along-track lag against time: off the path versus behind (or ahead of) the clock."""
     t = log["t_s"]
     fig, (a1, a2) = subplots(2, 1, figsize=(8, 5), sharex=True)
-    a1.plot(t, log["cross_track_error_m"] * 100, "C3", label="cross-track (distance to the path)")
-    a1.plot(t, log["position_error_m"] * 100, "0.6", lw=0.8, label="position error (to the reference point)")
-    a1.set(ylabel="error [cm]")
-    a1.legend(loc="best", fontsize=8)
+    draw_errors(a1, log)
     a2.plot(t, log["along_track_lag_m"] * 100, "C0")
     a2.axhline(0.0, color="k", lw=0.6)
     a2.set(xlabel="t [s]", ylabel="along-track lag [cm]\n(> 0: behind)")
-    for a in (a1, a2):
-        a.grid(alpha=0.3)
+    a2.grid(alpha=0.3)
     fig.tight_layout()
     return fig
+
+
+def draw_errors(ax: Any, log: SimLog, bounds: Mapping[str, float] | None = None) -> None:
+    """On ``ax``: the cross-track error (distance to the path) and the position error (to the time-indexed
+    reference point) in cm, each with its bound from ``bounds`` (limit name → bound in m:
+    ``cross_track_error_max_m``, ``tracking_error_max_m``) where given."""
+    t = log["t_s"]
+    ax.plot(t, log["cross_track_error_m"] * 100, "C3", label="cross-track (distance to the path)")
+    ax.plot(t, log["position_error_m"] * 100, "0.6", lw=0.8, label="position error (to the reference point)")
+    for limit, color in (("cross_track_error_max_m", "C3"), ("tracking_error_max_m", "0.4")):
+        if bounds and limit in bounds:
+            ax.axhline(bounds[limit] * 100, color=color, ls="--", lw=1, label=f"{limit} {bounds[limit]:.3g} m")
+    ax.set(ylabel="error [cm]")
+    ax.legend(loc="best", fontsize=8)
+    ax.grid(alpha=0.3)
 
 
 def _estimate_figure(log: SimLog) -> Any:

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 from typing import Any
 
 from agvctl.fileio import atomic_open
 
-__all__ = ["new_figure", "save_png", "subplots"]
+__all__ = ["new_figure", "png_bytes", "save_png", "subplots"]
 
 
 def new_figure(**kwargs: Any) -> Any:
@@ -30,3 +31,10 @@ def save_png(fig: Any, path: Path) -> None:
     """Write ``fig`` to ``path`` as a PNG, atomically."""
     with atomic_open(path, "wb") as fh:
         fig.savefig(fh, format="png", dpi=90)
+
+
+def png_bytes(fig: Any, dpi: int) -> bytes:
+    """``fig`` as PNG bytes at ``dpi`` dots per inch."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return buf.getvalue()
