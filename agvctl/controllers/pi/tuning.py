@@ -367,9 +367,8 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
         One line, when no PI meets the spec.
     """
     expect_instance(vehicle, VehicleParams, "design_pi", "vehicle")
-    if spec is not None:
-        expect_instance(spec, TuningSpec, "design_pi", "spec")
-    spec = spec or TuningSpec()
+    spec = TuningSpec() if spec is None else spec
+    expect_instance(spec, TuningSpec, "design_pi", "spec")
     ts = vehicle.control.sample_period_s
     plants = sampled_wheel_models(vehicle)
     chain = chain_gain(vehicle)
@@ -382,11 +381,8 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
     else:
         wc_target = spec.crossover_rad_s
         if wc_target >= w_nyq:
-            raise ConfigError(
-                SPEC_SOURCE,
-                "crossover_rad_s",
-                f"{wc_target:g} rad/s is at or above the Nyquist frequency pi/T_s = {w_nyq:.4g} rad/s",
-            )
+            problem = f"{wc_target:g} rad/s is at or above the Nyquist frequency pi/T_s = {w_nyq:.4g} rad/s"
+            raise ConfigError(SPEC_SOURCE, "crossover_rad_s", problem)
     found = _candidate(plants, chain, wc_target, pm_design, ts, spec, GRID_POINTS)
     if found is None and spec.crossover_rad_s is None:  # rounding at the boundary: back off slightly
         for shrink in (1 - 1e-6, 1 - 1e-4, 1 - 1e-2):
