@@ -492,7 +492,23 @@ def _entry_points() -> dict[str, tuple[Callable[..., object], list[st.SearchStra
     vehicle = one_in(st.just(VEHICLE), 4)
     log = one_in(st.just(TINY_RUN.log), 4)
     gains = PIGains(kp=0.02, ki=0.3, dt_s=0.04)
+    from agvctl.htmlreport import check_html, check_run_figures, fuzz_html, write_check_html, write_fuzz_html
+
+    checked = one_in(st.just(check_experiments([WORK / "tiny_exp.toml"], jobs=1)), 16)
+    fuzzed = one_in(st.just(fuzz(TINY_FUZZ, jobs=1)), 16)
+    page = one_in(st.just(WORK / "page.html"), 4)
     return {
+        "check_html": (lambda r, t: check_html(r, title=t), [checked, one_in(st.text(max_size=4), 4)]),
+        "write_check_html": (write_check_html, [checked, page]),
+        "fuzz_html": (
+            lambda r, d, w: fuzz_html(r, failures_dir=d, worst=w),
+            [fuzzed, one_in(st.just("failures"), 2), one_in(st.integers(0, 1), 4)],
+        ),
+        "write_fuzz_html": (write_fuzz_html, [fuzzed, page]),
+        "check_run_figures": (
+            check_run_figures,
+            [one_in(st.just(TINY_EXPERIMENT), 4), one_in(st.just(TINY_RUN), 4), one_in(st.just([]), 4)],
+        ),
         "linear_model": (linear_model, [vehicle]),
         "decoupled_wheel_models": (decoupled_wheel_models, [vehicle]),
         "plan": (plan, [one_in(st.just(PathSpec(segments=(LineSegment(length_m=0.04),))), 4), vehicle]),

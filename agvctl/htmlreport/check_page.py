@@ -3,11 +3,13 @@ resolved experiment file."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
 from agvctl.checks.report import CheckReport, ExperimentReport, LimitVerdict, RunOutcome
 from agvctl.checks.runner import run_task
+from agvctl.errors import expect_instance
 from agvctl.fileio import write_text
 from agvctl.htmlreport.figures import PANEL, check_run_figures
 from agvctl.htmlreport.render import data_uri, limit_value, render_template, time_text
@@ -114,6 +116,8 @@ def check_html(report: CheckReport, *, title: str = "agvctl check") -> str:
     str
         The HTML document.
     """
+    expect_instance(report, CheckReport, "check_html", "report")
+    expect_instance(title, str, "check_html", "title")
     experiments = [_experiment(i, e) for i, e in enumerate(report.experiments)]
     experiments.sort(key=lambda e: _ORDER[e["status"]])  # failures first, else in the check's order
     n_passed = sum(e["status"] == "PASS" for e in experiments)
@@ -151,6 +155,8 @@ def write_check_html(report: CheckReport, path: str | Path, *, title: str = "agv
     OSError
         When ``path`` cannot be written (nothing is left half-written).
     """
+    expect_instance(report, CheckReport, "write_check_html", "report")
+    expect_instance(path, (str, os.PathLike), "write_check_html", "path")
     text = check_html(report, title=title)
     write_text(path, text)
     return Path(path)

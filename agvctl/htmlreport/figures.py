@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from agvctl.errors import expect_instance
 from agvctl.evaluation.limits import LimitResult
 from agvctl.log import SimLog
 from agvctl.params import VehicleParams
@@ -66,4 +67,9 @@ def check_run_figures(
     dict of str to bytes
         ``{PANEL: PNG bytes}``.
     """
+    expect_instance(experiment, Experiment, "check_run_figures", "experiment")
+    expect_instance(result, ClosedLoopResult, "check_run_figures", "result")
+    expect_instance(limits, (list, tuple), "check_run_figures", "limits")
+    for i, r in enumerate(limits):
+        expect_instance(r, LimitResult, "check_run_figures", f"limits[{i}]")
     return {PANEL: run_panel(result.log, experiment.controller_vehicle, experiment.spec.name, limits)}

@@ -4,10 +4,12 @@ controllers, and the worst scenarios with their figures and the command that rep
 from __future__ import annotations
 
 import math
+import os
 import tempfile
 from pathlib import Path
 from typing import Any
 
+from agvctl.errors import ConfigError, expect_instance
 from agvctl.fileio import write_text
 from agvctl.fuzz.report import FUZZ_METRICS, PERCENTILES, FuzzOutcome, FuzzReport, FuzzTask
 from agvctl.htmlreport.figures import run_panel
@@ -69,6 +71,18 @@ def _comparison(cmp: dict[str, Any], seed: int) -> dict[str, Any]:
     }
 
 
+MAX_WORST_SHOWN = 100
+"""The most worst scenarios a page shows per controller (each is run again to draw it)."""
+
+
+def _check_page_arguments(source: str, report: object, failures_dir: object, worst: object, title: object) -> None:
+    expect_instance(report, FuzzReport, source, "report")
+    expect_instance(failures_dir, (str, os.PathLike), source, "failures_dir")
+    expect_instance(title, str, source, "title")
+    if isinstance(worst, bool) or not isinstance(worst, int) or not 0 <= worst <= MAX_WORST_SHOWN:
+        raise ConfigError(source, "worst", f"must be an integer from 0 to {MAX_WORST_SHOWN} (got {worst!r})")
+
+
 def fuzz_html(
     report: FuzzReport, *, failures_dir: str | Path = "failures", worst: int = WORST_SHOWN, title: str = ""
 ) -> str:
@@ -91,6 +105,7 @@ def fuzz_html(
     str
         The HTML document.
     """
+    _check_page_arguments("fuzz_html", report, failures_dir, worst, title)
     spec = report.spec
     stats = report.statistics()
     controllers = []
@@ -153,6 +168,8 @@ def write_fuzz_html(
     OSError
         When ``path`` cannot be written (nothing is left half-written).
     """
+    expect_instance(path, (str, os.PathLike), "write_fuzz_html", "path")
+    _check_page_arguments("write_fuzz_html", report, failures_dir, worst, title)
     text = fuzz_html(report, failures_dir=failures_dir, worst=worst, title=title)
     write_text(path, text)
     return Path(path)
