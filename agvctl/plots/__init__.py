@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 import math
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -79,10 +80,18 @@ def save_fuzz_plot(report: FuzzReport, path: str | Path) -> Path:
     return out
 
 
+def _minor_label(ax: Any, value: float, _pos: int | None) -> str:
+    """A log axis's minor tick label, shown only where the axis spans less than a decade (too few majors)."""
+    lo, hi = ax.get_xlim()
+    return f"{value:.3g}" if hi < 10.0 * lo else ""
+
+
 def fuzz_figure(report: FuzzReport) -> Any:
     """The figure of a fuzz run: per metric of :data:`~agvctl.fuzz.report.FUZZ_METRICS`, the cumulative
     distribution over the scenarios for each controller (log scale), with the configured limit; crashed runs
     count as beyond the right edge."""
+    from matplotlib.ticker import FuncFormatter
+
     metrics = FUZZ_METRICS[:4]
     fig, axes = _subplots(2, 2, figsize=(11, 7.5))
     bounds = {LIMITS[key].metric: bound for key, bound in report.spec.limits.items()}
@@ -99,6 +108,9 @@ def fuzz_figure(report: FuzzReport) -> Any:
         if metric in bounds:
             ax.axvline(bounds[metric], color="r", ls="--", lw=1, label=f"limit {bounds[metric]:g}")
         ax.set(xscale="log", xlabel=metric, ylabel="share of scenarios ≤ x", ylim=(0.0, 1.02))
+        # plain tick labels (0.01, not mathtext's 10⁻²): mathtext looks up fonts matplotlib then reports missing
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))
+        ax.xaxis.set_minor_formatter(FuncFormatter(partial(_minor_label, ax)))
         ax.grid(alpha=0.3, which="both")
         ax.legend(loc="lower right", fontsize=8)
     fig.suptitle(f"fuzz {report.spec.name}: seed {report.spec.seed}, {len(report.outcomes)} runs")
