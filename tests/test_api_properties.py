@@ -71,6 +71,8 @@ API = settings(
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.filter_too_much],
 )
 WORK = Path(tempfile.mkdtemp(prefix="agvctl-api-"))
+# A string is a valid path: the wrong-type string points into the scratch folder, so a writer given it writes there.
+STRAY = str(WORK / "x")
 
 NASTY: list[Any] = [0, -1, 1, 0.0, -0.0, 1e-300, -1e-300, 1e-9, 1e9, 1e308, -1e308, math.nan, math.inf, -math.inf]
 WRONG_TYPES: list[Any] = [None, True, False, "1", "", "smoth", [], {}, (1.0,), object()]
@@ -461,7 +463,7 @@ def test_check_experiments(paths: Any, jobs: Any, executor: Any, scheduler: Any,
 @st.composite
 def one_in(draw: st.DrawFn, good: st.SearchStrategy[Any], n: int) -> Any:
     """``good`` once in ``n`` draws, else a value of the wrong type."""
-    return draw(good) if draw(st.integers(0, n - 1)) == 0 else draw(values | st.sampled_from([VEHICLE, "x", b""]))
+    return draw(good) if draw(st.integers(0, n - 1)) == 0 else draw(values | st.sampled_from([VEHICLE, STRAY, b""]))
 
 
 def _tiny_run() -> tuple[Any, Any]:
