@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -69,6 +69,16 @@ def sample_wheel_accel_m_s2(log: SimLog, sample_period_s: float) -> NDArray[np.f
     return np.concatenate(([0.0], accel))
 
 
+JOINED_M = 0.02
+"""How near the path (m) a vehicle that started off it counts as having joined it."""
+
+
+def _joined_peak(cross: np.ndarray, threshold_m: float) -> float:
+    """max |cross| from the first sample within ``threshold_m`` of the path (all samples if none is)."""
+    on = np.nonzero(np.abs(cross) <= threshold_m)[0]
+    return _peak_abs(cross if on.size == 0 else cross[int(on[0]) :])
+
+
 def _peak_abs(values: np.ndarray) -> float:
     """max |values|; NaN if any value is NaN (a run that diverged), never a silently smaller number."""
     return float(np.max(np.abs(values))) if len(values) else 0.0
@@ -84,6 +94,11 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
     (distance to the path), ``along_track_lag_max_m`` (the largest ``|lag|`` along the path, behind or ahead) and
     ``path_heading_error_max_deg`` (heading against the path's at the nearest point). ``non_finite_commands`` counts
     the samples whose pose-controller command was NaN or infinite (also counted in ``solver_failures``).
+    ``cross_track_error_max_joined_m`` is the largest cross-track error once the vehicle is on the path: after it
+    first comes within :data:`JOINED_M` of it (over the whole run if it never does), so that an off-path start does
+    not hide what follows. ``completion_time_s`` is the first time after which the vehicle stays within 2 cm of the
+    reference's final position (inf if it never does), against the reference's ``reference_duration_s`` (for a run
+    with a reference).
 
     Parameters
     ----------
@@ -115,6 +130,7 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
         "final_heading_error_deg": float(np.degrees(abs(log["heading_error_rad"][-1]))),
         "cross_track_error_max_m": _peak_abs(cross),
         "cross_track_error_rms_m": float(np.sqrt(np.mean(cross**2))),
+        "cross_track_error_max_joined_m": _joined_peak(cross, JOINED_M),
         "along_track_lag_max_m": _peak_abs(log["along_track_lag_m"]),
         "path_heading_error_max_deg": float(np.degrees(_peak_abs(log["path_heading_error_rad"]))),
         "peak_wheel_speed_m_s": float(
@@ -133,7 +149,20 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
         "solver_failures": int(result.solver_failures),
         "non_finite_commands": int(np.sum(log["solver_status"] == NON_FINITE_COMMAND_STATUS)),
         "time_to_2cm_s": time_to_converge_s(log["t_s"], err, 0.02),
+        **_completion(log, getattr(result, "reference", None)),
         **estimate_metrics(log),
+    }
+
+
+def _completion(log: SimLog, reference: Any) -> dict[str, float]:
+    """``completion_time_s`` and ``reference_duration_s`` of a run on ``reference`` (none without one)."""
+    if reference is None:
+        return {}
+    end = reference.final_pose
+    to_end = np.hypot(log["x_m"] - end.x_m, log["y_m"] - end.y_m)
+    return {
+        "completion_time_s": time_to_converge_s(log["t_s"], to_end, 0.02),
+        "reference_duration_s": float(reference.duration_s),
     }
 
 

@@ -36,6 +36,7 @@ from agvctl.config import dump_toml
 from agvctl.errors import ConfigError
 from agvctl.fuzz.spec import FuzzSpec, PathGenSpec, keep_stiction_above_coulomb, nominal_value
 from agvctl.params import VehicleParams
+from agvctl.scenario.pose_settings import merged_settings
 
 __all__ = ["Scenario", "generate_scenario", "scenario_files"]
 
@@ -169,7 +170,11 @@ def scenario_files(spec: FuzzSpec, scenario: Scenario, controller: str) -> dict[
             "initial_pose": dict(scenario.initial_pose),
             "sensor_seed": scenario.sensor_seed,
         },
-        "controller": {"pose": controller, **spec.controller, **scenario.estimators},
+        "controller": {
+            "pose": controller,
+            **merged_settings(spec.pose_settings.get(controller, {}), spec.controller),
+            **scenario.estimators,
+        },
         "limits": spec.limits.to_file(),
     }
     return {

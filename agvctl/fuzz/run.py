@@ -27,6 +27,7 @@ import tempfile
 import time
 import warnings
 from collections.abc import Callable, Sequence
+from concurrent.futures import Executor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -49,9 +50,9 @@ MAX_SCENARIOS = 1_000_000
 MAX_SCENARIO_INDEX = 10**9
 """Scenario indices are below this (a scenario's name holds its index)."""
 
-__all__ = ["FuzzRun", "fuzz", "fuzz_tasks", "run_fuzz", "run_fuzz_task"]
+__all__ = ["FuzzRun", "fuzz", "fuzz_tasks", "run_fuzz", "run_fuzz_task", "run_fuzz_tasks"]
 
-_MAY_BE_INFINITE = frozenset({"time_to_2cm_s"})
+_MAY_BE_INFINITE = frozenset({"time_to_2cm_s", "completion_time_s"})
 """Metrics for which infinity is a value (never within 2 cm), not a numerical failure."""
 
 
@@ -118,6 +119,29 @@ def run_fuzz_task(task: FuzzTask) -> FuzzOutcome:
         time.perf_counter() - t0,
         simulated_s,
     )
+
+
+def run_fuzz_tasks(
+    pool: Executor, tasks: Sequence[FuzzTask], progress: Callable[[int, int], None] | None = None
+) -> list[FuzzOutcome]:
+    """Run ``tasks`` on an executor of :func:`~agvctl.checks.runner.open_executor`, outcomes in the order of
+    ``tasks``; a run its worker could not return is an outcome with its error, as in :func:`fuzz`.
+
+    Parameters
+    ----------
+    pool : Executor
+        An open executor (kept open across calls, so a search pays its workers' start-up once).
+    tasks : sequence of FuzzTask
+        The runs, e.g. from :func:`fuzz_tasks` or :func:`~agvctl.fuzz.generate.scenario_files`.
+    progress : callable, optional
+        Called as ``progress(done, len(tasks))`` after each run.
+
+    Returns
+    -------
+    list of FuzzOutcome
+        One per task.
+    """
+    return execute(pool, run_fuzz_task, tasks, progress, on_error=_lost_run)
 
 
 @dataclass(frozen=True)
@@ -229,5 +253,5 @@ def run_fuzz(
     jobs = resolved_jobs(jobs, executor, scheduler, progress)
     spec = work.spec
     with open_executor(executor, jobs, scheduler, len(work.tasks)) as pool:
-        outcomes = execute(pool, run_fuzz_task, work.tasks, progress, on_error=_lost_run)
+        outcomes = run_fuzz_tasks(pool, work.tasks, progress)
     return FuzzReport(spec, work.tasks, outcomes, time.perf_counter() - t0)

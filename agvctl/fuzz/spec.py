@@ -37,7 +37,13 @@ wheel_speed = ["kalman", "count_difference"]
 
 [limits]                            # experiment-file limit keys, each replacing the default gate's bound of its key
 cross_track_error_max_m = 0.05
+
+[pose_settings]                     # optional: a controller's settings file (``agvctl tune --pose --out``)
+ramsete = "tuned/ramsete.toml"
 ```
+
+``[search]`` and ``[objective]`` are read by ``agvctl tune --pose`` (:mod:`agvctl.tuning`), which searches the
+controllers' settings over this distribution; ``agvctl fuzz`` leaves them be.
 
 Without ``[plant]``, the envelope is :data:`DEFAULT_ENVELOPE`. ``[plant]`` may name the true sensors too
 (``"sensors.position_fix_sigma_m"``, ``"sensors.position_fix_rate_hz"``, ``"sensors.position_fix_latency_s"``, …):
@@ -74,6 +80,7 @@ from agvctl.errors import ConfigError
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
 from agvctl.evaluation.limits import LimitsSpec
 from agvctl.params import VehicleParams, load_vehicle
+from agvctl.scenario.pose_settings import load_settings_table, merged_settings
 from agvctl.scenario.spec import ControllerSpec
 
 __all__ = [
@@ -271,6 +278,12 @@ class FuzzSpec:
     controller: dict[str, Any] = dataclasses.field(default_factory=dict)
     estimators: EstimatorsSpec = dataclasses.field(default_factory=EstimatorsSpec)
     limits: LimitsSpec = dataclasses.field(default_factory=LimitsSpec)
+    pose_settings: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
+    """Per controller, the settings of its settings file, under the ``controller`` keys of every run."""
+    search: dict[str, Any] = dataclasses.field(default_factory=dict)
+    """``[search]``, as in the file: read by :mod:`agvctl.tuning`."""
+    objective: dict[str, Any] = dataclasses.field(default_factory=dict)
+    """``[objective]``, as in the file: read by :mod:`agvctl.tuning`."""
     source: str = dataclasses.field(default="FuzzSpec", metadata={"derived": True})
 
     def __post_init__(self) -> None:
@@ -280,7 +293,7 @@ class FuzzSpec:
 
     @classmethod
     def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> FuzzSpec:
-        tables = ("plant", "controller", "limits")
+        tables = ("plant", "controller", "limits", "pose_settings", "search", "objective")
         base: FuzzSpec = build_fields(
             cls, {k: v for k, v in data.items() if k not in tables}, source=source, prefix=prefix
         )
@@ -292,8 +305,13 @@ class FuzzSpec:
             changes["plant"] = {
                 str(k): _range(v, source, join_key(join_key(prefix, "plant"), str(k))) for k, v in data["plant"].items()
             }
-        if "controller" in data:
-            changes["controller"] = dict(data["controller"])
+        for name in ("controller", "search", "objective"):
+            if name in data:
+                changes[name] = dict(data[name])
+        if "pose_settings" in data:
+            changes["pose_settings"] = load_settings_table(
+                data["pose_settings"], source, join_key(prefix, "pose_settings")
+            )
         if "limits" in data:
             changes["limits"] = LimitsSpec.from_file(data["limits"], source=source, prefix=join_key(prefix, "limits"))
         with as_file_error(cls, source, prefix):
@@ -355,7 +373,8 @@ def check_against_vehicle(spec: FuzzSpec, vehicle: VehicleParams) -> None:
         if key in spec.controller:
             raise ConfigError(src, f"controller.{key}", f"drawn by [estimators] {key}; remove it here")
     for name in spec.controllers:
-        ControllerSpec.from_file({"pose": name, **spec.controller}, source=src, prefix="controller")
+        keys = merged_settings(spec.pose_settings.get(name, {}), spec.controller)
+        ControllerSpec.from_file({"pose": name, **keys}, source=src, prefix="controller")
 
 
 def load_fuzz_config(path: str | Path) -> FuzzSpec:

@@ -29,6 +29,7 @@ from agvctl.errors import ConfigError
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
 from agvctl.evaluation.limits import LimitsSpec
 from agvctl.planning.spec import StartPose
+from agvctl.scenario.pose_settings import load_pose_settings, merged_settings
 from agvctl.sim.loop import ComputeDelay
 
 __all__ = ["ControllerSpec", "ExperimentSpec", "PlantSpec", "RobustnessSpec", "Spread"]
@@ -77,9 +78,26 @@ def _choice(value: str, choices: Mapping[str, Any], source: str, key: str) -> No
         raise ConfigError(source, key, f"must be one of {names} (got {value!r})")
 
 
+def _with_settings_file(
+    name: Any, pose: str, settings: type | None, rest: Mapping[str, Any], source: str, prefix: str
+) -> dict[str, Any]:
+    """``rest`` over the keys of the settings file ``name`` (``[controller] pose_settings``, relative to the
+    experiment file), which are checked on their own first so that their errors name the settings file."""
+    key = join_key(prefix, "pose_settings")
+    if not isinstance(name, str) or not name:
+        raise ConfigError(source, key, f"expected the name of a settings file (got {name!r})")
+    if settings is None:
+        raise ConfigError(source, key, f"pose = {pose!r} takes no settings")
+    path = Path(name) if Path(name).is_absolute() else Path(source).parent / name
+    keys = load_pose_settings(path, pose, source=source, key=key)
+    build(settings, keys, source=str(path))
+    return merged_settings(keys, rest)
+
+
 @dataclass(frozen=True)
 class ControllerSpec:
-    """The controllers of an experiment. Keys other than these go to the pose controller's settings."""
+    """The controllers of an experiment. Keys other than these go to the pose controller's settings, over those of
+    the settings file ``pose_settings = "FILE"`` names (:mod:`agvctl.scenario.pose_settings`), if any."""
 
     pose: str = "mpc"
     """A name of :data:`~agvctl.controllers.registry.POSE_CONTROLLERS`."""
@@ -117,8 +135,10 @@ class ControllerSpec:
         _choice(base.pose, POSE_CONTROLLERS, source, join_key(prefix, "pose"))
         _choice(base.localization, ESTIMATORS, source, join_key(prefix, "localization"))
         _choice(base.wheel_speed, WHEEL_SPEED_ESTIMATORS, source, join_key(prefix, "wheel_speed"))
-        rest = {k: v for k, v in data.items() if k not in own}
+        rest = {k: v for k, v in data.items() if k not in own and k != "pose_settings"}
         kind = POSE_CONTROLLERS[base.pose]
+        if "pose_settings" in data:
+            rest = _with_settings_file(data["pose_settings"], base.pose, kind.settings, rest, source, prefix)
         if kind.settings is None:
             if rest:
                 key = next(iter(rest))
