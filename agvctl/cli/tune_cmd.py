@@ -13,6 +13,7 @@ import numpy as np
 
 from agvctl.cli.options import add_vehicle_options
 from agvctl.cli.outputs import Output, check_outputs, files_in, vehicle_input, writing
+from agvctl.cli.tune_pose_cmd import add_pose_options, check_mode, run_pose
 from agvctl.controllers.pi.tuning import (
     SPEC_SOURCE,
     TuningResult,
@@ -44,12 +45,14 @@ TUNING_PLOTS = ("bode.png", "nyquist.png", "step.png")
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "tune",
-        help="design the PI wheel-speed loops and verify them on the nonlinear plant",
+        help="design the PI wheel-speed loops (or, with --pose, search a pose controller's settings)",
         description="Design the discrete PI wheel-speed controller from the decoupled model (eqs 60-61) "
         "sampled with a zero-order hold, for a phase margin, a gain margin and, optionally, a crossover; by "
         "default as fast as the margins allow. Margins are those of the sampled loop up to and including the "
         "Nyquist frequency; the step figures are from the full nonlinear plant with the DA/amplifier chain "
-        f"for a {STEP_M_S:g} m/s wheel-speed step.",
+        f"for a {STEP_M_S:g} m/s wheel-speed step. With --pose FUZZ.toml: search the settings of a pose "
+        "controller over the fuzz file's scenario distribution (Optuna, the tune extra), validate them on held-out "
+        "scenarios against the defaults and write a settings file.",
     )
     add_vehicle_options(p)
     p.add_argument("--phase-margin", type=float, metavar="DEG", default=60.0, help="minimum phase margin (default 60)")
@@ -67,8 +70,9 @@ def register(sub: Any) -> None:
         help="verify (and save) with the Coulomb-friction feed-forward tau_c R/k_t sign(setpoint)",
     )
     p.add_argument("--json", action="store_true", help="print the gains, margins and step figures as JSON")
-    p.add_argument("--out", metavar="GAINS.toml", help="write the gains file")
+    p.add_argument("--out", metavar="FILE", help="write the gains file (with --pose: the settings file)")
     p.add_argument("--plot", metavar="DIR", help="write bode.png, nyquist.png and step.png to DIR")
+    add_pose_options(p)
     p.set_defaults(func=run)
 
 
@@ -107,6 +111,9 @@ def _spec(args: argparse.Namespace) -> TuningSpec:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_mode(args)
+    if args.pose is not None:
+        return run_pose(args)
     vehicle = load_vehicle(args.vehicle, args.overrides)
     spec = _spec(args)
     plot_dir = Path(args.plot) if args.plot else None
