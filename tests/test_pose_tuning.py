@@ -18,6 +18,7 @@ from agvctl.params import load_vehicle
 from agvctl.scenario.experiment import load_experiment
 from agvctl.scenario.pose_settings import load_pose_settings
 from agvctl.tuning import ObjectiveWeights, evaluate_objective, search_space, settings_text, tune_pose
+from agvctl.tuning.space import settings_table
 from tests.cli_runs import one_line, run
 
 pytest.importorskip("optuna")
@@ -176,7 +177,7 @@ def test_the_result_is_never_worse_than_the_defaults_on_validation(searched):
     assert v.seed != result.spec.seed
     if v.kept:
         assert v.tuned.value < v.defaults.value and v.tuned.passed >= v.defaults.passed
-        assert result.settings
+        assert result.settings == settings_table(result.best_values)
     else:
         assert result.settings == {}
 

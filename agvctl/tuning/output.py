@@ -138,7 +138,8 @@ def settings_text(result: PoseTuningResult, command: str = "") -> str:
 
 def tuning_figures(result: PoseTuningResult) -> dict[str, bytes]:
     """``history.png`` (the objective of each trial and the best so far) and, with two or more finished trials,
-    ``importance.png`` (each setting's share), drawn by Optuna's matplotlib plots, as PNG bytes."""
+    ``importance.png`` (each setting's share), drawn by Optuna's matplotlib plots, as PNG bytes; the history on a
+    log axis, so that one diverged trial does not flatten the others."""
     import matplotlib.pyplot as plt
     import optuna
 
@@ -149,7 +150,11 @@ def tuning_figures(result: PoseTuningResult) -> dict[str, bytes]:
         if importances(result):
             plots.append(("importance.png", optuna.visualization.matplotlib.plot_param_importances))
         for name, plot in plots:
-            fig: Any = plot(result.study).figure
+            ax = plot(result.study)
+            values = [t.value for t in result.study.trials if t.value is not None]
+            if name == "history.png" and values and min(values) > 0:
+                ax.set_yscale("log")  # a diverged trial's J would flatten the rest
+            fig: Any = ax.figure
             fig.set_size_inches(8, 4.5)
             fig.tight_layout()
             buffer = io.BytesIO()

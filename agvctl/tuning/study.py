@@ -83,7 +83,8 @@ class PoseTuningResult:
     best_values : dict
         The best trial's settings, by (dotted) name.
     settings : dict
-        The ``[controller]`` keys to write: the best trial's if kept, else none (the defaults).
+        The ``[controller]`` keys to write: the fuzz file's settings file for the controller (``[pose_settings]``,
+        if any) with the best trial's over them if kept, else that file's alone (the defaults).
     validation : Validation
         Defaults against tuned on the held-out scenarios.
     wall_time_s : float
@@ -339,7 +340,8 @@ def tune_pose(
     on_tuned = evaluate_objective(outcomes[validation_scenarios:], weights)
     kept = on_tuned.passed >= on_defaults.passed and on_tuned.value < on_defaults.value
     validation = Validation(validation_seed, validation_scenarios, on_defaults, on_tuned, kept)
-    settings = best if kept else {}
+    base = dict(spec.pose_settings.get(controller, {}))
+    settings = merged_settings(base, best) if kept else base
     return PoseTuningResult(
         training.spec, space, weights, study, best_values, settings, validation, time.perf_counter() - t0
     )

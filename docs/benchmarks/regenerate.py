@@ -43,6 +43,12 @@ BENCHMARKS: dict[str, tuple[str, list[str], list[str], str]] = {
     "estimation": ("estimation.py", ["--repeat", "2"], [], "EKF, Kalman wheel speeds, sensors, loop on estimates."),
     "shipped": ("shipped.py", [], [], "The shipped experiments, each run once as `agvctl run` runs it."),
     "fuzz": ("fuzz.py", ["--scenarios", "40"], [], "The scenario fuzzer on local worker processes."),
+    "pose_tuning": (
+        "pose_tuning.py",
+        ["--trials", "6", "--scenarios", "8", "--validation-scenarios", "8"],
+        [],
+        "The search of the MPC's settings on the heavy-load envelope (`agvctl tune --pose`).",
+    ),
 }
 
 
