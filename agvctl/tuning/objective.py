@@ -63,7 +63,7 @@ class ObjectiveWeights:
     def describe(self) -> str:
         """The objective with these weights, in one line."""
         return (
-            f"{self.gate:g} × failed share + {self.cross_track_p90:g} × p90 max cross-track/cm + "
+            f"{self.gate:g} × failed share + {self.cross_track_p90:g} × p90 max cross-track once on the path/cm + "
             f"{self.cross_track_rms:g} × cross-track RMS/cm + {self.time:g} × (completion time/duration − 1)"
         )
 
