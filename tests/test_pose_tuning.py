@@ -9,6 +9,7 @@ import math
 from pathlib import Path
 
 import pytest
+from cli_runs import one_line, run
 
 from agvctl.errors import ConfigError
 from agvctl.fuzz.generate import generate_scenario, scenario_files
@@ -19,7 +20,6 @@ from agvctl.scenario.experiment import load_experiment
 from agvctl.scenario.pose_settings import load_pose_settings
 from agvctl.tuning import ObjectiveWeights, evaluate_objective, search_space, settings_text, tune_pose
 from agvctl.tuning.space import settings_table
-from tests.cli_runs import one_line, run
 
 pytest.importorskip("optuna")
 
