@@ -87,7 +87,9 @@ class WheelReach:
         self._k_e, self._resistance, self._f_m = field("k_e"), field("resistance"), field("f_m")
         self._tau_c, self._tau_s = field("tau_c"), field("tau_s")
         self._u_fs, self._i_max = full_scale_voltage_v(vehicle), vehicle.amplifier.current_limit_a
-        self._pair_sides = sides
+        self._pair_constants = tuple(
+            (s.r_over_n, s.k_e, s.resistance, s.k_t, s.f_m, s.tau_c, s.tau_s, s.j_tot) for s in sides
+        )
 
     def _up(self, v: NDArray[np.float64]) -> NDArray[np.float64]:
         omega = v / self._r_over_n
@@ -102,13 +104,12 @@ class WheelReach:
         out = [0.0, 0.0, 0.0, 0.0]
         u_fs, i_max = self._u_fs, self._i_max
         for j, v in enumerate((left_m_s, right_m_s)):
-            side = self._pair_sides[j]
-            r_n = side.r_over_n
+            r_n, k_e, resistance, k_t, f_m, tau_c, tau_s, j_tot = self._pair_constants[j]
             for sign, slot in ((1.0, j), (-1.0, j + 2)):
                 omega = sign * v / r_n
-                current = min(max((u_fs - side.k_e * omega) / side.resistance, 0.0), i_max)
-                friction = side.tau_c if omega > 0 else (-side.tau_c if omega < 0 else side.tau_s)
-                accel = (side.k_t * current - side.f_m * omega - friction) / side.j_tot * r_n
+                current = min(max((u_fs - k_e * omega) / resistance, 0.0), i_max)
+                friction = tau_c if omega > 0 else (-tau_c if omega < 0 else tau_s)
+                accel = (k_t * current - f_m * omega - friction) / j_tot * r_n
                 out[slot] = max(accel, 0.0)
         return out[0], out[1], out[2], out[3]
 

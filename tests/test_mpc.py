@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -75,18 +76,20 @@ def test_converges_from_lateral_offset_and_tracks_figure8(vehicle: VehicleParams
 class _FullReload(LtvMpcController):
     """The LTV MPC giving OSQP all of P and A on every step."""
 
-    def _load_matrices(self, k: int) -> None:
-        super()._load_matrices(k)
-        self._solver.update(Px=self._P_data.copy(), Ax=self._A_data.copy())
+    def _load_matrices(self, k: int, heading_rad: float, coupling: np.ndarray | None) -> dict[str, Any]:
+        super()._load_matrices(k, heading_rad, coupling)  # the step's entries into the data arrays
+        return {"Px": self._P_data.copy(), "Ax": self._A_data.copy()}
 
 
 class _FirstLoadOnly(LtvMpcController):
     """The LTV MPC keeping the first step's A: what a wrong change test would do."""
 
-    def _load_matrices(self, k: int) -> None:
-        if not hasattr(self, "_loaded_once"):
-            super()._load_matrices(k)
-            self._loaded_once = True
+    def _load_matrices(self, k: int, heading_rad: float, coupling: np.ndarray | None) -> dict[str, Any]:
+        update = super()._load_matrices(k, heading_rad, coupling)
+        if hasattr(self, "_loaded_once"):
+            return {}
+        self._loaded_once = True
+        return update
 
 
 def test_loading_only_the_changed_matrix_entries_is_the_same_as_reloading_all(
@@ -102,6 +105,19 @@ def test_loading_only_the_changed_matrix_entries_is_the_same_as_reloading_all(
     ]
     assert np.max(np.abs(runs[0] - runs[1])) < 1e-3  # m/s
     assert np.max(np.abs(runs[2] - runs[1])) > 1e-2
+
+
+def test_a_reset_controller_commands_as_a_new_one(vehicle: VehicleParams, figure8: Reference) -> None:
+    """A controller used on one run and reset onto the next gives the commands a new controller gives: the solver's
+    iterates and its adapted step size do not carry over (to rounding: the factorisation is redone in another
+    order)."""
+    used = LtvMpcController(vehicle)
+    closed_loop(used, figure8, vehicle, start=(0.0, 0.05, 0.1), duration_s=4.0)
+    again, new = (
+        closed_loop(c, figure8, vehicle, start=(0.02, -0.03, -0.05), duration_s=4.0)[2]
+        for c in (used, LtvMpcController(vehicle))
+    )
+    assert np.max(np.abs(again - new)) < 1e-9  # m/s
 
 
 def test_frames_are_the_same_model(vehicle: VehicleParams, line: Reference) -> None:

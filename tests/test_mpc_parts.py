@@ -13,7 +13,7 @@ from agvctl.controllers.mpc.config import MpcConfig, lead_factor_s, resolved_con
 from agvctl.controllers.mpc.docking import Docking, DockingConfig, EndOfPath
 from agvctl.controllers.mpc.governor import ReferenceGovernor
 from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
-from agvctl.controllers.mpc.ltv_qp import QpLayout, constraint_pattern, cost_matrix
+from agvctl.controllers.mpc.ltv_qp import QpLayout, constraint_pattern, cost_matrix, window_versions
 from agvctl.controllers.mpc.shaping import (
     CommandShaper,
     HorizonStep,
@@ -293,3 +293,21 @@ def test_qp_layout_rows_follow_the_variables_and_the_matrices_fit_it(wheel_loop:
     assert sp.tril(P, k=-1).nnz == 0  # upper triangle, as OSQP takes it
     full = (P + sp.triu(P, k=1).T).toarray()
     assert np.all(np.linalg.eigvalsh(full) > -1e-12)  # convex
+
+
+def test_window_versions_change_exactly_where_a_windows_data_does() -> None:
+    """Random piecewise-constant data by interval and by point: two consecutive windows get the same version exactly
+    when every entry they take is equal, whatever the offsets."""
+    rng = np.random.default_rng(7)
+    n, N = 60, 5
+    by_interval = np.repeat(rng.normal(size=(12, 2, 2)), 5, axis=0)[:n]  # constant over runs of 5
+    by_point = np.repeat(rng.normal(size=(20, 2)), 3, axis=0)[: n + 1]
+    sources = [(by_interval, 1, N - 1), (by_point, 1, N)]
+    windows = n - N - 1
+    versions = window_versions(sources, windows)
+    for k in range(1, windows):
+        same = np.array_equal(by_interval[k + 1 : k + N], by_interval[k : k + N - 1]) and np.array_equal(
+            by_point[k + 1 : k + N + 1], by_point[k : k + N]
+        )
+        assert (versions[k] == versions[k - 1]) == same, k
+    assert versions[0] == 0 and np.all(np.diff(versions) >= 0)

@@ -35,7 +35,7 @@ from agvctl.angles import wrap_angle
 from agvctl.controllers.mpc.common import MpcStepper
 from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
 from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
-from agvctl.controllers.mpc.ltv_qp import QpLayout, constraint_pattern, cost_matrix
+from agvctl.controllers.mpc.ltv_qp import QpLayout, constraint_pattern, cost_matrix, window_versions
 from agvctl.controllers.mpc.matrix_exponential import expm_batch
 from agvctl.controllers.mpc.shaping import HorizonStep, SetpointWindow
 from agvctl.errors import ConfigError, expect_instance
@@ -112,6 +112,13 @@ class LtvMpcController(MpcStepper):
         """The last solved setpoint sequence (N×2, left/right, m/s) — for plots and tests."""
         return self._fallback.sequence_m_s.copy()
 
+    def reset(self, reference: Reference) -> None:
+        """Start tracking ``reference`` as a new controller would: OSQP's iterates back to zero and its step size ρ
+        (adapted during a run) back to its setting, so a run never depends on the runs before it."""
+        super().reset(reference)
+        self._solver.warm_start(x=self._zeros_z, y=self._zeros_y)
+        self._solver.update_settings(rho=self._rho)
+
     def _retarget(self, reference: Reference) -> HorizonReference:
         """Precompute ``reference``'s horizon grid and every time-varying matrix entry."""
         grid = HorizonReference(reference, self.config, self.sample_period_s)
@@ -151,16 +158,17 @@ class LtvMpcController(MpcStepper):
         columns = (np.arange(N)[:, None] * nx + np.arange(2)[None, :]).ravel()
         self._pos_P_position = P.indptr[columns].astype(np.int64)
         assert np.array_equal(P.indices[self._pos_P_position], columns)
-        # the entries that vary from step to step, and the values OSQP holds of them (none yet: NaN differs from all)
+        # the entries that vary from step to step, and which window's values OSQP holds (none yet)
         self._A_varying = np.unique(np.concatenate([self._pos_A, self._pos_B])).astype(np.int64)
-        self._A_held = np.full(self._A_varying.size, np.nan)
-        self._P_held = np.full(self._pos_P_position.size, np.nan)
+        self._A_held: tuple[int, float] | None = None
+        self._P_held: int | None = None
         self._q = np.zeros(n_z)
         self._l = np.zeros(n_rows)
         self._u = np.zeros(n_rows)
-        self._rate_c = np.zeros((N, 2))
         self._x0 = np.zeros(nx)
-        self._start = np.zeros(2)
+        reach = slice(self._r_reach, self._r_reach + 2 * (N - 1))
+        self._l_reach, self._u_reach = self._l[reach].reshape(-1, 2), self._u[reach].reshape(-1, 2)  # wheel-loop model
+        self._coupling = np.zeros((N, 2))
         self._zeros_z = np.zeros(n_z)
         self._zeros_y = np.zeros(n_rows)
 
@@ -173,6 +181,7 @@ class LtvMpcController(MpcStepper):
             **OSQP_SETTINGS,
             **self._osqp_overrides,
         }
+        self._rho = float(settings["rho"])
         try:
             self._solver.setup(P, self._q, A, self._l, self._u, **settings)
         except (TypeError, ValueError) as exc:  # OSQP's own refusal of a setting's name or value
@@ -228,14 +237,31 @@ class LtvMpcController(MpcStepper):
         self._box_hi = (v_max - ff).ravel()
         d = np.zeros_like(ff)
         d[1:] = ff[1:] - ff[:-1]  # d_j = s_ff,j − s_ff,j−1: the rate of the feed-forward itself
-        self._d_flat = d.ravel()
+        self._d = d
         self._rate_lo = (-a_step - d).ravel()
         self._rate_hi = (a_step - d).ravel()
+        # the rate cost's linear term (see _solve) where it depends on the reference only: 2 w_Δ (d_j − d_j+1)
+        # for the inner samples, 2 w_Δ d_j for the last
+        w_rate = 2.0 * c.weight_input_rate
+        self._rate_q_inner = np.zeros_like(d)
+        self._rate_q_inner[:-1] = (d[:-1] - d[1:]) * w_rate
+        self._rate_q_last = (d - 0.0) * w_rate
         # s_k − v_k ∈ [−D↓, D↑] at the reference's wheel speeds: δs_k − δv_k ∈ v_ref − s_ff + [−D↓, D↑]
         up, down = self._reach.accel_m_s2(g.wheel_m_s[:-1])
-        self._reach_base = (g.wheel_m_s[:-1] - ff).ravel()
-        self._reach_down = (down * self._lead_factor_s).ravel()
-        self._reach_up = (up * self._lead_factor_s).ravel()
+        self._reach_base = g.wheel_m_s[:-1] - ff
+        self._reach_down = down * self._lead_factor_s
+        self._reach_up = up * self._lead_factor_s
+
+        # which windows share their matrices: A's entries A_{k+1} … A_{k+N−1}, B_k … B_{k+N−1} (and in world axes
+        # the headings θ_k … θ_{k+N−1} of the heading coupling), P's the weights of points k+1 … k+N
+        N, windows = c.horizon, g.last_start + 1
+        a_sources = [(self._Ad, 1, N - 1), (E[:, :nx, nx:], 0, N - 1)]
+        if c.error_frame == "world":
+            a_sources.append((np.column_stack([g.cos_theta, g.sin_theta]), 0, N - 1))
+        self._a_version = window_versions(a_sources, windows)
+        self._p_version = window_versions([(self._position_weights, 1, N)], windows)
+        self._A_held = None
+        self._P_held = None
 
     # -- one step -----------------------------------------------------------------------------------------
 
@@ -265,37 +291,59 @@ class LtvMpcController(MpcStepper):
             x0[4] = float(wheel_speed_m_s[1]) - wheel_ref[1]
         return x0
 
-    def _couple_heading(self, g: HorizonReference, k: int, x0: FloatArray, first: FloatArray, data: FloatArray) -> None:
+    def _heading_coupling(self, g: HorizonReference, k: int, x0: FloatArray) -> tuple[float, FloatArray | None]:
         """Linearised about the reference, the position error moves with δU along the reference's heading: blind,
         where the reference stands still (the start, a stop), to what driving with the present heading error e_θ,0
         does. About the present error δU moves it along θ_ref + e_θ,0, a change of (cos e_θ,0 − 1, sin e_θ,0) in
         the path frame (rotated by θ_ref in world axes), δU = (δv_l + δv_r)/2: first order in T_s, held over the
-        horizon. Adds it to A_1 … A_{N−1} in ``data`` (which holds −A) and to A_0 x_0 in ``first``."""
+        horizon. Returns the heading e_θ,0 the coupling is linearised about (0 for none) and the coupling's
+        (first, second) position-row entries per unit δU for x_0 … x_{N−1} (N×2; None for none)."""
         N, T = self.config.horizon, self.sample_period_s
         if abs(float(x0[2]) - self._heading_lin) > _RELINEARISE_RAD:
             self._heading_lin = float(x0[2])
         e0 = self._heading_lin
         if abs(e0) < 1e-4:  # below 0.006°: a change under 1e-6 of T_s per m/s, nothing to see
-            return
+            return 0.0, None
         along, across = 0.5 * T * (math.cos(e0) - 1.0), 0.5 * T * math.sin(e0)
-        rows = self._pos_position_wheels
-        assert rows is not None
+        coupling = self._coupling
         if self.config.error_frame == "path":
-            data[rows[:, 0]] -= along
-            data[rows[:, 1]] -= across
-            cx0, cy0 = along, across
+            coupling[:, 0], coupling[:, 1] = along, across
         else:
             ct_h, st_h = g.cos_theta[k : k + N], g.sin_theta[k : k + N]
-            cx, cy = ct_h * along - st_h * across, st_h * along + ct_h * across
-            data[rows[:, 0]] -= np.repeat(cx[1:], 2)
-            data[rows[:, 1]] -= np.repeat(cy[1:], 2)
-            cx0, cy0 = float(cx[0]), float(cy[0])
-        first[0] += cx0 * (x0[3] + x0[4])
-        first[1] += cy0 * (x0[3] + x0[4])
+            coupling[:, 0] = ct_h * along - st_h * across
+            coupling[:, 1] = st_h * along + ct_h * across
+        return e0, coupling
+
+    def _load_matrices(self, k: int, heading_rad: float, coupling: FloatArray | None) -> dict[str, Any]:
+        """This step's varying entries of P (the position weights of the window) and of A (−A_{k+1} … −A_{k+N−1},
+        −B_k … −B_{k+N−1} and the heading coupling), as OSQP ``update`` arguments, only where the window's version
+        (:func:`~agvctl.controllers.mpc.ltv_qp.window_versions`) or the coupling's heading changed since OSQP last
+        had them: unchanged, OSQP keeps its factorisation, which on a straight or a constant arc is most steps."""
+        N, nx = self.config.horizon, self.nx
+        update: dict[str, Any] = {}
+        p_key = int(self._p_version[k])
+        if p_key != self._P_held:
+            p_data = self._P_data
+            p_data[self._pos_P_position] = (self._position_weights[k + 1 : k + N + 1] * self._horizon_scale).ravel()
+            update.update(Px=p_data[self._pos_P_position], Px_idx=self._pos_P_position)
+            self._P_held = p_key
+        a_key = (int(self._a_version[k]), heading_rad)
+        if a_key != self._A_held:
+            data, nn = self._A_data, nx * nx
+            data[self._pos_A] = self._neg_Ad_flat[(k + 1) * nn : (k + N) * nn]
+            data[self._pos_B] = self._neg_Bd_flat[k * nx * 2 : (k + N) * nx * 2]
+            if coupling is not None:  # −A: the coupling of x_1 … x_{N−1} subtracted, alike for both wheels
+                rows = self._pos_position_wheels
+                assert rows is not None
+                data[rows[:, 0]] -= np.repeat(coupling[1:, 0], 2)
+                data[rows[:, 1]] -= np.repeat(coupling[1:, 1], 2)
+            update.update(Ax=data[self._A_varying], Ax_idx=self._A_varying)
+            self._A_held = a_key
+        return update
 
     def _solve(self, step: HorizonStep) -> tuple[float, float] | None:
         g, k = step.grid, step.k
-        c, N, nx = self.config, self.config.horizon, self.nx
+        N, nx = self.config.horizon, self.nx
         iU, iS = self._iU, self._iS
         x0 = self._initial_error(step)
         u_prev = step.previous_m_s
@@ -304,16 +352,12 @@ class LtvMpcController(MpcStepper):
         ):
             return None  # a broken measurement: never let NaN into OSQP's warm start
 
-        # A's time-varying entries: −A_{k+1} … −A_{k+N−1}, −B_k … −B_{k+N−1}
-        data = self._A_data
-        nn = nx * nx
-        data[self._pos_A] = self._neg_Ad_flat[(k + 1) * nn : (k + N) * nn]
-        data[self._pos_B] = self._neg_Bd_flat[k * nx * 2 : (k + N) * nx * 2]
-
         lo, hi = self._l, self._u
         first = self._Ad[k] @ x0
-        if self._lag:
-            self._couple_heading(g, k, x0, first, data)
+        heading_rad, coupling = self._heading_coupling(g, k, x0) if self._lag else (0.0, None)
+        if coupling is not None:
+            first[0] += coupling[0, 0] * (x0[3] + x0[4])
+            first[1] += coupling[0, 1] * (x0[3] + x0[4])
         lo[:nx] = first
         hi[:nx] = first
         rb, rr, rf = self._r_box, self._r_rate, self._r_first
@@ -325,30 +369,29 @@ class LtvMpcController(MpcStepper):
         # s_{−1} − s_ff,0, with s_{−1} brought into the speed box: the only case where the hard first-move
         # constraint could be infeasible is |s_{−1}| > v_max + a_lim·T_s, and there it is relaxed just enough
         v_max = self.max_wheel_speed_m_s
-        start = self._start
-        start[0] = min(max(float(u_prev[0]), -v_max), v_max)
-        start[1] = min(max(float(u_prev[1]), -v_max), v_max)
-        start -= ff0
+        start_l = min(max(float(u_prev[0]), -v_max), v_max) - float(ff0[0])
+        start_r = min(max(float(u_prev[1]), -v_max), v_max) - float(ff0[1])
         a_step = self.max_wheel_accel_m_s2 * self.sample_period_s
-        lo[rf : rf + 2] = start - a_step
-        hi[rf : rf + 2] = start + a_step
+        lo[rf], lo[rf + 1] = start_l - a_step, start_r - a_step
+        hi[rf], hi[rf + 1] = start_l + a_step, start_r + a_step
         if self._lag:
             assert step.window is not None  # finite wheel speeds: x_0 holds them
             self._reach_bounds(k, ff0, step.wheel_speed_m_s, step.window)
 
-        # rate cost w_Δ‖D δs + r‖², r_0 = −start, r_k = d_{k+k'}: linear term 2 w_Δ Dᵀ r
-        r = self._rate_c
-        r[0] = -start
-        r[1:] = self._d_flat[2 * (k + 1) : 2 * (k + N)].reshape(N - 1, 2)
-        q = self._q
-        qu = q[iU:iS].reshape(N, 2)
-        np.subtract(r, 0.0, out=qu)
-        qu[:-1] -= r[1:]
-        qu *= 2.0 * c.weight_input_rate
+        # rate cost w_Δ‖D δs + r‖², r_0 = −s_{−1} + s_ff,0, r_j = d_{k+j}: linear term 2 w_Δ Dᵀ r, i.e.
+        # 2 w_Δ (r_j − r_{j+1}) and 2 w_Δ r_{N−1} for the last
+        qu = self._q[iU:iS].reshape(N, 2)
+        w_rate = 2.0 * self.config.weight_input_rate
+        if N > 1:
+            d = self._d[k + 1]
+            qu[0, 0], qu[0, 1] = (-start_l - d[0]) * w_rate, (-start_r - d[1]) * w_rate
+            qu[1 : N - 1] = self._rate_q_inner[k + 1 : k + N - 1]
+            qu[N - 1] = self._rate_q_last[k + N - 1]
+        else:
+            qu[0, 0], qu[0, 1] = (-start_l - 0.0) * w_rate, (-start_r - 0.0) * w_rate
 
         solver = self._solver
-        solver.update(q=q, l=lo, u=hi)
-        self._load_matrices(k)
+        solver.update(q=self._q, l=lo, u=hi, **self._load_matrices(k, heading_rad, coupling))
         result = solver.solve(raise_error=False)
         z = result.x
         if result.info.status_val not in _ACCEPTED or not math.isfinite(float(z.sum())):
@@ -366,37 +409,17 @@ class LtvMpcController(MpcStepper):
         """The setpoints' reachable leads over their wheels (the wheel-loop model's rows): the first sample's from the
         measured speed (within its speed box), later ones from the reference's speeds, never tighter than the first
         (so that holding the first setpoint stays feasible as the wheel converges)."""
-        N, lo, hi = self.config.horizon, self._l, self._u
-        rb, rc = self._r_box, self._r_reach
-        window_lo, window_hi = window.lower_m_s, window.upper_m_s
-        np.maximum(lo[rb : rb + 2], window_lo - ff0, out=lo[rb : rb + 2])
-        np.minimum(hi[rb : rb + 2], window_hi - ff0, out=hi[rb : rb + 2])
-        ahead = slice(2 * (k + 1), 2 * (k + N))
+        N, lo, hi, rb = self.config.horizon, self._l, self._u, self._r_box
+        first_lo, first_hi = lo[rb : rb + 2], hi[rb : rb + 2]
+        np.maximum(first_lo, window.lower_m_s - ff0, out=first_lo)
+        np.minimum(first_hi, window.upper_m_s - ff0, out=first_hi)
+        lo_reach, hi_reach = self._l_reach, self._u_reach
         if max(abs(float(wheel_speed_m_s[0])), abs(float(wheel_speed_m_s[1]))) <= self.max_wheel_speed_m_s:
-            base = self._reach_base[ahead]
-            lead_down = np.maximum(self._reach_down[ahead].reshape(-1, 2), window.lead_down_m_s).ravel()
-            lead_up = np.maximum(self._reach_up[ahead].reshape(-1, 2), window.lead_up_m_s).ravel()
-            lo[rc : rc + 2 * (N - 1)] = base - lead_down
-            hi[rc : rc + 2 * (N - 1)] = base + lead_up
+            base = self._reach_base[k + 1 : k + N]
+            np.maximum(self._reach_down[k + 1 : k + N], window.lead_down_m_s, out=lo_reach)
+            np.subtract(base, lo_reach, out=lo_reach)
+            np.maximum(self._reach_up[k + 1 : k + N], window.lead_up_m_s, out=hi_reach)
+            np.add(base, hi_reach, out=hi_reach)
         else:  # a wheel beyond the speed box (a reset at speed): only the first sample is bounded
-            lo[rc : rc + 2 * (N - 1)] = -_INF
-            hi[rc : rc + 2 * (N - 1)] = _INF
-
-    def _load_matrices(self, k: int) -> None:
-        """Give OSQP this step's varying entries of P (the position weights of the window) and of A (set in
-        ``_A_data`` by the step), only when they changed: an unchanged pair keeps OSQP's factorisation, which on a
-        straight or a constant arc is most steps."""
-        N, p_data = self.config.horizon, self._P_data
-        p_data[self._pos_P_position] = (self._position_weights[k + 1 : k + N + 1] * self._horizon_scale).ravel()
-        p_new, a_new = p_data[self._pos_P_position], self._A_data[self._A_varying]
-        p_changed, a_changed = not np.array_equal(p_new, self._P_held), not np.array_equal(a_new, self._A_held)
-        if not (p_changed or a_changed):
-            return
-        update: dict[str, FloatArray | NDArray[np.int64]] = {}
-        if p_changed:
-            update.update(Px=p_new, Px_idx=self._pos_P_position)
-            self._P_held = p_new
-        if a_changed:
-            update.update(Ax=a_new, Ax_idx=self._A_varying)
-            self._A_held = a_new
-        self._solver.update(**update)
+            lo_reach[:] = -_INF
+            hi_reach[:] = _INF

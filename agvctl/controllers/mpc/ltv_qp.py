@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from agvctl.controllers.mpc.config import MpcConfig
 
-__all__ = ["QpLayout", "constraint_pattern", "cost_matrix"]
+__all__ = ["QpLayout", "constraint_pattern", "cost_matrix", "window_versions"]
 
 
 @dataclass(frozen=True)
@@ -128,3 +128,25 @@ def constraint_pattern(layout: QpLayout) -> tuple[sp.csc_matrix, NDArray[np.int6
     pos_A = position[np.asarray(a_entries, dtype=np.int64)]
     pos_B = position[np.asarray(b_entries, dtype=np.int64)]
     return A, pos_A, pos_B
+
+
+def window_versions(sources: list[tuple[NDArray[np.float64], int, int]], n_windows: int) -> NDArray[np.int64]:
+    """A version number for each window start k = 0 … ``n_windows`` − 1 that changes exactly where the window's data
+    does: windows k − 1 and k have the same number if and only if their data are equal, so a solver holding the data
+    of one window needs no update for the next while the number stays.
+
+    Each source is an array indexed along its first axis by grid point or interval j, with the offsets (first, last)
+    of the entries window k takes: j = k + first … k + last (none when first > last)."""
+    changes = np.zeros(n_windows, dtype=np.int64)
+    k = np.arange(1, n_windows)
+    for values, first, last in sources:
+        if first > last:
+            continue
+        flat = values.reshape(len(values), -1)
+        # differs[j]: entry j differs from entry j − 1 (NaN differs from everything: at worst an update too many)
+        differs = np.zeros(len(values) + 1, dtype=np.int64)
+        differs[1 : len(values)] = np.any(flat[1:] != flat[:-1], axis=1)
+        cumulative = np.concatenate(([0], np.cumsum(differs)))
+        # window k against window k − 1: entries j = k + first … k + last against j − 1
+        changes[1:] += cumulative[k + last + 1] - cumulative[k + first]
+    return np.cumsum(changes > 0)

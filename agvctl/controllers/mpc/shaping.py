@@ -89,9 +89,16 @@ class ReachWindow:
             return None
         up_l, up_r, down_l, down_r = self.reach.accel_pair_m_s2(v_l, v_r)
         f, v_max = self.lead_factor_s, self.max_wheel_speed_m_s
-        lower = np.array([min(v_l - down_l * f, v_max), min(v_r - down_r * f, v_max)])
-        upper = np.array([max(v_l + up_l * f, -v_max), max(v_r + up_r * f, -v_max)])
-        return SetpointWindow(lower, upper, np.array([down_l * f, down_r * f]), np.array([up_l * f, up_r * f]))
+        lead_down_l, lead_down_r, lead_up_l, lead_up_r = down_l * f, down_r * f, up_l * f, up_r * f
+        rows = np.array(  # one array, its rows the window's four pairs
+            [
+                [min(v_l - lead_down_l, v_max), min(v_r - lead_down_r, v_max)],
+                [max(v_l + lead_up_l, -v_max), max(v_r + lead_up_r, -v_max)],
+                [lead_down_l, lead_down_r],
+                [lead_up_l, lead_up_r],
+            ]
+        )
+        return SetpointWindow(rows[0], rows[1], rows[2], rows[3])
 
 
 class CommandRule(Protocol):
