@@ -56,6 +56,9 @@ class CompiledOsqp:
     def warm_start(self, x: Any, y: Any) -> None:
         self._compiled.warm_start(x, y)
 
+    def update_settings(self, rho: float) -> None:
+        self._compiled.update_rho(rho)
+
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
