@@ -61,14 +61,11 @@ OSQP_SETTINGS: dict[str, Any] = {
     "adaptive_rho_interval": 25,
     "check_termination": 5,
     "alpha": 1.2,
-    "scaling": 0,
 }
 """OSQP settings besides tolerance, iteration and time limits (from the config); the constructor's
 ``osqp_settings`` overrides them. A fixed adaptive-rho interval keeps runs deterministic (OSQP's default
 adapts on measured time); ρ = 1 and relaxation α = 1.2 need fewer iterations than OSQP's defaults on the hardest
-steps and on warm-started tracking steps. No Ruiz scaling: OSQP recomputes it at every matrix update, refactors the
-whole KKT matrix and leaves the warm start in the old scaling, where unscaled the update changes only the entries
-that vary and the warm start stays valid (``docs/decisions/0012-osqp.md``)."""
+steps and on warm-started tracking steps (``docs/decisions/0012-osqp.md``)."""
 
 
 class LtvMpcController(MpcStepper):
