@@ -228,6 +228,24 @@ def test_docking_is_off_when_disabled_and_stops_after_its_attempts(straight: Ref
     assert docking.plan(beside) is None and not docking.needed(beside)
 
 
+def test_docking_counts_the_estimates_uncertainty_across_the_path_against_its_tolerance(
+    straight: Reference, vehicle: VehicleParams
+) -> None:
+    """5 mm beside the end of a line (tolerance 8 mm): known exactly, the vehicle stays; estimated with σ = 2 mm
+    across the path it may be 9 mm off (5 + 2σ) and docks; the same σ along the path changes nothing."""
+    final = straight.final_pose
+    beside = np.array([final.x_m, final.y_m + 0.005, final.theta_rad])
+    docking = Docking(vehicle, DockingConfig())
+    docking.reset(straight)
+    assert not docking.needed(beside)
+    docking.observe(np.diag([0.002**2, 1e-12, 0.0]))  # σ along the line (x) only
+    assert not docking.needed(beside)
+    docking.observe(np.diag([1e-12, 0.002**2, 0.0]))  # σ across it (y)
+    assert docking.needed(beside)
+    docking.reset(straight)  # a new run starts from a known pose
+    assert not docking.needed(beside)
+
+
 def test_docking_backs_up_no_further_than_a_curved_end_allows(vehicle: VehicleParams) -> None:
     from agvctl.planning.spec import ArcSegment
 

@@ -131,6 +131,7 @@ class MpcStepper:
         """The pose estimate's 3×3 covariance at this sample (the closed loop passes it for an estimator that has
         one): how far the end pose the controller sees can be from the truth."""
         self._rest.observe(covariance)
+        self._end.docking.observe(covariance)
 
     def _solve_or_fall_back(self, step: HorizonStep) -> tuple[float, float, SolveStatus]:
         try:
