@@ -142,7 +142,7 @@ def _parameters_section(cls: type) -> str:
         shown = (
             "{" + ", ".join(repr(c) for c in get_args(kind)) + "}"
             if get_origin(kind) is Literal
-            else f.type
+            else _ARRAYS.sub(_array, f.type)
             if isinstance(f.type, str)
             else getattr(f.type, "__name__", str(f.type))
         )
@@ -150,6 +150,15 @@ def _parameters_section(cls: type) -> str:
         description = f.metadata.get("doc") or docstrings.get(f.name, "")
         entries.append(textwrap.indent(description, "    "))
     return "\n".join(entries)
+
+
+_ARRAYS = re.compile(r"NDArray\[np\.(\w+)\]|FloatArray|np\.ndarray")
+
+
+def _array(match: re.Match[str]) -> str:
+    """A numpy array annotation as numpydoc writes its type: ``ndarray``, ``ndarray of int`` or ``of bool``."""
+    dtype = match.group(1) or "float64"
+    return "ndarray" if dtype.startswith("float") else f"ndarray of {dtype.rstrip('_0123456789')}"
 
 
 def _field_docstrings(cls: type) -> dict[str, str]:

@@ -43,7 +43,7 @@ class RunRecord(Protocol):
 
 
 def estimate_position_error_m(log: SimLog, ts: float = 0.0) -> NDArray[np.float64]:
-    """The pose estimate's position error per sample: |estimated − true position|.
+    """The pose estimate's position error per sample: ``|estimated − true position|``.
 
     Parameters
     ----------
@@ -61,7 +61,7 @@ def estimate_position_error_m(log: SimLog, ts: float = 0.0) -> NDArray[np.float6
 
 
 def estimate_heading_error_rad(log: SimLog, ts: float = 0.0) -> NDArray[np.float64]:
-    """The pose estimate's heading error per sample: |estimated − true heading|, wrapped.
+    """The pose estimate's heading error per sample: ``|estimated − true heading|``, wrapped.
 
     Parameters
     ----------
@@ -108,7 +108,7 @@ def time_to_converge_s(t_s: np.ndarray, error_m: np.ndarray, threshold_m: float)
 
 
 def sample_wheel_accel_m_s2(log: SimLog, sample_period_s: float) -> NDArray[np.float64]:
-    """Each sample's larger mean rim acceleration |v(t_k) − v(t_k−1)|/T_s of the two wheels: what encoders see and
+    """Each sample's larger mean rim acceleration ``|v(t_k) − v(t_k−1)|``/T_s of the two wheels: what encoders see and
     a payload feels over a sample, without the stiction break-away's instants inside it.
 
     Parameters
@@ -133,13 +133,13 @@ JOINED_M = 0.02
 
 
 def _joined_peak(cross: np.ndarray, threshold_m: float) -> float:
-    """max |cross| from the first sample within ``threshold_m`` of the path (all samples if none is)."""
+    """max ``|cross|`` from the first sample within ``threshold_m`` of the path (all samples if none is)."""
     on = np.nonzero(np.abs(cross) <= threshold_m)[0]
     return _peak_abs(cross if on.size == 0 else cross[int(on[0]) :])
 
 
 def _peak_abs(values: np.ndarray) -> float:
-    """max |values|; NaN if any value is NaN (a run that diverged), never a silently smaller number."""
+    """max ``|values|``; NaN if any value is NaN (a run that diverged), never a silently smaller number."""
     return float(np.max(np.abs(values))) if len(values) else 0.0
 
 

@@ -48,14 +48,14 @@ class JerkProfile:
     a0: np.ndarray
     """Its acceleration q̈ at each phase's start, per s²."""
     max_velocity: float
-    """The limit on |q̇| the profile was planned for, per s."""
+    """The limit on ``|q̇|`` the profile was planned for, per s."""
     max_acceleration: float
-    """The limit on |q̈|, per s²."""
+    """The limit on ``|q̈|``, per s²."""
     max_jerk: float
-    """The limit on |q⃛|, per s³."""
+    """The limit on ``|q⃛|``, per s³."""
 
     def peaks(self) -> tuple[float, float, float]:
-        """Exact peaks of |q̇|, |q̈| and |q⃛| over the profile."""
+        """Exact peaks of ``|q̇|``, ``|q̈|`` and ``|q⃛|`` over the profile."""
         tau, j, v0, a0 = self.phase_durations_s, self.jerk, self.v0, self.a0
         v_end = v0 + a0 * tau + 0.5 * j * tau**2
         a_end = a0 + j * tau
@@ -111,11 +111,11 @@ def rest_to_rest(
     distance : float
         The coordinate's total change, > 0 (m along a path, rad for a spin).
     max_velocity : float
-        The limit on |q̇|, per s in the coordinate's unit.
+        The limit on ``|q̇|``, per s in the coordinate's unit.
     max_acceleration : float
-        The limit on |q̈|, per s².
+        The limit on ``|q̈|``, per s².
     max_jerk : float
-        The limit on |q⃛|, per s³.
+        The limit on ``|q⃛|``, per s³.
     solver : _Solver or None
         A Ruckig instance to reuse when planning many profiles (None: a new one).
 
@@ -191,11 +191,11 @@ def between(
     end_velocity : float
         q̇ at the end, in [0, max_velocity), per s.
     max_velocity : float
-        The limit on |q̇|, per s.
+        The limit on ``|q̇|``, per s.
     max_acceleration : float
-        The limit on |q̈|, per s².
+        The limit on ``|q̈|``, per s².
     max_jerk : float
-        The limit on |q⃛|, per s³.
+        The limit on ``|q⃛|``, per s³.
     solver : _Solver or None
         A Ruckig instance to reuse when planning many profiles (None: a new one).
 

@@ -314,7 +314,7 @@ class Reference:
         return Pose(float(s.x_m[0]), float(s.y_m[0]), float(s.theta_rad[0]))
 
     def peaks(self, dense_period_s: float = 1e-3) -> dict[str, float]:
-        """Peaks of |wheel speed|, |wheel accel| and |wheel jerk| (either wheel) over the reference, sampled
+        """Peaks of ``|wheel speed|``, ``|wheel accel|`` and ``|wheel jerk|`` (either wheel) over the reference, sampled
         every ``dense_period_s`` and at every phase switch (where the accelerations peak)."""
         t = np.unique(np.concatenate([np.arange(0.0, self.duration_s, dense_period_s), self._ph_t0, [self.duration_s]]))
         s = self.sample(t)

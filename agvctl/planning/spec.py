@@ -67,7 +67,7 @@ __all__ = [
 SEGMENT_TYPES = ("line", "turn", "arc")
 
 MAX_WAYPOINT_COORDINATE_M = 1e6
-"""The largest |x_m|, |y_m| of a waypoint: a thousand kilometres, beyond a day's drive (the planner's maximum
+"""The largest ``|x_m|``, ``|y_m|`` of a waypoint: a thousand kilometres, beyond a day's drive (the planner's maximum
 reference duration) and within the range where the spline fit stays well conditioned."""
 
 MAX_SEGMENTS = 10_000
@@ -94,9 +94,11 @@ class PathLimits:
     """Per-wheel limits as written in a path file; ``None`` takes the vehicle's value
     (:func:`~agvctl.planning.resolve_limits`)."""
 
-    wheel_speed_m_s: float | None = number(gt=0, default=None, doc="The largest |speed| of either wheel, m/s.")
-    wheel_accel_m_s2: float | None = number(gt=0, default=None, doc="The largest |acceleration| of either wheel, m/s².")
-    wheel_jerk_m_s3: float | None = number(gt=0, default=None, doc="The largest |jerk| of either wheel, m/s³.")
+    wheel_speed_m_s: float | None = number(gt=0, default=None, doc="The largest ``|speed|`` of either wheel, m/s.")
+    wheel_accel_m_s2: float | None = number(
+        gt=0, default=None, doc="The largest ``|acceleration|`` of either wheel, m/s²."
+    )
+    wheel_jerk_m_s3: float | None = number(gt=0, default=None, doc="The largest ``|jerk|`` of either wheel, m/s³.")
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -105,7 +107,7 @@ class PathLimits:
 @document_fields
 @dataclass(frozen=True)
 class WheelLimits:
-    """Resolved per-wheel limits: |wheel speed|, |wheel acceleration| and |wheel jerk| of either wheel.
+    """Resolved per-wheel limits: ``|wheel speed|``, ``|wheel acceleration|`` and ``|wheel jerk|`` of either wheel.
 
     Raises
     ------
@@ -114,11 +116,11 @@ class WheelLimits:
     """
 
     wheel_speed_m_s: float
-    """The largest |speed| of either wheel, m/s."""
+    """The largest ``|speed|`` of either wheel, m/s."""
     wheel_accel_m_s2: float
-    """The largest |acceleration| of either wheel, m/s²."""
+    """The largest ``|acceleration|`` of either wheel, m/s²."""
     wheel_jerk_m_s3: float
-    """The largest |jerk| of either wheel, m/s³."""
+    """The largest ``|jerk|`` of either wheel, m/s³."""
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):

@@ -1,14 +1,14 @@
 """Speed along a path within the wheel limits: a velocity limit per section, forward/backward passes, Ruckig.
 
 A path motion is cut into *sections* (a line or an arc, a smooth join, a stretch of a waypoint spline). On a
-section with max |κ| = k₀, max |dκ/ds| = k₁ and max |d²κ/ds²| = k₂, with h = b/2 and the path speed ṡ ≥ 0,
+section with max ``|κ|`` = k₀, max ``|dκ/ds|`` = k₁ and max ``|d²κ/ds²|`` = k₂, with h = b/2 and the path speed ṡ ≥ 0,
 the wheel speeds v = ṡ (d ∓ κ h) (eqs 39-43) and their derivatives are bounded by
 
     |v|  ≤ ṡ F,                       F  = 1 + k₀ h
     |v̇|  ≤ |s̈| F + ṡ² K₁,             K₁ = k₁ h         (the U² dκ/ds b/2 term)
     |v̈|  ≤ |s⃛| F + 3 ṡ |s̈| K₁ + ṡ³ K₂,  K₂ = k₂ h
 
-so a profile of s with |ṡ| ≤ V, |s̈| ≤ A = (a − V² K₁)/F and |s⃛| ≤ (j − 3 V A K₁ − V³ K₂)/F keeps every wheel
+so a profile of s with ``|ṡ|`` ≤ V, ``|s̈|`` ≤ A = (a − V² K₁)/F and ``|s⃛|`` ≤ (j − 3 V A K₁ − V³ K₂)/F keeps every wheel
 within (v, a, j) at every instant. V is the section's velocity limit: v/F, the segment's speed cap, and, where
 the curvature varies, the speed at which the curvature terms take :data:`CURVATURE_SHARE` of the wheel
 acceleration and jerk. On a line or an arc (K₁ = K₂ = 0) these are the exact wheel limits divided by F.
@@ -49,11 +49,11 @@ class SectionLimits:
     length_m: float
     """The section's length, m."""
     speed_m_s: float
-    """The largest |ṡ|, m/s."""
+    """The largest ``|ṡ|``, m/s."""
     accel_m_s2: float
-    """The largest |s̈|, m/s²."""
+    """The largest ``|s̈|``, m/s²."""
     jerk_m_s3: float
-    """The largest |s⃛|, m/s³."""
+    """The largest ``|s⃛|``, m/s³."""
 
 
 def section_limits(
@@ -66,7 +66,7 @@ def section_limits(
     length_m : float
         The section's length, m.
     bounds : sequence of float
-        Its curvature bounds (k₀, k₁, k₂): max |κ| (1/m), |dκ/ds| (1/m²), |d²κ/ds²| (1/m³).
+        Its curvature bounds (k₀, k₁, k₂): max ``|κ|`` (1/m), ``|dκ/ds|`` (1/m²), ``|d²κ/ds²|`` (1/m³).
     cap_m_s : float or None
         The segment's speed cap (None: none), m/s.
     limits : WheelLimits

@@ -38,7 +38,7 @@ class StepMetrics:
     settling_time_s: float
     """Time after which the response stays within ±2 % of the setpoint (``inf`` if it never does), s."""
     steady_state_error_pct: float
-    """|setpoint − mean over the final window| / setpoint · 100, %."""
+    """``|setpoint − mean over the final window|`` / setpoint · 100, %."""
 
 
 @document_fields
@@ -60,7 +60,7 @@ class WheelStepResult:
     current_a: NDArray[np.float64]
     """(n + 1) × 2 armature currents at the sample times, A."""
     current_peak_a: NDArray[np.float64]
-    """n × 2 peak |current| within each sample interval, A."""
+    """n × 2 peak ``|current|`` within each sample interval, A."""
     metrics: StepMetrics
     """The worse of the two wheels for each figure."""
     metrics_left: StepMetrics = field(repr=False)

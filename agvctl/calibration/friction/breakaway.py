@@ -20,7 +20,7 @@ class Breakaway:
     """One ramp's break-away, in DA volts."""
 
     u_still_v: float
-    """|u| held over the last sample at whose start the wheel was still (it broke the wheel away), V."""
+    """``|u|`` held over the last sample at whose start the wheel was still (it broke the wheel away), V."""
     resolution_v: float
     """The larger of the ramp's step per sample and one DA code, V."""
     lag_bound_v: float

@@ -61,7 +61,7 @@ class SideFriction:
     windows: tuple[HoldWindow, ...] = ()
     """The hold windows f_m and τ_c were fitted to."""
     breakaway_da_voltages_v: tuple[float, ...] = ()
-    """|u| held over the last still sample of each ramp, before the resolution and lag corrections, V."""
+    """``|u|`` held over the last still sample of each ramp, before the resolution and lag corrections, V."""
 
     def as_dict(self) -> dict[str, dict[str, float | None]]:
         """The ``--json`` object of one side."""
@@ -257,7 +257,7 @@ def _viscous_coulomb(
 
 
 def _stiction(found: list[Breakaway], torque_per_da_v: float) -> tuple[float, float]:
-    """τ_s and its standard error from the ramps' break-aways (eq 65, corrected: τ_s = k_pow k_t |u_b|/R).
+    """τ_s and its standard error from the ramps' break-aways (eq 65, corrected: τ_s = k_pow k_t ``|u_b|``/R).
 
     u_b broke the wheel away and one step less did not; with noise the wheel may have moved up to the lag bound
     earlier: so half a resolution step and half the lag bound are taken off. The standard error combines the
@@ -317,7 +317,7 @@ def fit_friction(
     Least squares: per window i, the mean drive torque y_i = k_pow k_t ū_i/R − k_e k_t ω̄_i/R (the steady state
     of eqs 66-69, corrected) and the regressors (ω̄_i, sign ω̄_i); weighted by each window's Newey-West variance;
     the covariance scaled by the reduced χ² when it exceeds 1 (:func:`_viscous_coulomb`). Stiction:
-    τ_s = k_pow k_t |u_b|/R (eq 65 corrected) with u the voltage held over the last sample at which the wheel
+    τ_s = k_pow k_t ``|u_b|``/R (eq 65 corrected) with u the voltage held over the last sample at which the wheel
     was still, less half a resolution step and half the noise's detection lag
     (:func:`~agvctl.calibration.friction.breakaway.breakaways`), averaged over the ramps; its standard error
     combines the ramps' scatter with the resolution and the lag bound (each uniform).

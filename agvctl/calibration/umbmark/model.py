@@ -56,7 +56,7 @@ def square_end_errors(alpha_rad: float, beta_rad: float, side_length_m: float) -
 
 
 def e_max_syst(cw_errors_m: ArrayLike, ccw_errors_m: ArrayLike) -> float:
-    """Borenstein & Feng's measure of systematic odometry error, E_max,syst = max(|c_cw|, |c_ccw|).
+    """Borenstein & Feng's measure of systematic odometry error, E_max,syst = max(``|c_cw|``, ``|c_ccw|``).
 
     Parameters
     ----------

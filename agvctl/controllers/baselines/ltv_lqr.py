@@ -13,7 +13,7 @@ weights (Bryson's rule, as WPILib builds them)
 
 and the command is (v, ω) = (v_d, ω_d) + K(v_d) e. The gains are computed at construction on a grid of v_d
 from −v_max to v_max in steps of ``schedule_step_m_s`` and interpolated linearly in v_d. At v_d = 0 the lateral
-error is not controllable (the Riccati equation is ill-posed), so, as in WPILib, |v_d| below 10⁻⁴ m/s is
+error is not controllable (the Riccati equation is ill-posed), so, as in WPILib, ``|v_d|`` below 10⁻⁴ m/s is
 linearised at 10⁻⁴ m/s: the vehicle then corrects e_x and e_θ and leaves e_y alone. The setpoints are the
 wheel speeds of (v, ω) (eqs 39-43), scaled down together to the wheel-speed limit.
 
@@ -45,7 +45,7 @@ __all__ = ["LtvLqrConfig", "LtvLqrController", "gain_schedule", "unicycle_error_
 FloatArray = NDArray[np.float64]
 
 MIN_LINEARISATION_SPEED_M_S = 1e-4
-"""|v_d| below this is linearised at this speed (WPILib's choice): at rest e_y is not controllable."""
+"""``|v_d|`` below this is linearised at this speed (WPILib's choice): at rest e_y is not controllable."""
 
 
 @document_fields
@@ -73,7 +73,7 @@ def unicycle_error_model(speed_m_s: float, sample_period_s: float) -> tuple[Floa
     Parameters
     ----------
     speed_m_s : float
-        The reference speed v_d (|v_d| raised to :data:`MIN_LINEARISATION_SPEED_M_S`), m/s.
+        The reference speed v_d (``|v_d|`` raised to :data:`MIN_LINEARISATION_SPEED_M_S`), m/s.
     sample_period_s : float
         The discretisation step, s.
 

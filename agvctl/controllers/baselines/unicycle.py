@@ -12,7 +12,7 @@ of the controller's vehicle):
 
     v_l = v − ω b/2,  v_r = v + ω b/2.
 
-If either setpoint exceeds the wheel-speed limit v_max, both are scaled by v_max / max(|v_l|, |v_r|): the
+If either setpoint exceeds the wheel-speed limit v_max, both are scaled by v_max / max(``|v_l|``, ``|v_r|``): the
 curvature ω/v (the path the vehicle turns onto) is kept and only the speed along it is reduced. A law whose
 output is not finite (a non-finite pose, say) is replaced by the reference's own wheel speeds for that sample
 and reported as ``fallback_feedforward``, so a setpoint is always finite.
@@ -84,7 +84,7 @@ def desaturated_wheel_speeds(
     separation_m : float
         The wheel separation b, m.
     max_wheel_speed_m_s : float
-        The limit on either wheel's |speed|, m/s.
+        The limit on either wheel's ``|speed|``, m/s.
 
     Returns
     -------

@@ -16,7 +16,7 @@ Margins are those of this sampled loop, computed from its frequency response L(e
 up to and including the Nyquist frequency ω = π/T_s (z = −1). For a PI on this first-order plant the phase
 reaches −180° exactly at z = −1 (both C(−1) and G_zoh(−1) are real), which ``control.margin`` /
 ``control.stability_margins`` miss (they report an infinite gain margin); here that point is a phase crossing
-like any other, and the gain margin there is −20 log10 |L(−1)|.
+like any other, and the gain margin there is −20 log10 ``|L(−1)|``.
 """
 
 from __future__ import annotations
@@ -56,9 +56,9 @@ class LoopMargins:
     """Stability margins of a sampled loop."""
 
     gain_margin_db: float
-    """Smallest −20 log10 |L| over the phase crossings in (0, π/T_s] (``inf`` if none), dB."""
+    """Smallest −20 log10 ``|L|`` over the phase crossings in (0, π/T_s] (``inf`` if none), dB."""
     phase_margin_deg: float
-    """Smallest 180° + ∠L over the gain crossings (``inf`` if |L| never crosses 1), °."""
+    """Smallest 180° + ∠L over the gain crossings (``inf`` if ``|L|`` never crosses 1), °."""
     crossover_rad_s: float
     """Gain crossover frequency (the lowest, if several; ``nan`` if none), rad/s."""
     phase_crossover_rad_s: float
@@ -201,7 +201,7 @@ def loop_margins(
         return complex(frequency_response(num, den, dt_s, np.array([omega]))[0])
 
     phase = np.unwrap(np.angle(resp))
-    # gain crossings: |L| = 1
+    # gain crossings: ``|L|`` = 1
     mag_log = np.log(np.abs(resp))
     pms, wcs = [], []
     for i in np.nonzero(np.signbit(mag_log[:-1]) != np.signbit(mag_log[1:]))[0]:

@@ -25,7 +25,7 @@ and it is back-calculated onto the window if it alone lies beyond the clamped ed
 moves with the speed). Stopping rather than fully back-calculating (I = u_sat − k_p e) keeps the full
 current available during a current-limited acceleration: the full back-calculation drops the command below
 the limit as soon as the error shrinks, since k_p exceeds k_e. The prediction holds at
-the start of the sample; over the sample the speed moves towards the command, so |i| only decreases.
+the start of the sample; over the sample the speed moves towards the command, so ``|i|`` only decreases.
 
 Standstill: with the setpoint exactly zero and the measured speed below ``standstill_rad_s`` (one encoder count
 per sample, the resolution of the measurement), the wheel rests, held by stiction; the loop holds its last output
@@ -123,7 +123,7 @@ class PISpeedLoop:
     braking_current_limit_a : float or None
         The largest current opposing the motion (None: ``current_limit_a``), A.
     braking_limit_below_rad_s : float
-        The braking limit applies only while |ω| is below this motor speed (inf: always), rad/s.
+        The braking limit applies only while ``|ω|`` is below this motor speed (inf: always), rad/s.
     standstill_rad_s : float
         Below this measured motor speed, with a zero setpoint, the wheel rests and the output is held (0:
         never), rad/s.
@@ -160,7 +160,7 @@ class PISpeedLoop:
         self.braking_current_limit_a = current_limit_a if braking_current_limit_a is None else braking_current_limit_a
         """Largest current opposing the motion (braking); see :func:`symmetric_braking_current_a`."""
         self.braking_limit_below_rad_s = braking_limit_below_rad_s
-        """The braking limit applies only while |ω| is below this speed (inf: always)."""
+        """The braking limit applies only while ``|ω|`` is below this speed (inf: always)."""
         self.voltage_min_v = voltage_min_v
         self.voltage_max_v = voltage_max_v
         self.quantum_v = quantum_v
@@ -206,7 +206,7 @@ class PISpeedLoop:
     def feedforward_v(self, setpoint_rad_s: float) -> float:
         """Coulomb-friction feed-forward τ_c R/k_t · sat(ω_ref / ω_ε) if enabled, else 0.
 
-        The sign function is ramped over |ω_ref| ≤ ω_ε = :data:`FEEDFORWARD_RAMP_RAD_S`: a pose controller
+        The sign function is ramped over ``|ω_ref|`` ≤ ω_ε = :data:`FEEDFORWARD_RAMP_RAD_S`: a pose controller
         holding the vehicle still commands setpoints of ±1e-5 rad/s, and a full ±τ_c R/k_t flipping on those
         would break the motors away and chatter at standstill.
         """
