@@ -49,7 +49,15 @@ from agvctl.params.tables import (
     inertia_rotation_point,
 )
 
-__all__ = [
+__all__ = [  # the once-per-vehicle tables are agvctl.params.tables's, and still importable from here
+    "AmplifierParams",
+    "BatteryParams",
+    "BodyParams",
+    "ControlParams",
+    "DAParams",
+    "FrameParams",
+    "FrictionModelParams",
+    "SensorParams",
     "MAX_PLANT_SUBSTEPS",
     "MAX_SAMPLES_PER_RUN",
     "PLANT_STIFFNESS_STEP",
@@ -57,6 +65,8 @@ __all__ = [
     "check_sample_count",
     "default_vehicle_path",
     "derive",
+    "inertia_from_dimensions",
+    "inertia_rotation_point",
     "load_vehicle",
 ]
 
