@@ -132,7 +132,7 @@ def _parameters_section(cls: type) -> str:
             docstrings.update(_field_docstrings(base))
     try:
         hints = get_type_hints(cls)
-    except NameError:  # an annotation imported for type checking only: show the annotations as written
+    except (NameError, TypeError):  # an annotation imported for type checking only: show them as written
         hints = {}
     entries = ["Parameters", "----------"]
     for f in dataclasses.fields(cls):
