@@ -61,6 +61,7 @@ NOT_DOCUMENTED_YET: frozenset[str] = frozenset(
         "agvctl.controllers.mpc.ltv_qp.QpLayout",
         "agvctl.controllers.mpc.ltv_qp.constraint_pattern",
         "agvctl.controllers.mpc.ltv_qp.cost_matrix",
+        "agvctl.controllers.mpc.ltv_qp.window_versions",
         "agvctl.controllers.mpc.matrix_exponential.expm_batch",
         "agvctl.controllers.mpc.nonlinear.NonlinearMpcController",
         "agvctl.controllers.mpc.nonlinear.prediction_step",
