@@ -21,11 +21,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agvctl.config import document_fields
 from agvctl.params import VehicleParams
 
 __all__ = ["Actuator", "ActuatorOutput", "full_scale_voltage_v"]
 
 
+@document_fields
 @dataclass(frozen=True)
 class ActuatorOutput:
     """What the actuator chain did with one command (arrays broadcast like the command)."""
@@ -33,9 +35,9 @@ class ActuatorOutput:
     da_code: NDArray[np.int64]
     """The DA code sent."""
     da_voltage_v: NDArray[np.float64]
-    """The DA converter's output voltage, code · α."""
+    """The DA converter's output voltage, code · α, V."""
     motor_voltage_v: NDArray[np.float64]
-    """The amplifier's output, the voltage across the motor: clip(k_pow v_DA, ±u_max)."""
+    """The amplifier's output, the voltage across the motor: clip(k_pow v_DA, ±u_max), V."""
     da_clipped: NDArray[np.bool_]
     """True where the requested voltage was outside the DA's code range."""
     voltage_limited: NDArray[np.bool_]
@@ -43,7 +45,20 @@ class ActuatorOutput:
 
 
 class Actuator:
-    """The DA converter and amplifier of one vehicle (both sides identical)."""
+    """The DA converter and amplifier of one vehicle (both sides identical).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle: its DA converter (range, bits) and amplifier (gain, voltage limit).
+
+    Examples
+    --------
+    >>> from agvctl.params import load_vehicle
+    >>> out = Actuator(load_vehicle()).apply([1.0, -9.0])  # the right side asks for more than the DA gives
+    >>> out.da_code.tolist(), out.motor_voltage_v.round(4).tolist(), out.da_clipped.tolist()
+    ([410, -2048], [2.002, -10.0], [False, True])
+    """
 
     def __init__(self, vehicle: VehicleParams) -> None:
         da = vehicle.da
@@ -130,7 +145,18 @@ class Actuator:
 
 
 def full_scale_voltage_v(vehicle: VehicleParams) -> float:
-    """The amplifier's output at the DA's largest code: min(k_pow · v_DA(code_max), u_max) (model note 9)."""
+    """The amplifier's output at the DA's largest code: min(k_pow · v_DA(code_max), u_max) (model note 9).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle: its DA converter and amplifier.
+
+    Returns
+    -------
+    float
+        The largest motor voltage a command can give, V (9.995 V for the default vehicle).
+    """
     da = vehicle.da
     return float(
         min(vehicle.amplifier.gain * abs(da.mid_v + da.code_max * da.volts_per_code), vehicle.amplifier.voltage_limit_v)

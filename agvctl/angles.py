@@ -14,5 +14,21 @@ AngleT = TypeVar("AngleT", float, NDArray[np.float64])
 
 
 def wrap_angle(angle_rad: AngleT) -> AngleT:
-    """``angle_rad`` (a number or an array) wrapped to [−π, π)."""
+    """An angle wrapped to [−π, π).
+
+    Parameters
+    ----------
+    angle_rad : float or ndarray
+        The angle (or angles), rad.
+
+    Returns
+    -------
+    float or ndarray
+        The same angle in [−π, π), rad.
+
+    Examples
+    --------
+    >>> round(wrap_angle(3 * math.pi / 2), 6)
+    -1.570796
+    """
     return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi

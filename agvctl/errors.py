@@ -9,6 +9,8 @@ from __future__ import annotations
 import traceback
 from pathlib import Path
 
+__all__ = ["AgvctlError", "ConfigError", "PlanningError", "exception_line", "expect_instance"]
+
 
 class AgvctlError(Exception):
     """Base class of every agvctl error. Its message is one line: line breaks and other control characters in
@@ -20,7 +22,27 @@ class AgvctlError(Exception):
 
 
 class ConfigError(AgvctlError, ValueError):
-    """Bad input: a file, key or value that cannot be used. The message is one line naming where."""
+    """Bad input: a file, key or value that cannot be used. The message is one line naming where.
+
+    A :class:`ValueError` too, so code that expects one for a bad value still catches it.
+
+    Parameters
+    ----------
+    source : str
+        Where the input came from: a file's path, an option (``--set``), or a function or class given a bad
+        argument in Python (``PoseEkf``).
+    key : str
+        The dotted key or the argument (``controller.horizon``); ``""`` when the whole source is bad.
+    problem : str
+        What is wrong, with the value found: ``must be >= 1 (got 0)``.
+
+    Examples
+    --------
+    >>> raise ConfigError("experiments/square.toml", "controller.horizon", "must be >= 1 (got 0)")
+    Traceback (most recent call last):
+    ...
+    agvctl.errors.ConfigError: experiments/square.toml: controller.horizon: must be >= 1 (got 0)
+    """
 
     def __init__(self, source: str, key: str, problem: str) -> None:
         self.source = source
@@ -35,8 +57,21 @@ class PlanningError(AgvctlError):
 
 
 def exception_line(exc: BaseException, limit: int = 300) -> str:
-    """``"RuntimeError: boom (at my_controller.py:12)"``: an exception's type, message and innermost frame on one
-    line (at most ``limit`` characters), as the reports of ``check`` and ``fuzz`` name a run that raised."""
+    """An exception's type, message and innermost frame on one line, as the reports of ``check`` and ``fuzz`` name a
+    run that raised.
+
+    Parameters
+    ----------
+    exc : BaseException
+        The exception, with its traceback if it was raised.
+    limit : int
+        The most characters of the line; a longer one is cut and ends in ``…``.
+
+    Returns
+    -------
+    str
+        ``"RuntimeError: boom (at my_controller.py:12)"``, whitespace (line breaks included) collapsed.
+    """
     frames = traceback.extract_tb(exc.__traceback__) if exc.__traceback__ else []
     at = f" (at {Path(frames[-1].filename).name}:{frames[-1].lineno})" if frames else ""
     text = " ".join(f"{type(exc).__name__}: {exc}{at}".split())
@@ -44,9 +79,26 @@ def exception_line(exc: BaseException, limit: int = 300) -> str:
 
 
 def expect_instance(value: object, cls: type | tuple[type, ...], source: str, argument: str) -> None:
-    """Refuse an argument of the wrong type with a one-line :class:`ConfigError` naming the function or class
-    (``source``) and the argument, as the file loaders name a key: ``"PoseEkf: vehicle: expected a VehicleParams
-    (got 'x')"``."""
+    """Refuse an argument of the wrong type in one line naming the function or class and the argument.
+
+    The public functions and classes check their arguments so, as the file loaders name a key.
+
+    Parameters
+    ----------
+    value : object
+        The argument.
+    cls : type or tuple of type
+        The type (or types) it must be an instance of.
+    source : str
+        The function or class that takes it, e.g. ``PoseEkf``.
+    argument : str
+        The argument's name.
+
+    Raises
+    ------
+    ConfigError
+        ``"PoseEkf: vehicle: expected a VehicleParams (got 'x')"`` (the value's repr cut to 60 characters).
+    """
     if not isinstance(value, cls):
         names = " or ".join(c.__name__ for c in (cls if isinstance(cls, tuple) else (cls,)))
         shown = repr(value)

@@ -25,6 +25,23 @@ def atomic_open(path: str | Path, mode: str = "w") -> Iterator[IO[Any]]:
 
     An :class:`OSError` of the temporary file (it cannot be made, written or moved into place) is raised as one of
     ``path``: errors name the file the caller asked for, never the temporary one.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write; its folder is made if missing.
+    mode : str
+        ``"w"`` for text (UTF-8, no newline translation) or ``"wb"`` for bytes.
+
+    Yields
+    ------
+    file object
+        The temporary file, open for writing.
+
+    Raises
+    ------
+    OSError
+        Naming ``path``, when the temporary file cannot be made, written or moved into place.
     """
     path = Path(path)
     try:
@@ -48,25 +65,61 @@ def atomic_open(path: str | Path, mode: str = "w") -> Iterator[IO[Any]]:
 
 
 def json_safe(values: Mapping[str, float]) -> dict[str, float | None]:
-    """``values`` with every NaN and infinity as None (JSON ``null``).
+    """A mapping with every NaN and infinity as None (JSON ``null``).
 
     JSON has no NaN or infinity; :func:`json.dumps` would write the non-standard ``NaN`` that strict readers
-    reject. Other values pass through unchanged.
+    reject.
+
+    Parameters
+    ----------
+    values : Mapping of str to float
+        The values.
+
+    Returns
+    -------
+    dict
+        A copy, NaN and infinities as None, other values unchanged.
     """
     return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in values.items()}
 
 
 def write_text(path: str | Path, text: str) -> None:
+    """Write a text file (UTF-8) atomically: no half-written file on error.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    text : str
+        Its contents.
+    """
     with atomic_open(path) as fh:
         fh.write(text)
 
 
 def write_json(path: str | Path, data: Any) -> None:
+    """Write data as indented JSON atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    data : object
+        What :func:`json.dumps` can write (see :func:`json_safe` for NaN).
+    """
     write_text(path, json.dumps(data, indent=2) + "\n")
 
 
 def write_csv(path: str | Path, columns: Mapping[str, Sequence[float] | np.ndarray]) -> None:
-    """Write equal-length columns as CSV with a header, floats at :data:`CSV_FLOAT_FORMAT`."""
+    """Write equal-length columns as CSV with a header, floats at :data:`CSV_FLOAT_FORMAT`, atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    columns : Mapping of str to sequence of float
+        The columns by name, in the order they are written.
+    """
     names = list(columns)
     data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])
     with atomic_open(path) as fh:

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from agvctl.config import document_fields
 from agvctl.fileio import write_csv
 
 __all__ = ["PLANT_LOG_COLUMNS", "SimLog"]
@@ -49,11 +50,17 @@ the interval's integration substeps, ``current_limited_*`` is 1 if the limit act
 The last row is the final state with the last input still applied."""
 
 
+@document_fields
 @dataclass
 class SimLog:
-    """Named, equal-length columns (numpy arrays) of one run."""
+    """Named, equal-length columns (numpy arrays) of one run.
+
+    ``log["x_m"]`` is a column, ``len(log)`` the number of rows, ``"x_m" in log`` whether it has the column.
+    """
 
     columns: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    """The columns by name, each name ending in its unit (``x_m``, ``current_left_a``; see
+    :data:`PLANT_LOG_COLUMNS`)."""
 
     def __getitem__(self, name: str) -> NDArray[np.float64]:
         return self.columns[name]

@@ -34,8 +34,20 @@ CALIBRATED_VEHICLE_FILE = "calibrated_vehicle.toml"
 def calibrated_vehicle_toml(experiment: Experiment, result: ClosedLoopResult) -> str | None:
     """The text of :data:`CALIBRATED_VEHICLE_FILE`: the controller's vehicle with the radii and wheel base the
     estimator ended the run with and its tolerances narrowed to 3σ
-    (:func:`~agvctl.estimation.calibration.calibrated_vehicle`), a header saying how they were obtained; None
-    for a run whose estimator learns no calibration."""
+    (:func:`~agvctl.estimation.calibration.calibrated_vehicle`), a header saying how they were obtained.
+
+    Parameters
+    ----------
+    experiment : Experiment
+        The experiment that was run.
+    result : ClosedLoopResult
+        Its run, whose log holds the estimator's calibration columns.
+
+    Returns
+    -------
+    str or None
+        The vehicle file's text; None for a run whose estimator learns no calibration.
+    """
     log = result.log
     eps, sig = (
         np.array([float(log[c][-1]) for c in names]) for names in (CALIBRATION_COLUMNS[:3], CALIBRATION_COLUMNS[3:6])
@@ -57,7 +69,18 @@ def calibrated_vehicle_toml(experiment: Experiment, result: ClosedLoopResult) ->
 
 def resolved_experiment_toml(experiment: Experiment) -> str:
     """The experiment's file as it was run: every key with its value, the trajectory and vehicle files by their
-    absolute paths, headed by the file it was resolved from."""
+    absolute paths, headed by the file it was resolved from.
+
+    Parameters
+    ----------
+    experiment : Experiment
+        The loaded experiment.
+
+    Returns
+    -------
+    str
+        The TOML text written as a run's ``experiment.toml``.
+    """
     exp = experiment.spec
     resolved = to_dict(exp)
     resolved["trajectory"] = str(exp.resolve(exp.trajectory).resolve())
@@ -74,9 +97,31 @@ def write_run_outputs(
     *,
     plots: bool = True,
 ) -> list[Path]:
-    """Write ``log.csv``, ``summary.json``, the resolved ``experiment.toml``, the true vehicle, the calibrated one
-    (:data:`CALIBRATED_VEHICLE_FILE`, when the estimator learnt a calibration) and (optionally) the plots. Every
-    text is made before the first file is written, and each file is written atomically."""
+    """Write a closed-loop run's outputs into a folder.
+
+    The outputs are ``log.csv``, ``summary.json``, the resolved ``experiment.toml``, the true vehicle, the
+    calibrated one (:data:`CALIBRATED_VEHICLE_FILE`, when the estimator learnt a calibration) and the plots. Every
+    text is made before the first file is written, and each file is written atomically.
+
+    Parameters
+    ----------
+    experiment : Experiment
+        The experiment that was run.
+    result : ClosedLoopResult
+        Its run.
+    summary : dict
+        The run's summary (``agvctl run`` gives :func:`~agvctl.checks.summary.run_summary`), written as JSON; its
+        ``limits`` give the wheel-acceleration bound the plots draw.
+    out_dir : Path
+        The folder, made if missing.
+    plots : bool
+        Whether to draw the plots too.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
     exp = experiment.spec
     texts = {
         "summary.json": json.dumps(summary, indent=2) + "\n",

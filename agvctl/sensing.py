@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
+from agvctl.config import document_fields
 from agvctl.params import VehicleParams
 
 __all__ = [
@@ -50,35 +51,53 @@ the last position fix arriving (NaN when none) with its measurement time."""
 FloatArray = NDArray[np.float64]
 
 
+@document_fields
 @dataclass(frozen=True)
 class PositionFix:
-    """One absolute fix: the pose (x_m, y_m, theta_rad) measured at sample ``measured_sample`` (t = k·T_s)."""
+    """One absolute fix: the pose measured at a sample."""
 
     measured_sample: int
+    """The sample k it was measured at."""
     measured_t_s: float
+    """The time it was measured, k·T_s, s."""
     pose: FloatArray
+    """The measured pose: x (m), y (m), heading (rad, in [−π, π))."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class Measurements:
-    """What an estimator sees at sample k (t_s = k·T_s)."""
+    """What an estimator sees at sample k."""
 
     sample: int
+    """The sample k."""
     t_s: float
+    """Its time t_k = k·T_s, s."""
     true_pose: FloatArray
-    """The true pose: a perfect pose sensor, used only by the ``truth`` estimator."""
+    """The true pose, x (m), y (m), heading (rad): a perfect pose sensor, used only by the ``truth`` estimator."""
     wheel_speed_m_s: FloatArray
-    """The rim speeds (left, right) the wheel loops measured (exact, or estimated from the counts)."""
+    """The rim speeds (left, right) the wheel loops measured (exact, or estimated from the counts), m/s."""
     encoder_counts: NDArray[np.int64]
     """Counts latched at t_k (left, right), since the start."""
     gyro_rate_rad_s: float = math.nan
-    """The gyro's mean yaw rate over [t_k−1, t_k] (NaN without a gyro, and at k = 0)."""
+    """The gyro's mean yaw rate over [t_k−1, t_k] (NaN without a gyro, and at k = 0), rad/s."""
     fixes: tuple[PositionFix, ...] = field(default_factory=tuple)
     """The fixes arriving at t_k, oldest first."""
 
 
 def fix_delay_samples(vehicle: VehicleParams) -> int:
-    """Samples from a fix's measurement to the sample at which it is delivered: ⌈latency/T_s⌉."""
+    """Samples from a fix's measurement to the sample at which it is delivered: ⌈latency/T_s⌉.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle: its fixes' latency and its sample period.
+
+    Returns
+    -------
+    int
+        The delay in samples (0: a fix arrives at the sample it is measured).
+    """
     ts = vehicle.control.sample_period_s
     return int(math.ceil(vehicle.sensors.position_fix_latency_s / ts - 1e-9))
 

@@ -5,7 +5,10 @@ Build:  sphinx-build -W --keep-going -b html docs docs/_build/html
 
 from __future__ import annotations
 
+import dataclasses
+import importlib
 import os
+import pkgutil
 from pathlib import Path
 
 import agvctl
@@ -39,6 +42,24 @@ autodoc_member_order = "bysource"
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
+
+
+def _constructor_fields() -> dict[str, list[str]]:
+    """The constructor's fields of every agvctl dataclass, by each dotted name it has in a module.
+
+    A dataclass's ``Parameters`` section documents them (agvctl.config.document_fields writes it from the fields),
+    so the class template leaves them out of the members it lists, instead of showing each description twice.
+    """
+    fields: dict[str, list[str]] = {}
+    for info in pkgutil.walk_packages(agvctl.__path__, "agvctl."):
+        module = importlib.import_module(info.name)
+        for name, obj in vars(module).items():
+            if isinstance(obj, type) and dataclasses.is_dataclass(obj):
+                fields[f"{info.name}.{name}"] = [f.name for f in dataclasses.fields(obj) if f.init]
+    return fields
+
+
+autosummary_context = {"constructor_fields": _constructor_fields()}
 
 
 sphinx_gallery_conf = {

@@ -11,16 +11,20 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from agvctl.config import document_fields
 from agvctl.errors import ConfigError
 
 __all__ = ["Estimate", "read_csv_columns"]
 
 
+@document_fields
 @dataclass(frozen=True)
 class Estimate:
-    """An identified quantity: the estimate, its standard error (1σ) and, on the simulator, the true value."""
+    """An identified quantity: the estimate, its standard error (1σ) and, on the simulator, the true value, all in
+    the quantity's unit."""
 
     estimate: float
+    """The estimate."""
     stderr: float
     """One standard error. 0 when the procedure saw no scatter (noise off); NaN when it cannot be estimated."""
     truth: float | None = None
@@ -42,6 +46,23 @@ class Estimate:
         return None if self.truth is None else self.estimate - self.truth
 
 
+def _rows(path: str | Path, source: str) -> list[tuple[int, list[str]]]:
+    """The rows of a CSV file with their line numbers, blank and comment lines left out."""
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            reader = csv.reader(fh)
+            numbered = [(reader.line_num, row) for row in reader]
+    except FileNotFoundError:
+        raise ConfigError(source, "", "file not found") from None
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise ConfigError(source, "", f"cannot read: {exc}") from None
+    return [
+        (n, r)
+        for n, r in numbered
+        if r and not (len(r) == 1 and not r[0].strip()) and not r[0].lstrip().startswith("#")
+    ]
+
+
 def read_csv_columns(
     path: str | Path,
     numeric: Sequence[str],
@@ -51,8 +72,25 @@ def read_csv_columns(
     """Read the named columns of a CSV log with a header row; other columns are ignored.
 
     Blank lines and lines starting with ``#`` are skipped; a byte-order mark (Excel's "CSV UTF-8") is dropped.
-    Every numeric cell must parse as a finite number; a text column named in ``choices`` must hold one of its
-    values (any case; returned in lower case).
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file.
+    numeric : sequence of str
+        The columns whose every cell must parse as a finite number.
+    text : sequence of str
+        The columns read as text.
+    choices : Mapping of str to sequence of str, or None
+        For text columns that hold one of a few values, those values (in lower case; the file's are matched in
+        any case).
+
+    Returns
+    -------
+    numbers : dict of str to ndarray
+        The numeric columns.
+    texts : dict of str to list of str
+        The text columns (those with choices in lower case).
 
     Raises
     ------
@@ -61,19 +99,7 @@ def read_csv_columns(
         included) and the column of the first cell that is empty, not a finite number or not one of its choices.
     """
     source = str(path)
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            reader = csv.reader(fh)
-            numbered = [(reader.line_num, row) for row in reader]
-    except FileNotFoundError:
-        raise ConfigError(source, "", "file not found") from None
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise ConfigError(source, "", f"cannot read: {exc}") from None
-    numbered = [
-        (n, r)
-        for n, r in numbered
-        if r and not (len(r) == 1 and not r[0].strip()) and not r[0].lstrip().startswith("#")
-    ]
+    numbered = _rows(path, source)
     if not numbered:
         raise ConfigError(source, "", "empty file (expected a header row naming the columns)")
     header = [h.strip() for h in numbered[0][1]]

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from agvctl.config import document_fields
 from agvctl.evaluation.limits import LimitResult, format_limit_message
 from agvctl.fileio import json_safe
 from agvctl.scenario.experiment import Experiment
@@ -39,24 +40,32 @@ TIMING_METRICS = ("solve_time_p50_ms", "solve_time_p99_ms", "deadline_misses")
 """Metrics measured on the wall clock: they vary between runs and executors."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class RunTask:
     """One closed-loop run: an experiment file, and for a Monte Carlo sample its plant overrides."""
 
     experiment_path: str
+    """The experiment file."""
     sample: int | None
     """The Monte Carlo sample's index (None: the nominal run)."""
     overrides: Overrides = ()
+    """The sample's plant: ``(dotted vehicle key, value)`` pairs, each value in the unit of its key."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class RunOutcome:
     """What a run sends back: metrics and limit verdicts (no log), or why it could not be completed."""
 
     task: RunTask
+    """The run."""
     metrics: dict[str, float]
+    """Its :func:`~agvctl.evaluation.metrics.closed_loop_metrics`, each in the unit of its name."""
     limits: tuple[LimitResult, ...]
+    """Each limit checked on it."""
     wall_time_s: float
+    """Its wall time, s."""
     error: str | None = None
     """Why the run could not be completed: the exception's type, message and innermost frame, on one line (no
     metrics nor limits then); None for a completed run."""
@@ -65,23 +74,31 @@ class RunOutcome:
     (:func:`~agvctl.checks.runner.check_experiments`'s ``render``); empty otherwise."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class LimitVerdict:
     """One limit of one experiment over all its runs: the worst run decides."""
 
     limit: str
+    """The limit's name."""
     bound: float
+    """The bound, in the unit of the limit's name."""
     passed: bool
+    """Whether every run kept it."""
     value: float
-    """The worst value over the runs."""
+    """The worst value over the runs, in the same unit."""
     worst_time_s: float | None
+    """When the worst run's signal was worst, s."""
     first_time_s: float | None
+    """When the worst run's signal first went past the bound (None if it never did), s."""
     sample: int | None
     """The Monte Carlo sample that gave the worst value (None: the nominal run)."""
     parameters: dict[str, float]
     """That sample's plant parameters (the dotted keys that were varied)."""
     runs: int
+    """How many runs were completed."""
     failed_runs: int
+    """How many of them broke the limit."""
     default: bool = False
     """Whether the bound is the default gate's (:func:`~agvctl.evaluation.limits.default_limits`)."""
     reason: str = ""
@@ -113,8 +130,17 @@ def worst_run_verdicts(outcomes: Sequence[RunOutcome]) -> list[LimitVerdict]:
     """One verdict per limit over the runs of one experiment, each naming the run with the largest (worst) value.
 
     The limit fails when any run fails; among failed runs the worst is also one that exceeded the bound, so the
-    verdict's value, times and sample are those of a violating run. Runs that could not be completed have no
-    values and are left out (no verdicts when none was completed).
+    verdict's value, times and sample are those of a violating run.
+
+    Parameters
+    ----------
+    outcomes : sequence of RunOutcome
+        The experiment's runs; those that could not be completed have no values and are left out.
+
+    Returns
+    -------
+    list of LimitVerdict
+        In the order of the runs' limits; empty when no run was completed.
     """
     completed = [o for o in outcomes if o.error is None]
     if not completed:
@@ -145,16 +171,21 @@ def worst_run_verdicts(outcomes: Sequence[RunOutcome]) -> list[LimitVerdict]:
     return verdicts
 
 
+@document_fields
 @dataclass
 class ExperimentReport:
     """One experiment's verdicts, with the raw outcomes of its runs."""
 
     name: str
+    """The experiment's name."""
     path: str
+    """Its file."""
     verdicts: list[LimitVerdict]
+    """Each limit's verdict over its runs."""
     outcomes: list[RunOutcome]
+    """Each run's outcome."""
     wall_time_s: float
-    """The runs' summed wall time (they may have run in parallel)."""
+    """The runs' summed wall time (they may have run in parallel), s."""
     experiment: Experiment | None = field(default=None, repr=False, compare=False)
     """The experiment as loaded and validated for the check (None: only its file's path is known)."""
 
@@ -213,12 +244,15 @@ class ExperimentReport:
         return out
 
 
+@document_fields
 @dataclass
 class CheckReport:
     """Every experiment's report."""
 
     experiments: list[ExperimentReport] = field(default_factory=list)
+    """The experiments' reports, in the order they were given."""
     wall_time_s: float = 0.0
+    """The whole check's wall time, s."""
 
     @property
     def passed(self) -> bool:

@@ -12,24 +12,27 @@ same seed gives the same samples and the same physical results on any executor (
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import functools
-import multiprocessing
-import numbers
 import os
-import signal
 import time
-from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal, TypeVar
+from typing import Any
 
 import numpy as np
 
+from agvctl.checks.executors import (
+    MAX_JOBS,
+    ExecutorKind,
+    InlineExecutor,
+    execute,
+    open_executor,
+    resolved_jobs,
+)
 from agvctl.checks.report import CheckReport, ExperimentReport, Overrides, RunOutcome, RunTask, worst_run_verdicts
-from agvctl.config import check_key, to_dict
+from agvctl.config import check_key, document_fields, to_dict
 from agvctl.errors import ConfigError, exception_line
 from agvctl.evaluation.limits import LimitResult, evaluate_limits
 from agvctl.evaluation.metrics import closed_loop_metrics
@@ -37,7 +40,8 @@ from agvctl.params import SIDES, VehicleParams
 from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
 from agvctl.sim.loop import ClosedLoopResult
 
-__all__ = [
+__all__ = [  # the executors are agvctl.checks.executors's, and still importable from here
+    "MAX_JOBS",
     "CheckWork",
     "ExecutorKind",
     "InlineExecutor",
@@ -51,12 +55,9 @@ __all__ = [
     "run_task",
 ]
 
-ExecutorKind = Literal["local", "dask"]
 RunRender = Callable[[Experiment, ClosedLoopResult, Sequence[LimitResult]], dict[str, bytes]]
 """Draws a run's figures where the run is (its log never travels): the experiment as run (a Monte Carlo sample's
 plant), its result and its limit verdicts in, PNG bytes by name out. A module-level function (it is pickled)."""
-T = TypeVar("T")
-R = TypeVar("R")
 
 
 # -- Monte Carlo samples ----------------------------------------------------------------------------------------
@@ -97,8 +98,23 @@ def _nominal_values(prepared: Experiment, key: str) -> list[tuple[str, float]]:
 def monte_carlo_samples(prepared: Experiment) -> list[Overrides]:
     """The plant overrides of every Monte Carlo sample, drawn from the experiment's seed and validated.
 
-    A sample that gives an invalid vehicle (say Coulomb friction above stiction) is bad input, named with its
-    index. Keys are drawn in sorted order, one number per key and sample, so adding a sample keeps the others.
+    Keys are drawn in sorted order, one number per key and sample, so adding a sample keeps the others.
+
+    Parameters
+    ----------
+    prepared : Experiment
+        The loaded experiment: its ``[robustness]`` table and its plant's nominal values.
+
+    Returns
+    -------
+    list of Overrides
+        Per sample, ``(dotted vehicle key, value)`` pairs; empty without ``[robustness]``.
+
+    Raises
+    ------
+    ConfigError
+        A key that names no numeric vehicle value, or a sample that gives an invalid vehicle (say Coulomb friction
+        above stiction), named with its index.
     """
     exp = prepared.spec
     rob = exp.robustness
@@ -141,9 +157,21 @@ def _prepared(path: str) -> Experiment:
 
 
 def run_task(task: RunTask, render: RunRender | None = None) -> RunOutcome:
-    """Run one task (in this process), and with ``render`` draw its figures into the outcome. Used by every
-    executor; module-level so it pickles. Never raises for a run that fails: an exception is the outcome's
-    ``error``."""
+    """Run one task in this process. Used by every executor; module-level so it pickles.
+
+    Parameters
+    ----------
+    task : RunTask
+        The run.
+    render : RunRender or None
+        Draws the run's figures into the outcome (None: none).
+
+    Returns
+    -------
+    RunOutcome
+        Its metrics and verdicts; for a run that raised, the exception as its ``error`` (this never raises for a
+        run that fails).
+    """
     t0 = time.perf_counter()
     try:
         return _run(task, t0, render)
@@ -181,163 +209,18 @@ def _run(task: RunTask, t0: float, render: RunRender | None) -> RunOutcome:
     return RunOutcome(task, metrics, tuple(limits), time.perf_counter() - t0, figures=figures)
 
 
-_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
-
-
-MAX_JOBS = 1024
-"""The most worker processes a run may ask for: far beyond any machine's cores, far below what exhausts one."""
-
-
-def resolved_jobs(
-    jobs: int | None, executor: str, scheduler: str | None = None, progress: Callable[..., Any] | None = None
-) -> int:
-    """The number of local workers (default: every core), with ``jobs``, ``executor``, ``scheduler`` and
-    ``progress`` checked: a one-line :class:`ConfigError` naming the option otherwise."""
-    if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, numbers.Integral)):
-        raise ConfigError("--jobs", "", f"expected an integer (got {jobs!r})")
-    n = int(jobs) if jobs is not None else (os.cpu_count() or 1)
-    if not 1 <= n <= MAX_JOBS:
-        raise ConfigError("--jobs", "", f"must be between 1 and {MAX_JOBS} (got {n})")
-    if executor not in ("local", "dask"):
-        raise ConfigError("--executor", "", f"must be local or dask (got {executor!r})")
-    if scheduler is not None and not isinstance(scheduler, str):
-        raise ConfigError("--scheduler", "", f"expected an address such as tcp://host:8786 (got {scheduler!r})")
-    if progress is not None and not callable(progress):
-        raise ConfigError("progress", "", f"expected a function progress(done, total) (got {progress!r})")
-    return n
-
-
-class InlineExecutor(Executor):
-    """Each task run in this thread as it is submitted: no worker, so nothing to start and nothing left running
-    after an interrupt (the run in progress stops with it)."""
-
-    def submit(self, fn: Callable[..., R], /, *args: Any, **kwargs: Any) -> Future[R]:
-        future: Future[R] = Future()
-        try:
-            future.set_result(fn(*args, **kwargs))
-        except Exception as exc:  # as a worker's: the task's error, in its future
-            future.set_exception(exc)
-        return future
-
-
-@contextlib.contextmanager
-def _sigint_blocked() -> Iterator[None]:
-    """SIGINT blocked in this thread meanwhile (and delivered when the block ends): worker processes and threads
-    started meanwhile inherit the block, so an interrupt (Ctrl-C reaches the whole process group) stops only this
-    process, which then stops them."""
-    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
-
-
-@contextlib.contextmanager
-def _process_pool(jobs: int) -> Iterator[Executor]:
-    """``jobs`` spawned worker processes that never see SIGINT, terminated at once when the block is left by an
-    exception or an interrupt (a run in progress is abandoned) and shut down otherwise."""
-    # one thread per worker for the numerical libraries (as Dask does for its workers): with N workers on N cores
-    # their own thread pools would oversubscribe the machine several times over
-    saved = {k: os.environ.get(k) for k in _THREAD_VARS}
-    os.environ.update({k: "1" for k, v in saved.items() if v is None})
-    try:
-        with _sigint_blocked():
-            pool = ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"))
-        try:
-            yield pool
-        except BaseException:
-            for process in list(pool._processes.values()):
-                process.terminate()
-            raise
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-
-
-@contextlib.contextmanager
-def open_executor(kind: ExecutorKind, jobs: int, scheduler: str | None, n_tasks: int) -> Iterator[Executor]:
-    """The executor the runs go to, shut down (its workers and any cluster of ours stopped) on leaving.
-
-    ``"local"``: ``jobs`` spawned worker processes, or, for one job or one task, this process itself
-    (:class:`InlineExecutor`: no start-up cost; the runs go one after another). ``"dask"``: the
-    ``concurrent.futures`` executor of a Dask client of the scheduler at ``scheduler``, or of a local cluster of
-    ``jobs`` worker processes. An interrupt (SIGINT) reaches only this process; local workers are stopped with it.
-    """
-    if kind == "dask":
-        try:
-            from dask.distributed import Client
-        except ImportError:
-            raise ConfigError("--executor", "dask", "needs the dask extra: pip install 'agvctl[dask]'") from None
-        # no scheduler: a local cluster of `jobs` worker processes
-        client = Client(scheduler) if scheduler else Client(n_workers=jobs, threads_per_worker=1, processes=True)
-        try:
-            with client.get_executor(pure=False) as dask_pool:
-                yield dask_pool
-        finally:
-            client.close()  # our own connection (and, without a scheduler, our own local cluster)
-        return
-    if jobs <= 1 or n_tasks <= 1:
-        with InlineExecutor() as inline:
-            yield inline
-        return
-    with _process_pool(jobs) as pool:
-        yield pool
-
-
-def execute(
-    pool: Executor,
-    run: Callable[[T], R],
-    tasks: Sequence[T],
-    progress: Callable[[int, int], None] | None,
-    on_error: Callable[[T, Exception], R] | None = None,
-) -> list[R]:
-    """``run(task)`` of every task on ``pool``, in the order of ``tasks`` whatever order they finish in.
-
-    A task whose future raises (``run`` raised, or its worker died or could not send the result back) gives
-    ``on_error(task, exception)`` when that is given; without it the first error stops all. ``run`` must be a
-    module-level function (it is pickled for worker processes).
-    """
-    outcomes: dict[Future[R], R] = {}
-
-    def record(done: int, future: Future[R], task: T) -> None:
-        try:
-            outcomes[future] = future.result()
-        except Exception as exc:
-            if on_error is None:
-                raise
-            outcomes[future] = on_error(task, exc)
-        if progress:
-            progress(done, len(tasks))
-
-    futures: list[Future[R]] = []
-    if isinstance(pool, InlineExecutor):  # each run in its turn, so progress comes run by run
-        for done, task in enumerate(tasks, start=1):
-            futures.append(pool.submit(run, task))
-            record(done, futures[-1], task)
-        return [outcomes[f] for f in futures]
-    with _sigint_blocked():  # worker processes start on the first submissions, and inherit the block
-        futures = [pool.submit(run, task) for task in tasks]
-    task_of = dict(zip(futures, tasks, strict=True))
-    try:
-        for done, future in enumerate(as_completed(futures), start=1):
-            record(done, future, task_of[future])
-    finally:
-        for future in futures:
-            future.cancel()  # after an error or an interrupt: the runs not started yet
-    return [outcomes[f] for f in futures]
-
-
+@document_fields
 @dataclass(frozen=True)
 class CheckWork:
     """The experiments of a check, loaded and validated, and their runs (one per Monte Carlo sample, or the
     nominal one): what :func:`check_experiments` runs."""
 
     paths: tuple[str, ...]
+    """The experiment files as given."""
     experiments: tuple[Experiment, ...]
+    """Each experiment, loaded."""
     tasks: tuple[tuple[RunTask, ...], ...]
+    """Each experiment's runs."""
 
     @property
     def input_files(self) -> list[Path]:
@@ -347,6 +230,16 @@ class CheckWork:
 
 def load_check(paths: Sequence[str | Path]) -> CheckWork:
     """Load and validate every experiment and draw its Monte Carlo samples, before anything runs.
+
+    Parameters
+    ----------
+    paths : sequence of str or Path
+        The experiment files, at least one.
+
+    Returns
+    -------
+    CheckWork
+        The experiments and their runs, for :func:`check_experiments`.
 
     Raises
     ------
@@ -385,18 +278,18 @@ def check_experiments(
 
     Parameters
     ----------
-    paths
+    paths : sequence of str or Path, or CheckWork
         Experiment files, or the :class:`CheckWork` of :func:`load_check` (loaded already).
-    jobs
+    jobs : int or None
         Local worker processes (default: all cores); with one job, or one run in all, the runs go one after another
         in this process. With ``executor="dask"`` and no scheduler: the local cluster's workers.
-    executor
+    executor : {'local', 'dask'}
         ``"local"``, or ``"dask"`` to send the runs to the Dask scheduler at ``scheduler``.
-    scheduler
+    scheduler : str or None
         The Dask scheduler's address (``tcp://host:8786``); ``None`` with ``executor="dask"``: a local cluster.
-    progress
+    progress : callable or None
         Called as ``progress(done, total)`` in this thread after each run.
-    render
+    render : RunRender or None
         Draws each nominal run's figures where it runs (:data:`RunRender`), into :attr:`RunOutcome.figures`; the
         Monte Carlo samples are not drawn.
 
@@ -414,6 +307,8 @@ def check_experiments(
         Carlo sample, an option out of its range (as for :func:`~agvctl.fuzz.run.fuzz`), or a ``render`` that is
         not a function.
 
+    Notes
+    -----
     Local workers are spawned processes, which import the calling script again: from a script, call this under
     ``if __name__ == "__main__":``.
     """

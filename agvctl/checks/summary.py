@@ -34,9 +34,23 @@ SUMMARY_METRICS = (
 
 
 def run_summary(experiment: Experiment, result: ClosedLoopResult) -> dict[str, Any]:
-    """``{"experiment", "passed", "metrics", "wall_time_s", ...}`` with every limit's verdict, and with an estimator
-    that learns the odometry calibration its ``calibration`` against the plant's truth
-    (:func:`~agvctl.estimation.calibration.calibration_summary`)."""
+    """The summary of a closed-loop run, written as ``summary.json``: metrics and every limit's verdict.
+
+    Parameters
+    ----------
+    experiment : Experiment
+        The experiment that was run: its limits and vehicles.
+    result : ClosedLoopResult
+        Its run.
+
+    Returns
+    -------
+    dict
+        ``experiment``, ``passed``, ``metrics`` (:data:`SUMMARY_METRICS` first; NaN as None), ``wall_time_s``,
+        ``setup_time_s``, ``simulated_s``, ``limits`` (each limit's verdict), and with an estimator that learns the
+        odometry calibration its ``calibration`` against the plant's truth
+        (:func:`~agvctl.estimation.calibration.calibration_summary`).
+    """
     metrics = closed_loop_metrics(result)
     exp = experiment.spec
     limits = evaluate_limits(exp.limits, result.log, metrics, experiment.controller_vehicle, result.sample_period_s)

@@ -55,7 +55,28 @@ def _one_line_warning(
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI with ``argv`` (default ``sys.argv[1:]``) and return the exit code."""
+    """Run the command line: the ``agvctl`` command's entry point, and how tests call it.
+
+    A bad input or any other :class:`~agvctl.errors.AgvctlError` is one line on stderr (no traceback); warnings
+    that a limit leaves little headroom are one line each.
+
+    Parameters
+    ----------
+    argv : sequence of str or None
+        The arguments after the program's name (None: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit code: 0 success, 1 a failed check, 2 bad input, 3 a run of ``check`` or ``fuzz`` that could not be
+        completed, 130 an interrupt.
+
+    Examples
+    --------
+    >>> main(["params", "--help"])  # doctest: +ELLIPSIS
+    usage: agvctl params ...
+    0
+    """
     parser = build_parser()
     try:
         try:

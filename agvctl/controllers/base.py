@@ -17,6 +17,7 @@ from typing import Literal, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from agvctl.config import document_fields
 from agvctl.planning.reference import Reference
 
 __all__ = [
@@ -29,14 +30,17 @@ __all__ = [
 SolveStatus = Literal["solved", "fallback_shifted", "fallback_feedforward"]
 
 
+@document_fields
 @dataclass(frozen=True)
 class PoseCommand:
     """A pose controller's output for one sample."""
 
     wheel_speed_left_m_s: float
+    """The left wheel's speed setpoint for the wheel loop, m/s."""
     wheel_speed_right_m_s: float
+    """The right wheel's speed setpoint, m/s."""
     solve_time_s: float = 0.0
-    """Wall time of the controller's computation for this sample (the whole step, Python included)."""
+    """Wall time of the controller's computation for this sample (the whole step, Python included), s."""
     status: SolveStatus = "solved"
     """``solved``, or the fallback used when the solver failed or ran out of time."""
     reference_done: bool | None = None

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from agvctl.config import document_fields
 from agvctl.controllers.base import PoseController
 from agvctl.controllers.baselines.feedforward import FeedForwardPoseController
 from agvctl.controllers.baselines.ltv_lqr import LtvLqrConfig, LtvLqrController
@@ -36,6 +37,7 @@ __all__ = [
 ]
 
 
+@document_fields
 @dataclass(frozen=True)
 class PoseControllerKind:
     """One entry of :data:`POSE_CONTROLLERS`."""
@@ -45,6 +47,7 @@ class PoseControllerKind:
     settings: type | None
     """The dataclass the ``[controller]`` table's other keys are built into (None: the controller takes none)."""
     description: str
+    """What the controller is, in a few words, for ``--help`` and the docs."""
     fit_wheel_loop: Callable[[Any, WheelLoopDesign], Any] | None = None
     """Completes the settings with the experiment's wheel loops (e.g. the MPC's model of their lag)."""
 
@@ -68,14 +71,20 @@ POSE_CONTROLLERS: dict[str, PoseControllerKind] = {
 """The pose controllers by the name an experiment's ``[controller] pose`` gives."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class WheelLoops:
-    """An experiment's PI wheel-speed loops: the gains (designed, or from a gains file) and their options."""
+    """An experiment's PI wheel-speed loops: the gains (designed, or from a gains file) and their options, as
+    :class:`~agvctl.controllers.pi.wheel_loop.PIWheelController` takes them."""
 
     design: WheelLoopDesign
+    """The gains and the time constant of the first-order lag that best fits their closed loop."""
     coulomb_feedforward: bool
+    """Whether the loops add the Coulomb-friction feed-forward."""
     symmetric_braking: bool
+    """Whether the braking current is always limited to decelerate no harder than a_lim."""
     gentle_stop: bool
+    """Whether it is limited so only when a wheel is brought to a stop."""
 
     def controller(self, vehicle: VehicleParams) -> PIWheelController:
         """The wheel-speed controller on ``vehicle`` (the controller's model)."""
@@ -97,9 +106,33 @@ def design_wheel_loops(
     gentle_stop: bool,
     source: str,
 ) -> WheelLoops:
-    """The wheel loops for ``vehicle``: from the gains file at ``gains_path`` (written by ``agvctl tune --out``;
-    its Coulomb feed-forward adds to ``coulomb_feedforward``), or designed for the default spec. ``source`` is the
-    experiment file named in errors."""
+    """An experiment's wheel loops: from a gains file, or designed for the default spec.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The controller's vehicle.
+    gains_path : Path or None
+        A gains file written by ``agvctl tune --out`` (None: design the gains for the default spec).
+    coulomb_feedforward : bool
+        Add the Coulomb-friction feed-forward (a gains file's own setting adds to it).
+    symmetric_braking : bool
+        Always limit the braking current so as to decelerate no harder than a_lim.
+    gentle_stop : bool
+        Limit it so only when a wheel is brought to a stop.
+    source : str
+        The experiment file, as errors name it.
+
+    Returns
+    -------
+    WheelLoops
+        The gains, their closed loop's time constant and the options.
+
+    Raises
+    ------
+    ConfigError
+        A gains file that is missing, malformed, or designed for another sample period.
+    """
     if gains_path is None:
         return WheelLoops(default_pi_gains(vehicle), coulomb_feedforward, symmetric_braking, gentle_stop)
     if not gains_path.exists():

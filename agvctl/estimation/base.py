@@ -67,11 +67,25 @@ class WheelSpeedEstimator(Protocol):
 
 
 def consistency(estimator: object, estimate: FloatArray, true_pose: FloatArray) -> tuple[float, ...]:
-    """``(σ_x m, σ_y m, σ_θ rad, NEES, NIS)`` of an estimator with a ``pose_covariance``, NaN for one without.
+    """How consistent a pose estimator's covariance is with its actual error, at one sample.
 
     NEES is eᵀP⁻¹e with e the estimate's error against the truth (heading wrapped), 3 degrees of freedom; NIS the
     estimator's ``last_nis`` (NaN at samples without a fix). In plain floats (Cramer's rule on the symmetric 3×3
     P): it runs every sample, where numpy's per-call cost would exceed the arithmetic.
+
+    Parameters
+    ----------
+    estimator : object
+        The pose estimator; one with a ``pose_covariance`` (and ``last_nis``) is judged.
+    estimate : ndarray
+        Its estimate: x (m), y (m), heading (rad).
+    true_pose : ndarray
+        The true pose, in the same units.
+
+    Returns
+    -------
+    tuple of float
+        (σ_x in m, σ_y in m, σ_θ in rad, NEES, NIS); all NaN for an estimator without a covariance.
     """
     cov = getattr(estimator, "pose_covariance", None)
     if cov is None:
@@ -89,9 +103,19 @@ def consistency(estimator: object, estimate: FloatArray, true_pose: FloatArray) 
 
 
 def calibration_readout(estimator: object) -> tuple[float, ...]:
-    """The values of :data:`CALIBRATION_COLUMNS` for an estimator with ``calibration``, ``calibration_sigma`` and
-    ``fix_counts`` (:class:`~agvctl.estimation.ekf.PoseEkf`), NaN for one without; an estimator's own
-    ``readout()`` of them, when it has one, is used instead (it runs every sample)."""
+    """The values of :data:`CALIBRATION_COLUMNS` for an estimator, at one sample.
+
+    Parameters
+    ----------
+    estimator : object
+        The pose estimator: its own ``readout()`` when it has one (it runs every sample), else its
+        ``calibration``, ``calibration_sigma`` and ``fix_counts`` (:class:`~agvctl.estimation.ekf.PoseEkf`).
+
+    Returns
+    -------
+    tuple of float
+        One value per column, in order; all NaN for an estimator that learns no calibration.
+    """
     readout = getattr(estimator, "readout", None)
     if readout is not None:
         return tuple(readout())

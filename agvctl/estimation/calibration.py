@@ -34,7 +34,20 @@ def _geometry(vehicle: VehicleParams) -> FloatArray:
 
 
 def calibration_truth(believed: VehicleParams, true: VehicleParams) -> FloatArray:
-    """The true calibration errors (ε_l, ε_r, ε_b) of ``believed`` against ``true``: true = believed · (1 + ε)."""
+    """The true calibration errors (ε_l, ε_r, ε_b) of a believed vehicle: true = believed · (1 + ε).
+
+    Parameters
+    ----------
+    believed : VehicleParams
+        The vehicle the estimator believes in.
+    true : VehicleParams
+        The true vehicle.
+
+    Returns
+    -------
+    ndarray
+        The relative errors of the left and right radii and of the wheel base.
+    """
     return _geometry(true) / _geometry(believed) - 1.0
 
 
@@ -43,11 +56,11 @@ def calibrated_vehicle(vehicle: VehicleParams, calibration: FloatArray, sigma: F
 
     Parameters
     ----------
-    vehicle
+    vehicle : VehicleParams
         The believed vehicle the calibration refers to.
-    calibration
+    calibration : ndarray
         (ε_l, ε_r, ε_b), relative errors of the believed left and right radii and wheel base.
-    sigma
+    sigma : ndarray
         Their σ.
 
     Returns
@@ -73,9 +86,24 @@ def calibrated_vehicle(vehicle: VehicleParams, calibration: FloatArray, sigma: F
 def calibration_summary(
     log: SimLog, believed: VehicleParams, true: VehicleParams | None = None
 ) -> dict[str, dict[str, float]] | None:
-    """The calibration at the end of a logged run, per vehicle key of :data:`CALIBRATION_PARAMETERS`:
-    ``believed``, ``estimate`` and ``sigma`` (m), and with ``true`` the ``truth`` (m) and the estimate's error in σ;
-    None for a log without calibration (an estimator other than the EKF)."""
+    """The calibration at the end of a logged run.
+
+    Parameters
+    ----------
+    log : SimLog
+        The run's log, with the estimator's calibration columns.
+    believed : VehicleParams
+        The vehicle the estimator believed in.
+    true : VehicleParams or None
+        The true vehicle, if known.
+
+    Returns
+    -------
+    dict or None
+        Per vehicle key of :data:`CALIBRATION_PARAMETERS`: ``believed``, ``estimate`` and ``sigma`` (m), and with
+        ``true`` the ``truth`` (m) and the estimate's error in σ (``error_sigmas``); None for a log without
+        calibration (an estimator other than the EKF).
+    """
     if _ESTIMATE[0] not in log or not math.isfinite(float(log[_ESTIMATE[0]][-1])):
         return None
     eps = np.array([float(log[c][-1]) for c in _ESTIMATE])

@@ -42,7 +42,7 @@ from numpy.typing import NDArray
 from scipy.special import chdtri
 
 from agvctl.angles import wrap_angle
-from agvctl.config import check_fields, number
+from agvctl.config import check_fields, document_fields, number
 from agvctl.errors import expect_instance
 from agvctl.params import SIDES, VehicleParams
 from agvctl.sensing import Measurements, PositionFix, fix_delay_samples
@@ -59,45 +59,32 @@ _N = 6
 _UNIFORM_SIGMA = 1.0 / math.sqrt(3.0)  # σ of a uniform range of half-width 1
 
 
+@document_fields
 @dataclass(frozen=True)
 class EkfSettings:
-    """The EKF's tuning (beliefs about what the sensor table and the vehicle file's tolerances do not say).
-
-    Parameters
-    ----------
-    slip_sigma
-        Relative σ of each wheel's travel per sample (dimensionless): slip and floor unevenness.
-    calibration_walk_sigma_per_sqrt_s
-        Random walk of each calibration state ε, 1/√s.
-    initial_position_sigma_m
-        Initial σ of x and y, m.
-    initial_heading_sigma_rad
-        Initial σ of θ, rad.
-    gate_probability
-        The chi-square quantile of the NIS (3 degrees of freedom) above which a fix is rejected; 1 turns gating off.
-    max_consecutive_rejections
-        Rejections in a row after which the next fix is applied whatever its NIS.
-    latency_compensation
-        Apply each fix at the sample it was measured and replay the travels since; ``False`` applies it on
-        arrival as if just measured.
-    history_s
-        How far back fixes are replayed, s (at least the believed latency).
-    """
+    """The EKF's tuning (beliefs about what the sensor table and the vehicle file's tolerances do not say)."""
 
     slip_sigma: float = number(ge=0, default=0.0005)
-    """Relative σ of each wheel's travel per sample: slip and floor unevenness (the simulated plant has none)."""
+    """Relative σ of each wheel's travel per sample (dimensionless): slip and floor unevenness (the simulated plant
+    has none)."""
     calibration_walk_sigma_per_sqrt_s: float = number(ge=0, default=1e-5)
-    """Random walk of ε (1/√s): keeps the filter adapting to a geometry that changes with load and wear."""
+    """Random walk of each calibration state ε, 1/√s: keeps the filter adapting to a geometry that changes with
+    load and wear."""
     initial_position_sigma_m: float = number(gt=0, default=0.005)
+    """Initial σ of x and y, m."""
     initial_heading_sigma_rad: float = number(gt=0, default=0.005)
+    """Initial σ of θ, rad."""
     gate_probability: float = number(gt=0.5, le=1.0, default=0.9999)
-    """A consistent filter rejects 1 in 10 000 good fixes; a fix 1 m off has an NIS of about 10⁴."""
+    """The chi-square quantile of the NIS (3 degrees of freedom) above which a fix is rejected; 1 turns gating off.
+    A consistent filter rejects 1 in 10 000 good fixes; a fix 1 m off has an NIS of about 10⁴."""
     max_consecutive_rejections: int = number(ge=0, default=4)
-    """Four in a row (1 s at 4 Hz) and the fifth is applied."""
+    """Rejections in a row after which the next fix is applied whatever its NIS: four (1 s at 4 Hz) and the fifth
+    is applied."""
     latency_compensation: bool = True
-    """Apply each fix at the sample it was measured and replay the travels since (buffer and replay)."""
+    """Apply each fix at the sample it was measured and replay the travels since (buffer and replay); ``False``
+    applies it on arrival as if just measured."""
     history_s: float = number(gt=0, le=60.0, default=2.0)
-    """How far back fixes are replayed (at least the believed latency); older ones are dropped (counted in
+    """How far back fixes are replayed (at least the believed latency), s; older ones are dropped (counted in
     :attr:`PoseEkf.dropped_fixes`)."""
 
     def __post_init__(self) -> None:
@@ -121,10 +108,10 @@ class PoseEkf:
 
     Parameters
     ----------
-    vehicle
+    vehicle : VehicleParams
         The controller's vehicle: its believed geometry and its tolerances (the calibration priors), and the
         sensor table (encoder resolution, gyro, fix noise and latency).
-    settings
+    settings : EkfSettings or None
         The filter's tuning: slip, calibration random walk, the initial pose covariance, gating, latency
         compensation.
     """

@@ -17,7 +17,13 @@ FloatArray = NDArray[np.float64]
 
 
 class TruthEstimator:
-    """The true pose (``localization = "truth"``)."""
+    """The true pose (``localization = "truth"``).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        Unused: the truth needs no model (the estimators share one constructor).
+    """
 
     def __init__(self, vehicle: VehicleParams) -> None:
         del vehicle  # the truth needs no model

@@ -69,8 +69,18 @@ calibration states ε, relative, and their σ;
 
 
 def read_log(path: str | Path) -> SimLog:
-    """A log written by :meth:`SimLog.to_csv` (``agvctl run``'s ``log.csv``), every column as floats. A byte-order
-    mark (Excel's "CSV UTF-8") is dropped.
+    """Read a log written by :meth:`SimLog.to_csv` (``agvctl run``'s ``log.csv``).
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file: a header naming the columns, then one row per sample. A byte-order mark (Excel's "CSV
+        UTF-8") is dropped.
+
+    Returns
+    -------
+    SimLog
+        Every column as floats.
 
     Raises
     ------
@@ -105,9 +115,23 @@ def _is_number(cell: str) -> bool:
 
 
 def resense_log(log: SimLog, vehicle: VehicleParams, *, seed: int) -> SimLog:
-    """``log`` with its sensor columns read again by ``vehicle``'s sensors with another noise ``seed``: counts from
-    the true shaft angles, gyro and fixes from the true pose. The same true run, another sensor realisation (for
-    Monte Carlo consistency checks of an estimator)."""
+    """A log with its sensor columns read again with another noise seed: the same true run, another sensor
+    realisation (for Monte Carlo consistency checks of an estimator).
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop log with the true shaft angles and pose.
+    vehicle : VehicleParams
+        The true vehicle, whose sensors read: counts from the true shaft angles, gyro and fixes from the true pose.
+    seed : int
+        The sensors' noise seed.
+
+    Returns
+    -------
+    SimLog
+        A copy of ``log`` with new sensor columns.
+    """
     sensors = Sensors(vehicle, seed=seed)
     angles = np.column_stack([log["motor_angle_left_rad"], log["motor_angle_right_rad"]])
     poses = np.column_stack([log["x_m"], log["y_m"], log["theta_rad"]])
@@ -127,7 +151,20 @@ def resense_log(log: SimLog, vehicle: VehicleParams, *, seed: int) -> SimLog:
 
 
 def log_fixes(log: SimLog, ts: float) -> list[tuple[PositionFix, ...]]:
-    """The fixes arriving at each sample of a log (from its ``fix_*`` columns), T_s = ``ts`` in s."""
+    """The fixes arriving at each sample of a log, from its ``fix_*`` columns.
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop log.
+    ts : float
+        Its sample period T_s, s.
+
+    Returns
+    -------
+    list of tuple of PositionFix
+        Per sample, the fix that arrived then (none, or one: the log keeps the last one of a sample).
+    """
     out: list[tuple[PositionFix, ...]] = []
     for t_meas, x, y, th in zip(
         log["fix_measured_t_s"], log["fix_x_m"], log["fix_y_m"], log["fix_theta_rad"], strict=True
@@ -146,7 +183,18 @@ def _start(log: SimLog) -> FloatArray:
 
 
 def log_encoder_counts(log: SimLog) -> NDArray[np.int64]:
-    """The latched counts of a log (samples × 2: left, right)."""
+    """The latched encoder counts of a log.
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop log.
+
+    Returns
+    -------
+    ndarray of int
+        Samples × 2: left, right.
+    """
     return np.column_stack([log["encoder_count_left"], log["encoder_count_right"]]).round().astype(np.int64)
 
 
@@ -166,8 +214,23 @@ def _pair(log: SimLog, name: str) -> FloatArray:
 
 
 def estimate_log(log: SimLog, vehicle: VehicleParams, localization: str | PoseEstimator = "odometry") -> SimLog:
-    """A pose estimator over a log (``t_s``, ``est_x_m``, ``est_y_m``, ``est_theta_rad``), started at the log's
-    first estimate and fed each row's readings as the loop fed them; ``vehicle`` is the believed one."""
+    """A pose estimator run over a log, started at the log's first estimate and fed each row's readings as the loop
+    fed them.
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop log with its sensor columns.
+    vehicle : VehicleParams
+        The believed vehicle.
+    localization : str or PoseEstimator
+        A name of :data:`~agvctl.estimation.registry.ESTIMATORS`, or an estimator of your own.
+
+    Returns
+    -------
+    SimLog
+        ``t_s``, ``est_x_m``, ``est_y_m``, ``est_theta_rad``.
+    """
     estimator = ESTIMATORS[localization](vehicle) if isinstance(localization, str) else localization
     estimator.reset(_start(log))
     rim_per_motor = np.array([vehicle.rim_per_motor_rad(side) for side in SIDES])
@@ -183,8 +246,22 @@ def estimate_log(log: SimLog, vehicle: VehicleParams, localization: str | PoseEs
 
 
 def wheel_speeds_log(log: SimLog, vehicle: VehicleParams, wheel_speed: str | WheelSpeedEstimator = "kalman") -> SimLog:
-    """A wheel-speed estimator over a log's counts and DA commands (``t_s``, ``omega_motor_{left,right}_rad_s``);
-    ``vehicle`` is the believed one."""
+    """A wheel-speed estimator run over a log's counts and DA commands.
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop log with its counts and DA commands.
+    vehicle : VehicleParams
+        The believed vehicle.
+    wheel_speed : str or WheelSpeedEstimator
+        A name of :data:`~agvctl.estimation.registry.WHEEL_SPEED_ESTIMATORS`, or an estimator of your own.
+
+    Returns
+    -------
+    SimLog
+        ``t_s``, ``omega_motor_left_rad_s``, ``omega_motor_right_rad_s``.
+    """
     speeds = WHEEL_SPEED_ESTIMATORS[wheel_speed](vehicle) if isinstance(wheel_speed, str) else wheel_speed
     speeds.reset()
     counts, true_omega = log_encoder_counts(log), _pair(log, "omega_motor_{}_rad_s")
@@ -209,15 +286,15 @@ def filter_log(
 
     Parameters
     ----------
-    log
+    log : SimLog
         A closed-loop log with its sensor columns (a run's ``log.csv`` through :func:`read_log`, or
         :attr:`ClosedLoopResult.log <agvctl.sim.loop.ClosedLoopResult>`).
-    vehicle
+    vehicle : VehicleParams
         The believed vehicle (what the controllers believed in the run).
-    settings
-        The EKF's tuning; default :class:`~agvctl.estimation.ekf.EkfSettings`.
-    initial_pose
-        The start (x_m, y_m, theta_rad); default the log's first estimate, as the loop did.
+    settings : EkfSettings or None
+        The EKF's tuning; None: :class:`~agvctl.estimation.ekf.EkfSettings`'s defaults.
+    initial_pose : ndarray or None
+        The start: x (m), y (m), heading (rad); None: the log's first estimate, as the loop did.
 
     Returns
     -------
@@ -249,12 +326,12 @@ def smooth_log(log: SimLog, vehicle: VehicleParams, settings: EkfSettings | None
 
     Parameters
     ----------
-    log
+    log : SimLog
         A closed-loop log with its sensor columns.
-    vehicle
+    vehicle : VehicleParams
         The believed vehicle.
-    settings
-        The EKF's tuning; default :class:`~agvctl.estimation.ekf.EkfSettings`.
+    settings : EkfSettings or None
+        The EKF's tuning; None: :class:`~agvctl.estimation.ekf.EkfSettings`'s defaults.
 
     Returns
     -------

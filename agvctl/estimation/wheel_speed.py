@@ -37,7 +37,13 @@ FloatArray = NDArray[np.float64]
 
 
 class ExactSpeed:
-    """The true motor speeds (``wheel_speed = "exact"``)."""
+    """The true motor speeds (``wheel_speed = "exact"``).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        Unused: the truth needs no model (the estimators share one constructor).
+    """
 
     def __init__(self, vehicle: VehicleParams) -> None:
         del vehicle
@@ -53,7 +59,13 @@ class ExactSpeed:
 
 
 class CountDifference:
-    """The count difference over the last sample: Δn·q/T_s (``wheel_speed = "count_difference"``)."""
+    """The count difference over the last sample: Δn·q/T_s (``wheel_speed = "count_difference"``).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle: its encoders' counts per revolution and its sample period.
+    """
 
     def __init__(self, vehicle: VehicleParams) -> None:
         self.count_rad = 2.0 * math.pi / vehicle.sensors.encoder_counts_per_rev
@@ -96,7 +108,13 @@ def _plain(system: tuple[FloatArray, FloatArray]) -> Plain:
 
 
 class KalmanWheelSpeed:
-    """A Kalman filter per motor on eqs 60-61 with a load-torque state (``wheel_speed = "kalman"``)."""
+    """A Kalman filter per motor on eqs 60-61 with a load-torque state (``wheel_speed = "kalman"``).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The estimator's model: the decoupled wheel model, the actuator chain, the encoders and the sample period.
+    """
 
     def __init__(self, vehicle: VehicleParams) -> None:
         ts = vehicle.control.sample_period_s

@@ -33,7 +33,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.config import check_fields, convert_value, did_you_mean, join_key
+from agvctl.config import check_fields, convert_value, did_you_mean, document_fields, join_key
 from agvctl.errors import ConfigError
 from agvctl.evaluation.metrics import (
     NON_FINITE_COMMAND_STATUS,
@@ -60,6 +60,7 @@ __all__ = [
 Series = Callable[[SimLog, float], NDArray[np.float64]]
 
 
+@document_fields
 @dataclass(frozen=True)
 class Limit:
     """One limit: an upper bound on a metric of :func:`~agvctl.evaluation.metrics.closed_loop_metrics`."""
@@ -67,9 +68,9 @@ class Limit:
     metric: str
     """The metric the bound applies to."""
     unit: str
-    """As printed after the value (``" m"``, ``"°"``; empty for fractions and counts)."""
+    """The metric's unit as printed after the value (``" m"``, ``"°"``; empty for fractions and counts)."""
     series: Series
-    """The per-sample signal behind the metric, from the log and T_s (s): its worst sample and the first one past
+    """The per-sample signal behind the metric, from the log and T_s in s: its worst sample and the first one past
     the bound are reported. For ``events`` limits, the per-sample flags counted or averaged."""
     timing: Literal["peak", "rms", "final", "events"]
     """How the times are reported: ``peak`` (worst = the signal's peak), ``rms`` (no first exceedance: the bound
@@ -176,6 +177,7 @@ _VALUES: dict[str, tuple[type, dict[str, float]]] = {
 }
 
 
+@document_fields
 @dataclass(frozen=True)
 class LimitsSpec:
     """``[limits]``: upper bounds by name of :data:`LIMITS` (all optional).
@@ -188,6 +190,7 @@ class LimitsSpec:
     """
 
     bounds: dict[str, float] = field(default_factory=dict)
+    """The upper bounds by limit name, each in the unit of its name (``tracking_error_max_m``: m)."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -220,7 +223,35 @@ def _bounds(data: Mapping[str, Any], *, source: str, prefix: str) -> dict[str, f
 def format_limit_message(
     limit: str, value: float, bound: float, passed: bool, worst_time_s: float | None, first_time_s: float | None
 ) -> str:
-    """``"tracking_error_max_m: 0.0012 m against the limit 0.03 m — ok"`` (with the times when violated)."""
+    """A limit's result as one readable line, as ``run`` and ``check`` print it.
+
+    Parameters
+    ----------
+    limit : str
+        The limit's name (a key of :data:`LIMITS`, whose unit is printed).
+    value : float
+        The run's value of its metric, in the limit's unit.
+    bound : float
+        The bound, in the same unit.
+    passed : bool
+        Whether the value is within the bound.
+    worst_time_s : float or None
+        When the signal was worst, s.
+    first_time_s : float or None
+        When it first went past the bound, s.
+
+    Returns
+    -------
+    str
+        ``"tracking_error_max_m: 0.0012 m against the limit 0.03 m — ok"``; a violated limit ends in
+        ``— VIOLATED`` with the times.
+
+    Examples
+    --------
+    >>> print(format_limit_message("tracking_error_max_m", 0.042, 0.03, False, 12.4, 11.9))
+    tracking_error_max_m: 0.042 m against the limit 0.03 m — VIOLATED, worst at t = 12.40 s,
+    first exceeded at t = 11.90 s
+    """
     unit = LIMITS[limit].unit if limit in LIMITS else ""
     text = f"{limit}: {value:.6g}{unit} against the limit {bound:.6g}{unit}"
     if passed:
@@ -233,18 +264,23 @@ def format_limit_message(
     return text
 
 
+@document_fields
 @dataclass(frozen=True)
 class LimitResult:
     """One limit checked on one run."""
 
     limit: str
+    """The limit's name, a key of :data:`LIMITS`."""
     bound: float
+    """The bound, in the unit of the limit's name."""
     value: float
+    """The run's value of the limit's metric, in the same unit."""
     passed: bool
+    """Whether the value is within the bound."""
     worst_time_s: float | None
-    """When the signal behind the limit was worst (None for counts that never happened)."""
+    """When the signal behind the limit was worst (None for counts that never happened), s."""
     first_time_s: float | None
-    """When the signal first went past the bound (None if it never did)."""
+    """When the signal first went past the bound (None if it never did), s."""
     default: bool = False
     """True when the bound is a default of :func:`default_limits`, not set in the file."""
     reason: str = ""
@@ -279,12 +315,15 @@ def _times(key: str, log: SimLog, bound: float, sample_period_s: float) -> tuple
     return float(t[int(np.argmax(series))]), (None if limit.timing == "rms" else first)
 
 
+@document_fields
 @dataclass(frozen=True)
 class DefaultLimit:
     """A bound of the default gate and why it is what it is."""
 
     bound: float
+    """The bound, in the unit of the limit's name."""
     reason: str
+    """Why, in one line (``"ends within 1 cm of the path's end"``)."""
 
 
 CORRIDOR_M = 0.10
@@ -294,9 +333,20 @@ CORRIDOR_BEYOND_START_M = 0.05
 
 
 def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimit]:
-    """The default gate for a run of ``vehicle`` (the controller's model) logged in ``log`` (its start's offset from
-    the path sets the corridor): the bound and reason of each default limit (see the module notes), in the order of
-    :data:`LIMITS`."""
+    """The default gate of a run (see the module notes).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The controller's model: its motors' torque sets the acceleration bound.
+    log : SimLog
+        The run's log: its start's offset from the path sets the corridor.
+
+    Returns
+    -------
+    dict of str to DefaultLimit
+        The bound and reason of each default limit, in the order of :data:`LIMITS`.
+    """
     start_offset_m = abs(float(log["cross_track_error_m"][0])) if len(log) else 0.0
     if start_offset_m + CORRIDOR_BEYOND_START_M > CORRIDOR_M:
         corridor = DefaultLimit(
@@ -326,14 +376,16 @@ def evaluate_limits(
 
     Parameters
     ----------
-    limits
+    limits : LimitsSpec
         The experiment's ``[limits]``.
-    log, metrics
-        The run's log and its :func:`~agvctl.evaluation.metrics.closed_loop_metrics`.
-    vehicle
+    log : SimLog
+        The run's log.
+    metrics : dict of str to float
+        Its :func:`~agvctl.evaluation.metrics.closed_loop_metrics`.
+    vehicle : VehicleParams
         The controller's vehicle, from which the defaults are derived (:func:`default_limits`).
-    sample_period_s
-        T_s, for the per-sample signals.
+    sample_period_s : float
+        T_s, for the per-sample signals, s.
 
     Returns
     -------
@@ -367,4 +419,16 @@ def evaluate_limits(
 
 
 def all_passed(results: list[LimitResult]) -> bool:
+    """Whether a run passes its limits: every one within its bound, and none of a metric that is NaN.
+
+    Parameters
+    ----------
+    results : list of LimitResult
+        The run's checked limits.
+
+    Returns
+    -------
+    bool
+        True if it passes (also with no limit at all).
+    """
     return all(r.passed for r in results) and not any(math.isnan(r.value) for r in results)

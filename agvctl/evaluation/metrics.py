@@ -43,17 +43,63 @@ class RunRecord(Protocol):
 
 
 def estimate_position_error_m(log: SimLog, ts: float = 0.0) -> NDArray[np.float64]:
-    """|estimated − true position| per sample (m)."""
+    """The pose estimate's position error per sample: ``|estimated − true position|``.
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop log with the estimate's and the truth's columns.
+    ts : float
+        The sample period, s (unused: the signature of a limit's series).
+
+    Returns
+    -------
+    ndarray
+        The error per sample, m.
+    """
     return np.asarray(np.hypot(log["est_x_m"] - log["x_m"], log["est_y_m"] - log["y_m"]))
 
 
 def estimate_heading_error_rad(log: SimLog, ts: float = 0.0) -> NDArray[np.float64]:
-    """|estimated − true heading| per sample, wrapped (rad)."""
+    """The pose estimate's heading error per sample: ``|estimated − true heading|``, wrapped.
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop log with the estimate's and the truth's columns.
+    ts : float
+        The sample period, s (unused: the signature of a limit's series).
+
+    Returns
+    -------
+    ndarray
+        The error per sample, rad.
+    """
     return np.asarray(np.abs(wrap_angle(log["est_theta_rad"] - log["theta_rad"])))
 
 
 def time_to_converge_s(t_s: np.ndarray, error_m: np.ndarray, threshold_m: float) -> float:
-    """The first time after which the error stays at or below ``threshold_m`` (inf if it never settles)."""
+    """The first time after which an error stays at or below a threshold.
+
+    Parameters
+    ----------
+    t_s : ndarray
+        The sample times, s.
+    error_m : ndarray
+        The error at each, m.
+    threshold_m : float
+        The threshold, m.
+
+    Returns
+    -------
+    float
+        The time, s: 0 if the error never exceeds the threshold, inf if it never settles.
+
+    Examples
+    --------
+    >>> time_to_converge_s(np.array([0.0, 1.0, 2.0, 3.0]), np.array([0.5, 0.2, 0.01, 0.0]), 0.02)
+    2.0
+    """
     above = np.nonzero(error_m > threshold_m)[0]
     if above.size == 0:
         return 0.0
@@ -62,8 +108,21 @@ def time_to_converge_s(t_s: np.ndarray, error_m: np.ndarray, threshold_m: float)
 
 
 def sample_wheel_accel_m_s2(log: SimLog, sample_period_s: float) -> NDArray[np.float64]:
-    """Each sample's larger mean rim acceleration |v(t_k) − v(t_k−1)|/T_s of the two wheels (0 at k = 0): what
-    encoders see and a payload feels over a sample, without the stiction break-away's instants inside it."""
+    """Each sample's larger mean rim acceleration ``|v(t_k) − v(t_k−1)|``/T_s of the two wheels: what encoders see and
+    a payload feels over a sample, without the stiction break-away's instants inside it.
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop or open-loop log with the wheels' rim speeds.
+    sample_period_s : float
+        T_s, s.
+
+    Returns
+    -------
+    ndarray
+        The acceleration per sample (0 at k = 0), m/s².
+    """
     speeds = np.column_stack([log["wheel_speed_left_m_s"], log["wheel_speed_right_m_s"]])
     accel = np.max(np.abs(np.diff(speeds, axis=0)), axis=1) / sample_period_s if len(speeds) > 1 else np.zeros(0)
     return np.concatenate(([0.0], accel))
@@ -74,13 +133,13 @@ JOINED_M = 0.02
 
 
 def _joined_peak(cross: np.ndarray, threshold_m: float) -> float:
-    """max |cross| from the first sample within ``threshold_m`` of the path (all samples if none is)."""
+    """max ``|cross|`` from the first sample within ``threshold_m`` of the path (all samples if none is)."""
     on = np.nonzero(np.abs(cross) <= threshold_m)[0]
     return _peak_abs(cross if on.size == 0 else cross[int(on[0]) :])
 
 
 def _peak_abs(values: np.ndarray) -> float:
-    """max |values|; NaN if any value is NaN (a run that diverged), never a silently smaller number."""
+    """max ``|values|``; NaN if any value is NaN (a run that diverged), never a silently smaller number."""
     return float(np.max(np.abs(values))) if len(values) else 0.0
 
 
@@ -102,7 +161,7 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
 
     Parameters
     ----------
-    result
+    result : ClosedLoopResult
         A closed-loop run: a :class:`~agvctl.sim.loop.ClosedLoopResult` from
         :func:`~agvctl.scenario.experiment.run_experiment` or :func:`~agvctl.sim.loop.run_closed_loop` (any record
         with its ``log``, ``solver_failures`` and ``wall_time_s``).
@@ -167,9 +226,21 @@ def _completion(log: SimLog, reference: Any) -> dict[str, float]:
 
 
 def estimate_metrics(log: SimLog) -> dict[str, float]:
-    """The pose estimate against the truth (zero with ``localization = "truth"``); with an estimator that has a
-    covariance also its mean NEES (3 degrees of freedom) and mean NIS over the fixes; with one that gates its fixes
-    the fixes rejected, dropped (older than it keeps) and applied out of order over the run."""
+    """The pose estimate against the truth over a run.
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop log with the estimate's and the truth's columns.
+
+    Returns
+    -------
+    dict of str to float
+        ``estimate_error_rms_m``, ``estimate_error_max_m`` and ``heading_estimate_error_max_deg`` (zero with
+        ``localization = "truth"``); with an estimator that has a covariance also its mean NEES (3 degrees of
+        freedom) and mean NIS over the fixes; with one that gates its fixes the fixes rejected, dropped (older
+        than it keeps) and applied out of order over the run.
+    """
     est = estimate_position_error_m(log)
     out = {
         "estimate_error_rms_m": float(np.sqrt(np.mean(est**2))),

@@ -46,6 +46,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
+from agvctl.config import document_fields
 from agvctl.planning.reference import Reference
 
 __all__ = ["PATH_LOG_COLUMNS", "PathErrors", "ReferencePath", "path_error_columns", "path_errors"]
@@ -65,18 +66,19 @@ def _wrap(angle_rad: FloatArray) -> FloatArray:
     return np.asarray((angle_rad + np.pi) % (2.0 * np.pi) - np.pi, dtype=np.float64)
 
 
+@document_fields
 @dataclass(frozen=True)
 class PathErrors:
-    """Errors of vehicle samples against the reference path; arrays of the samples' length (SI units)."""
+    """Errors of vehicle samples against the reference path; arrays of the samples' length."""
 
     cross_track_m: FloatArray
-    """Distance from the vehicle's position to the path (≥ 0)."""
+    """Distance from the vehicle's position to the path (≥ 0), m."""
     along_track_lag_m: FloatArray
-    """s_d(t) − s*: how far (arc length) the nearest path point is behind the time-indexed reference point."""
+    """s_d(t) − s*: how far (arc length) the nearest path point is behind the time-indexed reference point, m."""
     heading_error_rad: FloatArray
-    """θ − θ_path at the nearest point, wrapped to [−π, π)."""
+    """θ − θ_path at the nearest point, wrapped to [−π, π), rad."""
     path_length_m: FloatArray
-    """s*, the arc length of the nearest path point."""
+    """s*, the arc length of the nearest path point, m."""
 
 
 class ReferencePath:
@@ -246,18 +248,50 @@ def path_errors(
     *,
     spacing_m: float = 0.01,
 ) -> PathErrors:
-    """Cross-track error, along-track lag and heading error of the vehicle samples (t_s, x_m, y_m, theta_rad)
-    against the path of ``reference`` (see the module notes). Build a :class:`ReferencePath` once to evaluate
-    several runs of one reference."""
+    """Cross-track error, along-track lag and heading error of vehicle samples against a reference's path (see the
+    module notes). Build a :class:`ReferencePath` once to evaluate several runs of one reference.
+
+    Parameters
+    ----------
+    t_s : array_like
+        The samples' times, s.
+    x_m, y_m : array_like
+        The vehicle's positions, m.
+    theta_rad : array_like
+        Its headings, rad.
+    reference : Reference
+        The reference whose path (and time-indexed point) the samples are judged against.
+    spacing_m : float
+        The spacing of the polyline that stands for the path, m.
+
+    Returns
+    -------
+    PathErrors
+        The errors of each sample.
+    """
     return ReferencePath(reference, spacing_m).errors(t_s, x_m, y_m, theta_rad)
 
 
 def path_error_columns(
     t_s: ArrayLike, x_m: ArrayLike, y_m: ArrayLike, theta_rad: ArrayLike, reference: Reference
 ) -> dict[str, FloatArray]:
-    """The :data:`PATH_LOG_COLUMNS` of a run's samples against the path of ``reference`` (one k-d tree per call).
+    """The :data:`PATH_LOG_COLUMNS` of a run's samples against a reference's path (one k-d tree per call).
 
-    Samples whose pose is not finite (a run that diverged) get NaN; the others their errors as usual.
+    Parameters
+    ----------
+    t_s : array_like
+        The samples' times, s.
+    x_m, y_m : array_like
+        The vehicle's positions, m.
+    theta_rad : array_like
+        Its headings, rad.
+    reference : Reference
+        The reference.
+
+    Returns
+    -------
+    dict of str to ndarray
+        Each column by name; samples whose pose is not finite (a run that diverged) get NaN.
     """
     t, x, y, th = (np.atleast_1d(np.asarray(a, dtype=np.float64)).ravel() for a in (t_s, x_m, y_m, theta_rad))
     out = {name: np.full(len(t), np.nan) for name in PATH_LOG_COLUMNS}

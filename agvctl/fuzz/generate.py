@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from agvctl.config import dump_toml
+from agvctl.config import document_fields, dump_toml
 from agvctl.errors import ConfigError
 from agvctl.fuzz.spec import FuzzSpec, PathGenSpec, keep_stiction_above_coulomb, nominal_value
 from agvctl.params import VehicleParams
@@ -41,18 +41,21 @@ from agvctl.scenario.pose_settings import merged_settings
 __all__ = ["Scenario", "generate_scenario", "scenario_files"]
 
 
+@document_fields
 @dataclass(frozen=True)
 class Scenario:
     """One drawn scenario: the path file's data, the plant's overrides and the true start pose."""
 
     seed: int
+    """The configuration's seed."""
     index: int
+    """The scenario's number."""
     path: dict[str, Any]
     """The path file as TOML data (``segments``, ``join``, optional ``limits``)."""
     plant_set: dict[str, float]
-    """``[plant] set``: dotted vehicle keys and their true values."""
+    """``[plant] set``: dotted vehicle keys and their true values, each in the unit of its key."""
     initial_pose: dict[str, float]
-    """``[plant] initial_pose``: ``x_m``, ``y_m``, ``theta_deg``."""
+    """``[plant] initial_pose``: ``x_m`` and ``y_m`` in m, ``theta_deg`` in °."""
     sensor_seed: int = 0
     """``[plant] sensor_seed``: the true sensors' noise."""
     estimators: dict[str, str] = field(default_factory=dict)
@@ -124,12 +127,22 @@ def generate_scenario(spec: FuzzSpec, vehicle: VehicleParams, index: int) -> Sce
 
     Parameters
     ----------
-    spec
+    spec : FuzzSpec
         The fuzz configuration (:func:`~agvctl.fuzz.spec.load_fuzz_config`).
-    vehicle
+    vehicle : VehicleParams
         The nominal vehicle (the configuration's): the plant's nominal values and the physical limits.
-    index
+    index : int
         The scenario's number, 0 ≤ index.
+
+    Returns
+    -------
+    Scenario
+        The scenario.
+
+    Raises
+    ------
+    ValueError
+        A negative index.
     """
     if index < 0:
         raise ValueError(f"index must be >= 0 (got {index})")
@@ -155,8 +168,23 @@ def generate_scenario(spec: FuzzSpec, vehicle: VehicleParams, index: int) -> Sce
 
 
 def scenario_files(spec: FuzzSpec, scenario: Scenario, controller: str) -> dict[str, str]:
-    """The path file and the experiment file of ``scenario`` run with ``controller``, as ``{file name: TOML text}``
-    (the path file first). Written side by side, ``agvctl run <experiment file>`` runs the scenario."""
+    """The path file and the experiment file of a scenario run with a pose controller.
+
+    Parameters
+    ----------
+    spec : FuzzSpec
+        The fuzz configuration the scenario was drawn from.
+    scenario : Scenario
+        The scenario.
+    controller : str
+        The pose controller's name.
+
+    Returns
+    -------
+    dict of str to str
+        ``{file name: TOML text}``, the path file first. Written side by side, ``agvctl run <experiment file>``
+        runs the scenario.
+    """
     path_name = f"{scenario.name}.path.toml"
     exp_name = f"{scenario.name}_{controller}.toml"
     origin = f"fuzz scenario {scenario.index} of seed {scenario.seed} ({spec.source})"

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from agvctl.checks.junit import JUnitCase, JUnitSuite, junit_suites
+from agvctl.config import document_fields
 from agvctl.evaluation.limits import LimitResult
 from agvctl.fileio import json_safe
 from agvctl.fuzz.spec import FuzzSpec
@@ -37,27 +38,35 @@ COMPARISON_TOLERANCE_M = 0.001
 this much larger. Below it, differences come from stiction break-away and solver tolerances, not from tracking."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class FuzzTask:
     """One scenario with one pose controller: its files, the path file first, the experiment file last."""
 
     scenario: int
+    """The scenario's number."""
     name: str
     """The scenario's name (``s<seed>_<index>``)."""
     controller: str
+    """The pose controller's name."""
     files: tuple[tuple[str, str], ...]
     """``(file name, TOML text)`` pairs."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class FuzzOutcome:
     """What a run sends back (no log)."""
 
     scenario: int
+    """The scenario's number."""
     controller: str
+    """The pose controller's name."""
     passed: bool
+    """Whether the run was completed and kept every limit."""
     metrics: dict[str, float]
-    """:func:`~agvctl.evaluation.metrics.closed_loop_metrics` (empty if the run crashed)."""
+    """:func:`~agvctl.evaluation.metrics.closed_loop_metrics`, each in the unit of its name (empty if the run
+    crashed)."""
     limits: tuple[LimitResult, ...]
     """The configuration's limits and the default ``non_finite_commands`` check (not the default a_lim check)."""
     error: str | None
@@ -65,7 +74,9 @@ class FuzzOutcome:
     warnings: tuple[str, ...]
     """The warnings the run issued (one line each, deduplicated)."""
     wall_time_s: float
+    """The run's wall time, s."""
     simulated_s: float
+    """The simulated time, s."""
 
     @property
     def reasons(self) -> list[str]:
@@ -88,14 +99,19 @@ def _percentiles(values: np.ndarray) -> dict[str, float | None]:
     return out
 
 
+@document_fields
 @dataclass
 class FuzzReport:
     """A fuzz run: the configuration, every task and its outcome (same order), and the wall time."""
 
     spec: FuzzSpec
+    """The configuration."""
     tasks: list[FuzzTask]
+    """Every task."""
     outcomes: list[FuzzOutcome]
+    """Every task's outcome, in the order of the tasks."""
     wall_time_s: float
+    """The whole run's wall time, s."""
 
     @property
     def passed(self) -> bool:

@@ -2,7 +2,7 @@
 
 :func:`fuzz` draws every scenario in this process (:mod:`agvctl.fuzz.generate`; scenario i of seed s from
 (s, i) alone), turns each into its path and experiment files (one per controller) and sends them to the executor
-of ``agvctl check`` (:func:`agvctl.checks.runner.open_executor`: this process, spawned local processes or a
+of ``agvctl check`` (:func:`agvctl.checks.executors.open_executor`: this process, spawned local processes or a
 Dask cluster). A worker writes the files into a temporary directory, loads them with
 :func:`~agvctl.scenario.experiment.load_experiment` — exactly what ``agvctl run`` does with the written-out file — runs
 the closed loop and returns the metrics and the verdicts of the gate ``agvctl check`` applies: the default gate
@@ -33,7 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from agvctl.checks.runner import ExecutorKind, execute, open_executor, resolved_jobs
+from agvctl.checks.executors import ExecutorKind, execute, open_executor, resolved_jobs
+from agvctl.config import document_fields
 from agvctl.errors import ConfigError, exception_line
 from agvctl.evaluation.limits import LimitResult, evaluate_limits
 from agvctl.evaluation.metrics import closed_loop_metrics
@@ -82,8 +83,20 @@ def _non_finite(log: SimLog, metrics: dict[str, float]) -> str | None:
 
 
 def run_fuzz_task(task: FuzzTask) -> FuzzOutcome:
-    """Run one scenario with one controller (in this process): write its files, load, run, judge. Never raises
-    for a failing run: a crash or a non-finite value is reported in the outcome. Module-level so it pickles."""
+    """Run one scenario with one controller in this process: write its files, load, run, judge. Module-level so it
+    pickles.
+
+    Parameters
+    ----------
+    task : FuzzTask
+        The run.
+
+    Returns
+    -------
+    FuzzOutcome
+        Its metrics and verdicts; a crash or a non-finite value is reported in it (this never raises for a failing
+        run).
+    """
     t0 = time.perf_counter()
     metrics: dict[str, float] = {}
     limits: tuple[LimitResult, ...] = ()
@@ -124,7 +137,7 @@ def run_fuzz_task(task: FuzzTask) -> FuzzOutcome:
 def run_fuzz_tasks(
     pool: Executor, tasks: Sequence[FuzzTask], progress: Callable[[int, int], None] | None = None
 ) -> list[FuzzOutcome]:
-    """Run ``tasks`` on an executor of :func:`~agvctl.checks.runner.open_executor`, outcomes in the order of
+    """Run ``tasks`` on an executor of :func:`~agvctl.checks.executors.open_executor`, outcomes in the order of
     ``tasks``; a run its worker could not return is an outcome with its error, as in :func:`fuzz`.
 
     Parameters
@@ -144,12 +157,15 @@ def run_fuzz_tasks(
     return execute(pool, run_fuzz_task, tasks, progress, on_error=_lost_run)
 
 
+@document_fields
 @dataclass(frozen=True)
 class FuzzRun:
     """The work of a fuzz configuration: its scenarios' tasks, (scenario, controller) in order."""
 
     spec: FuzzSpec
+    """The configuration."""
     tasks: list[FuzzTask]
+    """One task per scenario and controller."""
 
 
 def _check_indices(scenarios: Sequence[int]) -> None:
@@ -169,10 +185,24 @@ def _check_indices(scenarios: Sequence[int]) -> None:
 
 
 def fuzz_tasks(spec: FuzzSpec, scenarios: Sequence[int] | None = None) -> FuzzRun:
-    """Draw the scenarios (default: ``range(spec.scenarios)``) and make one task per scenario and controller.
+    """Draw the scenarios and make one task per scenario and controller, before anything runs.
 
-    Everything is drawn and validated here, before anything runs; no scenario at all, a negative index or a
-    scenario outside the envelope's valid vehicles raises a one-line :class:`ConfigError`.
+    Parameters
+    ----------
+    spec : FuzzSpec
+        The configuration.
+    scenarios : sequence of int or None
+        Only these scenario indices (None: ``range(spec.scenarios)``).
+
+    Returns
+    -------
+    FuzzRun
+        The tasks, for :func:`run_fuzz`.
+
+    Raises
+    ------
+    ConfigError
+        No scenario at all, a negative index, or a configuration that does not fit its vehicle, in one line.
     """
     if not isinstance(spec, FuzzSpec):
         raise ConfigError("fuzz", "spec", f"expected a FuzzSpec (got {spec!r})")
@@ -203,18 +233,18 @@ def fuzz(
 
     Parameters
     ----------
-    spec
+    spec : FuzzSpec
         From :func:`~agvctl.fuzz.spec.load_fuzz_config`.
-    jobs
+    jobs : int or None
         Local worker processes (default: all cores); one job runs in this process. With
         ``executor="dask"`` and no scheduler: the local Dask cluster's workers.
-    executor
+    executor : {'local', 'dask'}
         ``"local"``, or ``"dask"`` to send the runs to the Dask scheduler at ``scheduler``.
-    scheduler
+    scheduler : str or None
         The Dask scheduler's address (``tcp://host:8786``); ``None`` with ``executor="dask"``: a local cluster.
-    scenarios
-        Only these scenario indices (default: ``range(spec.scenarios)``); each is the same as in a full run.
-    progress
+    scenarios : sequence of int or None
+        Only these scenario indices (None: ``range(spec.scenarios)``); each is the same as in a full run.
+    progress : callable or None
         Called as ``progress(done, total)`` in this thread after each run.
 
     Returns
@@ -227,9 +257,11 @@ def fuzz(
     ConfigError
         On bad input, before any run: a configuration that does not fit its vehicle, scenario indices that are
         not a non-empty sequence of integers >= 0, or an option out of its range (``jobs`` 1 to
-        :data:`~agvctl.checks.runner.MAX_JOBS`, ``executor``, a ``scheduler`` that is not an address, a
+        :data:`~agvctl.checks.executors.MAX_JOBS`, ``executor``, a ``scheduler`` that is not an address, a
         ``progress`` that is not callable).
 
+    Notes
+    -----
     From a script, call this under ``if __name__ == "__main__":`` (local workers are spawned processes, which
     import the calling script again).
     """
@@ -247,8 +279,34 @@ def run_fuzz(
     progress: Callable[[int, int], None] | None = None,
     t0: float | None = None,
 ) -> FuzzReport:
-    """Run the tasks of :func:`fuzz_tasks` (drawn already, so their files can be checked first): :func:`fuzz`'s
-    second half, with its options; ``t0``, a :func:`time.perf_counter` reading, starts the report's wall time."""
+    """Run the tasks of :func:`fuzz_tasks`, drawn already so that their files can be checked first: :func:`fuzz`'s
+    second half.
+
+    Parameters
+    ----------
+    work : FuzzRun
+        The tasks.
+    jobs : int or None
+        As :func:`fuzz`'s.
+    executor : {'local', 'dask'}
+        As :func:`fuzz`'s.
+    scheduler : str or None
+        As :func:`fuzz`'s.
+    progress : callable or None
+        As :func:`fuzz`'s.
+    t0 : float or None
+        A :func:`time.perf_counter` reading, s: the report's wall time starts there (None: now).
+
+    Returns
+    -------
+    FuzzReport
+        Every run's outcome.
+
+    Raises
+    ------
+    ConfigError
+        An option out of its range.
+    """
     t0 = time.perf_counter() if t0 is None else t0
     jobs = resolved_jobs(jobs, executor, scheduler, progress)
     spec = work.spec

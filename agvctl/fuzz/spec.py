@@ -71,19 +71,29 @@ from agvctl.config import (
     check_key,
     check_plain_name,
     convert_value,
+    document_fields,
     join_key,
     load_toml,
     number,
 )
 from agvctl.controllers.registry import POSE_CONTROLLERS
 from agvctl.errors import ConfigError
-from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
 from agvctl.evaluation.limits import LimitsSpec
+from agvctl.fuzz.tables import (
+    DEFAULT_ENVELOPE,
+    EstimatorsSpec,
+    PathGenSpec,
+    Range,
+    StartSpec,
+    _ordered,
+    keep_stiction_above_coulomb,
+    nominal_value,
+)
 from agvctl.params import VehicleParams, load_vehicle
 from agvctl.scenario.pose_settings import load_settings_table, merged_settings
 from agvctl.scenario.spec import ControllerSpec
 
-__all__ = [
+__all__ = [  # the tables under the top level are agvctl.fuzz.tables's, and still importable from here
     "DEFAULT_ENVELOPE",
     "EstimatorsSpec",
     "FuzzSpec",
@@ -96,166 +106,11 @@ __all__ = [
     "override_fuzz_config",
 ]
 
-Range = tuple[float, float]
 
-DEFAULT_ENVELOPE: dict[str, Range] = {
-    "wheels.left.radius_m": (-0.01, 0.01),
-    "wheels.right.radius_m": (-0.01, 0.01),
-    "wheels.separation_m": (-0.02, 0.02),
-    "body.mass_kg": (-0.10, 0.30),
-    "motor.left.coulomb_friction_n_m": (-0.5, 0.5),
-    "motor.left.stiction_n_m": (-0.5, 0.5),
-    "motor.right.coulomb_friction_n_m": (-0.5, 0.5),
-    "motor.right.stiction_n_m": (-0.5, 0.5),
-}
-"""The declared plant envelope: each value drawn uniformly in nominal · (1 + [low, high]), each side on its own
-(the generator keeps stiction ≥ Coulomb friction, see :mod:`agvctl.fuzz.generate`)."""
-
-
-def _ordered(
-    value: Sequence[float], source: str, key: str, *, low: float | None = None, high: float | None = None
-) -> None:
-    """A [low, high] range: two numbers, low <= high, within the bounds given."""
-    if len(value) != 2:
-        raise ConfigError(source, key, f"expected [low, high] (got {len(value)} numbers)")
-    lo, hi = value
-    if lo > hi:
-        raise ConfigError(source, key, f"low {lo:g} is above high {hi:g}")
-    if low is not None and lo < low:
-        raise ConfigError(source, key, f"must be >= {low:g} (got {lo:g})")
-    if high is not None and hi > high:
-        raise ConfigError(source, key, f"must be <= {high:g} (got {hi:g})")
-
-
-@dataclass(frozen=True)
-class PathGenSpec:
-    """``[paths]``: how random paths are drawn (lengths in m, angles in degrees, fractions in [0, 1]).
-
-    Raises
-    ------
-    ConfigError
-        ``PathGenSpec: <argument>: <problem>``: a range that is not ``(low, high)`` with low <= high within its
-        bounds, or an unknown segment type or join.
-    """
-
-    segments: tuple[int, ...] = (2, 6)
-    segment_types: tuple[str, ...] = ("line", "arc", "turn")
-    line_length_m: tuple[float, ...] = (0.3, 2.5)
-    arc_radius_m: tuple[float, ...] = (0.3, 1.5)
-    arc_angle_deg: tuple[float, ...] = (20.0, 180.0)
-    turn_angle_deg: tuple[float, ...] = (20.0, 180.0)
-    join: tuple[str, ...] = ("smooth", "stop")
-    explicit_limits_fraction: float = number(ge=0.0, le=1.0, default=0.5)
-    wheel_speed_fraction: tuple[float, ...] = (0.3, 1.0)
-    wheel_accel_fraction: tuple[float, ...] = (0.3, 1.0)
-
-    def __post_init__(self) -> None:
-        check_fields(self)
-        self.validate(source=type(self).__name__, prefix="")
-
-    def validate(self, *, source: str, prefix: str) -> None:
-        def k(name: str) -> str:
-            return join_key(prefix, name)
-
-        _ordered(self.segments, source, k("segments"), low=1, high=100)
-        _ordered(self.line_length_m, source, k("line_length_m"), low=1e-3, high=1000)
-        _ordered(self.arc_radius_m, source, k("arc_radius_m"), low=1e-3, high=1000)
-        _ordered(self.arc_angle_deg, source, k("arc_angle_deg"), low=0.1, high=3600)
-        _ordered(self.turn_angle_deg, source, k("turn_angle_deg"), low=0.1, high=3600)
-        for name in ("wheel_speed_fraction", "wheel_accel_fraction"):
-            _ordered(getattr(self, name), source, k(name), low=1e-3, high=1.0)
-        for name, allowed in (("segment_types", ("line", "arc", "turn")), ("join", ("smooth", "stop"))):
-            values = getattr(self, name)
-            if not values:
-                raise ConfigError(source, k(name), f"give at least one of {', '.join(map(repr, allowed))}")
-            for i, v in enumerate(values):
-                if v not in allowed:
-                    raise ConfigError(
-                        source, f"{k(name)}[{i}]", f"must be one of {', '.join(map(repr, allowed))} (got {v!r})"
-                    )
-
-
-@dataclass(frozen=True)
-class StartSpec:
-    """``[start]``: how far the true start pose is off the path's start, at most (uniform in distance, direction
-    and heading)."""
-
-    offset_max_m: float = number(ge=0.0, le=10.0, default=0.05)
-    heading_max_deg: float = number(ge=0.0, le=180.0, default=5.0)
-
-    def __post_init__(self) -> None:
-        check_fields(self)
-
-
-@dataclass(frozen=True)
-class EstimatorsSpec:
-    """``[estimators]``: the pose and wheel-speed estimators each scenario draws one of (uniformly); an empty list
-    draws none (the ``[controller]`` table's, or the default)."""
-
-    localization: tuple[str, ...] = ()
-    wheel_speed: tuple[str, ...] = ()
-
-    def __post_init__(self) -> None:
-        check_fields(self)
-        self.validate(source=type(self).__name__, prefix="")
-
-    def validate(self, *, source: str, prefix: str) -> None:
-        for name, table in (("localization", ESTIMATORS), ("wheel_speed", WHEEL_SPEED_ESTIMATORS)):
-            for i, value in enumerate(getattr(self, name)):
-                if value not in table:
-                    allowed = ", ".join(map(repr, table))
-                    raise ConfigError(
-                        source, f"{join_key(prefix, name)}[{i}]", f"must be one of {allowed} (got {value!r})"
-                    )
-
-    def items(self) -> list[tuple[str, tuple[str, ...]]]:
-        """The ``[controller]`` keys drawn, with their choices."""
-        return [(name, getattr(self, name)) for name in ("localization", "wheel_speed") if getattr(self, name)]
-
-
-def nominal_value(vehicle: VehicleParams, key: str) -> float | None:
-    """The value of a dotted vehicle key (``"motor.left.stiction_n_m"``), or None if it names no number."""
-    node: Any = vehicle
-    for part in key.split("."):
-        if not dataclasses.is_dataclass(node) or part not in {f.name for f in dataclasses.fields(node)}:
-            return None
-        node = getattr(node, part)
-    if isinstance(node, bool) or not isinstance(node, float):
-        return None
-    return node
-
-
-def _side_value(values: Mapping[str, float], vehicle: VehicleParams, side: str, what: str) -> float:
-    for key in (f"motor.{side}.{what}", f"motor.{what}"):
-        if key in values:
-            return values[key]
-    nominal = nominal_value(vehicle, f"motor.{side}.{what}")
-    assert nominal is not None
-    return nominal
-
-
-def keep_stiction_above_coulomb(values: Mapping[str, float], vehicle: VehicleParams) -> dict[str, float]:
-    """Plant overrides with stiction at or above Coulomb friction on each side: where the Coulomb friction
-    exceeds the stiction, the two side values are exchanged if both are given, else the side's stiction is raised
-    to the Coulomb friction."""
-    out = dict(values)
-    for side in ("left", "right"):
-        coulomb = _side_value(out, vehicle, side, "coulomb_friction_n_m")
-        stiction = _side_value(out, vehicle, side, "stiction_n_m")
-        if coulomb <= stiction:
-            continue
-        c_key, s_key = f"motor.{side}.coulomb_friction_n_m", f"motor.{side}.stiction_n_m"
-        if c_key in out and s_key in out:
-            out[c_key], out[s_key] = out[s_key], out[c_key]
-        else:
-            out[s_key] = coulomb
-    return out
-
-
+@document_fields
 @dataclass(frozen=True)
 class FuzzSpec:
-    """A fuzz configuration, validated (see the module notes). ``plant`` maps dotted vehicle keys to relative
-    ranges; ``controller`` holds the extra ``[controller]`` keys of every run.
+    """A fuzz configuration, validated (see the module notes).
 
     Made in Python, it checks its fields as the file's loader does; what depends on the vehicle (the envelope's
     keys, the controller table) is checked by :func:`check_against_vehicle` when the scenarios are drawn.
@@ -266,18 +121,28 @@ class FuzzSpec:
         ``FuzzSpec: <argument>: <problem>``, e.g. ``FuzzSpec: controllers[0]: must be one of 'mpc', …``.
     """
 
-    seed: int = number(ge=0)
-    scenarios: int = number(ge=1, le=1_000_000)
+    seed: int = number(ge=0, doc="The seed: scenario i of seed s depends on (s, i) alone.")
+    scenarios: int = number(ge=1, le=1_000_000, doc="How many scenarios to draw.")
     controllers: tuple[str, ...] = ("mpc",)
+    """Names of :data:`~agvctl.controllers.registry.POSE_CONTROLLERS`, each once; the first is compared with the
+    others."""
     name: str = ""
+    """A plain name, for ``out/fuzz/<name>`` (``""``: the file's stem)."""
     vehicle: str = "default"
-    settle_s: float = number(ge=0.0, le=600.0, default=3.0)
+    """The controllers' nominal vehicle: ``"default"`` or a vehicle file."""
+    settle_s: float = number(ge=0.0, le=600.0, default=3.0, doc="Each run's time after the reference ends, s.")
     paths: PathGenSpec = dataclasses.field(default_factory=PathGenSpec)
+    """``[paths]``: how paths are drawn."""
     start: StartSpec = dataclasses.field(default_factory=StartSpec)
+    """``[start]``: how far the true start is off the path's."""
     plant: dict[str, Range] = dataclasses.field(default_factory=lambda: dict(DEFAULT_ENVELOPE))
+    """``[plant]``: the envelope, relative ranges by dotted vehicle key (default :data:`DEFAULT_ENVELOPE`)."""
     controller: dict[str, Any] = dataclasses.field(default_factory=dict)
+    """``[controller]``: more keys for every run's ``[controller]`` table."""
     estimators: EstimatorsSpec = dataclasses.field(default_factory=EstimatorsSpec)
+    """``[estimators]``: the estimators each scenario draws from."""
     limits: LimitsSpec = dataclasses.field(default_factory=LimitsSpec)
+    """``[limits]``: bounds over the default gate's, as in an experiment file."""
     pose_settings: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
     """Per controller, the settings of its settings file, under the ``controller`` keys of every run."""
     search: dict[str, Any] = dataclasses.field(default_factory=dict)
@@ -285,6 +150,7 @@ class FuzzSpec:
     objective: dict[str, Any] = dataclasses.field(default_factory=dict)
     """``[objective]``, as in the file: read by :mod:`agvctl.tuning`."""
     source: str = dataclasses.field(default="FuzzSpec", metadata={"derived": True})
+    """The file it was read from, as errors name it."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -342,13 +208,23 @@ def _range(value: Any, source: str, key: str) -> Range:
 
 
 def check_against_vehicle(spec: FuzzSpec, vehicle: VehicleParams) -> None:
-    """Check ``spec`` against the vehicle it names: every envelope key a number of the vehicle, each range's ends a
-    valid vehicle, the controller table valid for every controller, a finite top speed.
+    """Check a fuzz configuration against the vehicle it names.
+
+    Every envelope key must be a number of the vehicle, each range's ends a valid vehicle, the controller table
+    valid for every controller, and the top speed finite.
+
+    Parameters
+    ----------
+    spec : FuzzSpec
+        The configuration.
+    vehicle : VehicleParams
+        The vehicle it names.
 
     Raises
     ------
     ConfigError
-        One line naming ``spec.source`` (the file, or ``FuzzSpec`` for one made in Python) and the key."""
+        One line naming ``spec.source`` (the file, or ``FuzzSpec`` for one made in Python) and the key.
+    """
     src = spec.source
     if not math.isfinite(vehicle.derived.max_speed_m_s):
         raise ConfigError(src, "vehicle", "the vehicle has no finite top speed")
@@ -384,7 +260,7 @@ def load_fuzz_config(path: str | Path) -> FuzzSpec:
 
     Parameters
     ----------
-    path
+    path : str or Path
         The fuzz configuration (TOML).
 
     Returns
@@ -417,8 +293,29 @@ def override_fuzz_config(
     scenarios: int | None = None,
     controllers: Sequence[str] | None = None,
 ) -> FuzzSpec:
-    """``spec`` with the seed, the number of scenarios or the controllers replaced (the command line's options),
-    validated as in the file; errors name the option."""
+    """A fuzz configuration with the command line's options in place of its values, validated as in the file.
+
+    Parameters
+    ----------
+    spec : FuzzSpec
+        The configuration.
+    seed : int or None
+        A new seed (None: keep the file's).
+    scenarios : int or None
+        A new number of scenarios.
+    controllers : sequence of str or None
+        New pose controllers.
+
+    Returns
+    -------
+    FuzzSpec
+        The configuration with them.
+
+    Raises
+    ------
+    ConfigError
+        A value out of range, naming the option (``--seed``, ``--scenarios``, ``--controllers``).
+    """
     if seed is not None and seed < 0:
         raise ConfigError("--seed", "", f"must be >= 0 (got {seed})")
     if scenarios is not None and not 1 <= scenarios <= 1_000_000:

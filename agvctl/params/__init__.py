@@ -1,8 +1,10 @@
 """Vehicle parameters (the report's appendix A) and the constants derived from them.
 
-* :mod:`agvctl.params.schema` — the vehicle file's tables as frozen dataclasses, :func:`load_vehicle`, and
+* :mod:`agvctl.params.schema` — the vehicle of all the file's tables, :func:`load_vehicle`, and
   :func:`derive`, which computes a vehicle's derived constants (eqs 5, 47-51, 60-64) once per parameter set
   (``vehicle.derived``).
+* :mod:`agvctl.params.tables` — the tables that come once per vehicle (frame, body, amplifier, …) as frozen
+  dataclasses.
 * :mod:`agvctl.params.sides` — the tables that come once per side, wheels and motors: common values with
   ``left`` / ``right`` overrides.
 * :mod:`agvctl.params.derived` — the equations of the derived constants, for numbers and CasADi symbols alike,
@@ -20,7 +22,9 @@ from agvctl.params.derived import (
     motor_from_rim,
     rim_from_motor,
 )
-from agvctl.params.schema import (
+from agvctl.params.schema import VehicleParams, default_vehicle_path, derive, load_vehicle
+from agvctl.params.sides import SIDES, MotorPair, MotorParams, WheelParams, WheelSide
+from agvctl.params.tables import (
     AmplifierParams,
     BatteryParams,
     BodyParams,
@@ -29,14 +33,9 @@ from agvctl.params.schema import (
     FrameParams,
     FrictionModelParams,
     SensorParams,
-    VehicleParams,
-    default_vehicle_path,
-    derive,
     inertia_from_dimensions,
     inertia_rotation_point,
-    load_vehicle,
 )
-from agvctl.params.sides import SIDES, MotorPair, MotorParams, WheelParams, WheelSide
 
 __all__ = [
     "AmplifierParams",

@@ -1,11 +1,12 @@
-"""The vehicle file's schema (the report's appendix A): one frozen dataclass per table, the loader, and the
+"""The vehicle file's schema (the report's appendix A): the vehicle of all its tables, the loader, and the
 derived constants of a vehicle.
 
 A vehicle file is TOML with the tables ``frame``, ``battery``, ``body``, ``wheels`` and ``motor`` (each with
 optional ``left`` / ``right`` overrides, :mod:`agvctl.params.sides`), ``amplifier``, ``da``, ``friction_model``,
-``control`` and ``sensors``; see ``agvctl/vehicles/iau_agv.toml``. :func:`load_vehicle` reads one (or the
-default), applies ``--set`` style overrides and returns a frozen :class:`VehicleParams`; :func:`derive` computes
-its :attr:`VehicleParams.derived` by the equations of :mod:`agvctl.params.derived`.
+``control`` and ``sensors`` (:mod:`agvctl.params.tables`); see ``agvctl/vehicles/iau_agv.toml``.
+:func:`load_vehicle` reads one (or the default), applies ``--set`` style overrides and returns a frozen
+:class:`VehicleParams`; :func:`derive` computes its :attr:`VehicleParams.derived` by the equations of
+:mod:`agvctl.params.derived`.
 
 Units are SI throughout and are part of every key's name.
 """
@@ -18,11 +19,11 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
-from agvctl.config import apply_overrides, build, check_fields, join_key, load_toml, number, parse_override, to_dict
+from agvctl.config import apply_overrides, build, document_fields, load_toml, parse_override, to_dict
 from agvctl.errors import ConfigError
 from agvctl.params.derived import (
     DerivedConstants,
@@ -35,8 +36,20 @@ from agvctl.params.derived import (
     rim_from_motor,
 )
 from agvctl.params.sides import MotorPair, MotorParams, WheelParams
+from agvctl.params.tables import (
+    AmplifierParams,
+    BatteryParams,
+    BodyParams,
+    ControlParams,
+    DAParams,
+    FrameParams,
+    FrictionModelParams,
+    SensorParams,
+    inertia_from_dimensions,
+    inertia_rotation_point,
+)
 
-__all__ = [
+__all__ = [  # the once-per-vehicle tables are agvctl.params.tables's, and still importable from here
     "AmplifierParams",
     "BatteryParams",
     "BodyParams",
@@ -57,8 +70,6 @@ __all__ = [
     "load_vehicle",
 ]
 
-InertiaAbout = Literal["rotation_point", "center_of_mass"]
-
 MAX_SAMPLES_PER_RUN = 10_000_000
 """The most control samples one run may take — a planned reference, an open-loop or a closed-loop simulation:
 10^7, 4.6 days at 40 ms. A closed-loop log holds about a hundred columns of 8 bytes, so some 8 GB at the bound."""
@@ -71,6 +82,17 @@ MAX_PLANT_SUBSTEPS = 4096
 def check_sample_count(samples: float, source: str, key: str, what: str) -> None:
     """Refuse a run of more than :data:`MAX_SAMPLES_PER_RUN` samples before anything is allocated for it.
 
+    Parameters
+    ----------
+    samples : float
+        The samples the run would take (a float: a duration over a period may be huge or infinite).
+    source : str
+        What the error names as the file or function.
+    key : str
+        The key or argument that sets the run's length.
+    what : str
+        The run, as the message names it (``"the reference"``).
+
     Raises
     ------
     ConfigError
@@ -82,149 +104,36 @@ def check_sample_count(samples: float, source: str, key: str, what: str) -> None
         )
 
 
-@dataclass(frozen=True)
-class FrameParams:
-    """The vehicle frame (appendix A, "Frame dimensions")."""
-
-    length_m: float = number(gt=0)
-    width_m: float = number(gt=0)
-    height_m: float = number(gt=0)
-    mass_kg: float = number(gt=0)
-    front_to_rotation_point_m: float = number(ge=0, doc="d_of (l_of in eq 64)")
-    wheel_axis_to_castor_m: float = number(gt=0, doc="d_wc (eq 63)")
-
-    def __post_init__(self) -> None:
-        check_fields(self)
-
-
-@dataclass(frozen=True)
-class BatteryParams:
-    """The battery block, centred over the point of rotation (appendix A.1)."""
-
-    length_m: float = number(gt=0)
-    width_m: float = number(gt=0)
-    height_m: float = number(gt=0)
-    mass_kg: float = number(gt=0)
-
-    def __post_init__(self) -> None:
-        check_fields(self)
-
-
-@dataclass(frozen=True)
-class BodyParams:
-    """Total mass M, moment of inertia I and centre of mass h behind the wheel axle."""
-
-    mass_kg: float = number(gt=0)
-    inertia_kg_m2: float = number(gt=0)
-    com_behind_axle_m: float = number()
-    inertia_about: InertiaAbout = "rotation_point"
-
-    def __post_init__(self) -> None:
-        check_fields(self)
-
-
-@dataclass(frozen=True)
-class AmplifierParams:
-    """Power amplifier: gain k_pow, and its voltage and current limits (model note 9, docs/model-notes.md)."""
-
-    gain: float = number(gt=0, doc="k_pow")
-    current_limit_a: float = number(gt=0, doc="I_max")
-    voltage_limit_v: float = number(gt=0, doc="u_max")
-
-    def __post_init__(self) -> None:
-        check_fields(self)
-
-
-@dataclass(frozen=True)
-class DAParams:
-    """DA converter: output range and resolution."""
-
-    min_v: float = number()
-    max_v: float = number()
-    bits: int = number(gt=0, le=32)
-
-    def __post_init__(self) -> None:
-        check_fields(self)
-
-    def validate(self, *, source: str, prefix: str) -> None:
-        if not self.min_v < self.max_v:
-            raise ConfigError(
-                source, join_key(prefix, "min_v"), f"must be below max_v (got {self.min_v:g} >= {self.max_v:g})"
-            )
-
-    @property
-    def volts_per_code(self) -> float:
-        """alpha_DA = (max_v - min_v) / 2**bits (10 V / 4096 = 2.44140625e-3 V for the default)."""
-        return float(self.max_v - self.min_v) / float(1 << self.bits)
-
-    @property
-    def code_min(self) -> int:
-        return -(1 << (self.bits - 1))
-
-    @property
-    def code_max(self) -> int:
-        return (1 << (self.bits - 1)) - 1
-
-    @property
-    def mid_v(self) -> float:
-        return 0.5 * (self.min_v + self.max_v)
-
-
-@dataclass(frozen=True)
-class FrictionModelParams:
-    """The pre-velocity friction model's gain factor: P = p_factor * (k_e k_t + f_m R) / R (eq 62)."""
-
-    p_factor: float = number(gt=0, default=10.0)
-
-    def __post_init__(self) -> None:
-        check_fields(self)
-
-
-@dataclass(frozen=True)
-class SensorParams:
-    """The vehicle's sensors (docs/guide/estimation.md): incremental encoders on the motor shafts, an
-    optional rate gyro, and absolute position fixes from a beacon/laser system. Under ``[plant] set`` these are
-    the true sensors; in the vehicle file they are what the estimators believe."""
-
-    encoder_counts_per_rev: int = number(gt=0, default=2000, doc="counts per motor revolution after quadrature")
-    gyro_enabled: bool = False
-    gyro_sigma_rad_s: float = number(ge=0, default=0.002, doc="white noise of each sample's mean rate")
-    gyro_bias_rad_s: float = number(default=0.0, doc="constant bias of the reading")
-    gyro_quantum_rad_s: float = number(ge=0, default=0.0008, doc="resolution of the reading (0: none)")
-    position_fix_rate_hz: float = number(ge=0, default=4.0, doc="0: no fixes")
-    position_fix_sigma_m: float = number(gt=0, default=0.01)
-    heading_fix_sigma_deg: float = number(gt=0, default=0.5)
-    position_fix_latency_s: float = number(ge=0, le=10.0, default=0.05)
-
-    def __post_init__(self) -> None:
-        check_fields(self)
-
-
-@dataclass(frozen=True)
-class ControlParams:
-    """Digital control: the sample period T_s."""
-
-    sample_period_s: float = number(ge=1e-4, le=1.0, doc="0.1 ms … 1 s")
-
-    def __post_init__(self) -> None:
-        check_fields(self)
-
-
+@document_fields
 @dataclass(frozen=True)
 class VehicleParams:
-    """Every constant of one vehicle, as in its TOML file. Immutable and hashable."""
+    """Every constant of one vehicle, as in its TOML file. Immutable and hashable.
+
+    :func:`load_vehicle` reads one from a file; ``vehicle.derived`` holds the constants derived from it.
+    """
 
     name: str
+    """The vehicle's name, for reports."""
     frame: FrameParams
+    """The frame's dimensions and mass (``[frame]``)."""
     battery: BatteryParams
+    """The battery block's dimensions and mass (``[battery]``)."""
     body: BodyParams
+    """The vehicle's mass, inertia and centre of mass (``[body]``)."""
     wheels: WheelParams
+    """The driving wheels' radii and separation (``[wheels]``)."""
     motor: MotorPair
+    """The two motors with their gears (``[motor]``)."""
     amplifier: AmplifierParams
+    """The power amplifier (``[amplifier]``)."""
     da: DAParams
+    """The DA converter (``[da]``)."""
     control: ControlParams
+    """The sample period of the digital control (``[control]``)."""
     friction_model: FrictionModelParams = dataclasses.field(default_factory=FrictionModelParams)
+    """The friction model's gain factor (``[friction_model]``)."""
     sensors: SensorParams = dataclasses.field(default_factory=SensorParams)
+    """The encoders, gyro and position fixes (``[sensors]``)."""
 
     def validate(self, *, source: str, prefix: str) -> None:
         per_sample_hz, rate_hz = 1.0 / self.control.sample_period_s, self.sensors.position_fix_rate_hz
@@ -302,26 +211,6 @@ class VehicleParams:
 # -- the derived constants ----------------------------------------------------------------------------------------
 
 
-def inertia_from_dimensions(frame: FrameParams, battery: BatteryParams) -> float:
-    """Moment of inertia about the point of rotation from the frame and battery dimensions, eq 64.
-
-    I = M_f (l² + w²)/12 + M_f (l/2 − l_of)² + M_b (l_b² + w_b²)/12: frame mass spread over its floor, battery
-    mass over its bottom sheet and centred above the point of rotation. 5.46 kg m² for the IAU AGV.
-    """
-    m_f, length, w, l_of = frame.mass_kg, frame.length_m, frame.width_m, frame.front_to_rotation_point_m
-    m_b, l_b, w_b = battery.mass_kg, battery.length_m, battery.width_m
-    i_frame = m_f * (length**2 + w**2) / 12.0 + m_f * (length / 2.0 - l_of) ** 2  # eq 64, I_f
-    i_battery = m_b * (l_b**2 + w_b**2) / 12.0  # eq 64, I_b
-    return i_frame + i_battery
-
-
-def inertia_rotation_point(body: BodyParams) -> float:
-    """I + M h², the inertia about the point of rotation used by eqs 16-28 (model note 6, docs/model-notes.md)."""
-    if body.inertia_about == "rotation_point":
-        return body.inertia_kg_m2  # the table's 5.46 kg m² is about O: it already is I + M h²
-    return body.inertia_kg_m2 + body.mass_kg * body.com_behind_axle_m**2  # literal eq 12: I about the CoM
-
-
 def _full_scale_amplifier_voltage(v: VehicleParams) -> float:
     """Amplifier output at the DA's largest code: min(k_pow · v_DA(code_max), u_max)."""
     v_da = v.da.mid_v + v.da.code_max * v.da.volts_per_code
@@ -330,7 +219,18 @@ def _full_scale_amplifier_voltage(v: VehicleParams) -> float:
 
 @functools.lru_cache(maxsize=256)
 def derive(v: VehicleParams) -> DerivedConstants:
-    """Compute the derived constants of a vehicle (cached per parameter set)."""
+    """The derived constants of a vehicle, each by the report's equation it names (cached per parameter set).
+
+    Parameters
+    ----------
+    v : VehicleParams
+        The vehicle.
+
+    Returns
+    -------
+    DerivedConstants
+        Its derived constants, what ``v.derived`` returns.
+    """
     M, h, b = v.body.mass_kg, v.body.com_behind_axle_m, v.wheels.separation_m
     r_l, r_r = v.wheels.left.radius_m, v.wheels.right.radius_m
     ml, mr = v.motor.left, v.motor.right
@@ -381,7 +281,13 @@ def derive(v: VehicleParams) -> DerivedConstants:
 
 
 def default_vehicle_path() -> Path:
-    """Path of the shipped default vehicle file (the report's appendix A)."""
+    """The shipped default vehicle file: the IAU AGV of the report's appendix A.
+
+    Returns
+    -------
+    Path
+        The file ``agvctl/vehicles/iau_agv.toml`` of the installed package.
+    """
     return Path(__file__).resolve().parent.parent / "vehicles" / "iau_agv.toml"
 
 
@@ -392,12 +298,12 @@ def load_vehicle(
 
     Parameters
     ----------
-    path
+    path : str, Path or None
         A vehicle TOML file; ``None`` or ``"default"``: the shipped IAU AGV (the report's appendix A).
-    overrides
+    overrides : iterable of str or (str, object)
         Dotted-key overrides applied on top of the file, as ``"KEY=VALUE"`` strings
         (``"wheels.right.radius_m=0.101"``) or ``(key, value)`` pairs; values in the key's unit.
-    override_source
+    override_source : str
         How the overrides are named in error messages (the command line's ``--set``).
 
     Returns
@@ -409,6 +315,14 @@ def load_vehicle(
     ------
     ConfigError
         A one-line message naming the file (or ``--set``) and the key.
+
+    Examples
+    --------
+    >>> vehicle = load_vehicle(overrides=["wheels.right.radius_m=0.101"])
+    >>> vehicle.wheels.left.radius_m, vehicle.wheels.right.radius_m
+    (0.1, 0.101)
+    >>> print(f"{vehicle.derived.accel_limit_m_s2:.3f} m/s²")
+    0.652 m/s²
     """
     if path is None or str(path) == "default":
         path = default_vehicle_path()

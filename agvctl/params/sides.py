@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
-from agvctl.config import check_fields, convert_value, did_you_mean, join_key, number, renamed
+from agvctl.config import check_fields, convert_value, did_you_mean, document_fields, join_key, number, renamed
 from agvctl.errors import ConfigError
 from agvctl.params.derived import Side
 
@@ -68,11 +68,12 @@ def _sides_to_file(left: Any, right: Any) -> dict[str, Any]:
     return out
 
 
+@document_fields
 @dataclass(frozen=True)
 class WheelSide:
-    """One driving wheel: its radius r (r_l or r_r)."""
+    """One driving wheel."""
 
-    radius_m: float = number(gt=0)
+    radius_m: float = number(gt=0, doc="Its radius r (r_l or r_r), m.")
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -83,6 +84,7 @@ _TOLERANCE_KEYS = ("radius_tolerance", "separation_tolerance")
 _RENAMED_WHEEL_KEYS = {"radius_left_m": "left.radius_m", "radius_right_m": "right.radius_m"}
 
 
+@document_fields
 @dataclass(frozen=True)
 class WheelParams:
     """The driving wheels: the left and right wheel (radii r_l, r_r) and their separation b. In a file,
@@ -91,13 +93,15 @@ class WheelParams:
     radius ... are particularly important to know precisely"); the pose EKF's calibration priors follow from them."""
 
     left: WheelSide
+    """The left wheel."""
     right: WheelSide
-    separation_m: float = number(gt=0)
+    """The right wheel."""
+    separation_m: float = number(gt=0, doc="b, the distance between the wheels' contact points, m.")
     radius_tolerance: float = number(
-        ge=0.0, le=0.2, default=0.01, doc="relative half-width of the range each true radius lies in (±)"
+        ge=0.0, le=0.2, default=0.01, doc="Relative half-width of the range each true radius lies in (±)."
     )
     separation_tolerance: float = number(
-        ge=0.0, le=0.2, default=0.02, doc="relative half-width of the range the true separation lies in (±)"
+        ge=0.0, le=0.2, default=0.02, doc="Relative half-width of the range the true separation lies in (±)."
     )
 
     def __post_init__(self) -> None:
@@ -138,18 +142,19 @@ class WheelParams:
         return self.left if name == "left" else self.right
 
 
+@document_fields
 @dataclass(frozen=True)
 class MotorParams:
     """One armature-controlled DC motor with its gear (eqs 1-4, appendix A "Actuator characteristics")."""
 
-    inertia_kg_m2: float = number(gt=0, doc="J")
-    resistance_ohm: float = number(gt=0, doc="R")
-    voltage_constant_v_s_rad: float = number(gt=0, doc="k_e")
-    torque_constant_n_m_a: float = number(gt=0, doc="k_t")
-    viscous_friction_n_m_s_rad: float = number(ge=0, doc="f_m")
-    coulomb_friction_n_m: float = number(ge=0, doc="tau_c")
-    stiction_n_m: float = number(ge=0, doc="tau_s, the break-away torque")
-    gear_ratio: float = number(gt=0, doc="N")
+    inertia_kg_m2: float = number(gt=0, doc="J, the rotor's moment of inertia, kg m².")
+    resistance_ohm: float = number(gt=0, doc="R, the armature resistance, Ω.")
+    voltage_constant_v_s_rad: float = number(gt=0, doc="k_e, the back-EMF constant, V s/rad.")
+    torque_constant_n_m_a: float = number(gt=0, doc="k_t, the torque constant, N m/A.")
+    viscous_friction_n_m_s_rad: float = number(ge=0, doc="f_m, the viscous friction, N m s/rad.")
+    coulomb_friction_n_m: float = number(ge=0, doc="τ_c, the Coulomb (sliding) friction, N m.")
+    stiction_n_m: float = number(ge=0, doc="τ_s, the stiction (break-away) torque, at least τ_c, N m.")
+    gear_ratio: float = number(gt=0, doc="N, motor turns per wheel turn.")
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -167,13 +172,16 @@ class MotorParams:
 _MOTOR_KEYS = tuple(f.name for f in dataclasses.fields(MotorParams))
 
 
+@document_fields
 @dataclass(frozen=True)
 class MotorPair:
     """The left and right motors. In a file, ``[motor]`` holds the common values and ``[motor.left]`` /
     ``[motor.right]`` override any of them for one side."""
 
     left: MotorParams
+    """The left motor."""
     right: MotorParams
+    """The right motor."""
 
     @classmethod
     def extra_file_keys(cls) -> dict[str, Any]:

@@ -17,6 +17,7 @@ Ruckig's intermediate waypoints are never used (the free edition computes them w
 """
 
 from agvctl.planning.geometry import Pose, advance, path_end_pose, segment_end_pose
+from agvctl.planning.limits import PhysicalLimitWarning, default_jerk_limit_m_s3, resolve_limits
 from agvctl.planning.online import VelocityCommandPlanner, WheelCommand
 from agvctl.planning.planner import plan, plan_file, plan_segments, plan_waypoints
 from agvctl.planning.profile import JerkProfile, rest_to_rest
@@ -27,15 +28,12 @@ from agvctl.planning.spec import (
     LineSegment,
     PathLimits,
     PathSpec,
-    PhysicalLimitWarning,
     Segment,
     StartPose,
     TurnSegment,
     Waypoint,
     WheelLimits,
-    default_jerk_limit_m_s3,
     load_path,
-    resolve_limits,
 )
 
 __all__ = [

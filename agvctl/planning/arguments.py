@@ -19,7 +19,22 @@ not fit in memory."""
 
 def check_reference(reference: Reference, source: str, key: str) -> None:
     """Refuse a reference longer than :data:`MAX_DURATION_S` or of more than
-    :data:`~agvctl.params.schema.MAX_SAMPLES_PER_RUN` samples (before its grid is made)."""
+    :data:`~agvctl.params.schema.MAX_SAMPLES_PER_RUN` samples (before its grid is made).
+
+    Parameters
+    ----------
+    reference : Reference
+        The planned reference.
+    source : str
+        What the error names as the file or function.
+    key : str
+        The key the error names.
+
+    Raises
+    ------
+    ConfigError
+        A reference too long or of too many samples.
+    """
     if not reference.duration_s <= MAX_DURATION_S:
         raise ConfigError(
             source,
@@ -32,7 +47,24 @@ def check_reference(reference: Reference, source: str, key: str) -> None:
 
 
 def check_arguments(segments: Sequence[Segment], join: str, separation_m: float, sample_period_s: float) -> None:
-    """The arguments of :func:`plan_segments`, checked as a path file's are."""
+    """Check the arguments of :func:`~agvctl.planning.plan_segments` as a path file's are checked.
+
+    Parameters
+    ----------
+    segments : sequence of LineSegment, TurnSegment or ArcSegment
+        The segments: 1 to :data:`~agvctl.planning.spec.MAX_SEGMENTS` of them, each valid.
+    join : str
+        ``"smooth"`` or ``"stop"``.
+    separation_m : float
+        The wheel separation b, finite and > 0, m.
+    sample_period_s : float
+        The control sample period, finite and > 0, s.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``plan_segments`` and the argument.
+    """
     if not 1 <= len(segments) <= MAX_SEGMENTS:
         raise ConfigError("plan_segments", "segments", f"give 1 … {MAX_SEGMENTS} segments (got {len(segments)})")
     for i, seg in enumerate(segments):
@@ -45,8 +77,22 @@ def check_arguments(segments: Sequence[Segment], join: str, separation_m: float,
 
 
 def check_geometry(source: str, separation_m: float, sample_period_s: float) -> None:
-    """``separation_m`` and ``sample_period_s`` finite numbers > 0, else a ConfigError naming ``source`` and the
-    argument."""
+    """Check that the wheel separation and the sample period are finite numbers > 0.
+
+    Parameters
+    ----------
+    source : str
+        The function the arguments were given to, as the error names it.
+    separation_m : float
+        The wheel separation b, m.
+    sample_period_s : float
+        The control sample period, s.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``source`` and the argument.
+    """
     for name, value in (("separation_m", separation_m), ("sample_period_s", sample_period_s)):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
             raise ConfigError(source, name, f"must be finite and > 0 (got {value!r})")

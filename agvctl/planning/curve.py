@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agvctl.config import document_fields
 from agvctl.planning.geometry import Pose
 
 __all__ = ["Curve", "CurveSamples", "polyval_rows"]
@@ -35,9 +36,25 @@ _BOUND_SAMPLES = 65
 
 
 def polyval_rows(coeffs: FloatArray, x: FloatArray) -> FloatArray:
-    """Σ_k coeffs[..., k] x^k (Horner), with one row of ascending coefficients per element of ``x``.
+    """Polynomials evaluated row by row: Σ_k coeffs[..., k] x^k (Horner).
 
-    ``coeffs`` has shape ``x.shape + (n,)``, or ``(len(x), n)`` broadcast against ``x`` of shape (len, m).
+    Parameters
+    ----------
+    coeffs : ndarray
+        Ascending coefficients, one row per element of ``x``: shape ``x.shape + (n,)``, or ``(len(x), n)``
+        broadcast against an ``x`` of shape ``(len, m)``.
+    x : ndarray
+        Where to evaluate them.
+
+    Returns
+    -------
+    ndarray
+        The values, shaped like ``x``.
+
+    Examples
+    --------
+    >>> polyval_rows(np.array([[1.0, 2.0], [0.0, 1.0]]), np.array([3.0, 3.0]))  # 1 + 2x and x at x = 3
+    array([7., 3.])
     """
     out = np.broadcast_to(coeffs[..., -1], x.shape).copy()
     for k in range(coeffs.shape[-1] - 2, -1, -1):
@@ -61,16 +78,23 @@ def _integral(coeffs: FloatArray) -> FloatArray:
     return out
 
 
+@document_fields
 @dataclass(frozen=True, eq=False)
 class CurveSamples:
-    """A curve at an array of arc lengths (SI units): pose, and curvature with its first two derivatives in s."""
+    """A curve at an array of arc lengths: pose, and curvature with its first two derivatives in arc length."""
 
     x_m: FloatArray
+    """x, m."""
     y_m: FloatArray
+    """y, m."""
     theta_rad: FloatArray
+    """The heading, rad."""
     curvature_1_m: FloatArray
+    """The curvature κ, 1/m."""
     curvature_rate_1_m2: FloatArray
+    """dκ/ds, 1/m²."""
     curvature_accel_1_m3: FloatArray
+    """d²κ/ds², 1/m³."""
 
 
 class Curve:

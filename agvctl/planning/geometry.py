@@ -9,12 +9,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from agvctl.config import check_fields
+from agvctl.config import check_fields, document_fields
 from agvctl.planning.spec import ArcSegment, LineSegment, PathSpec, Segment, StartPose, TurnSegment
 
 __all__ = ["Pose", "advance", "path_end_pose", "segment_end_pose", "segment_kinematics"]
 
 
+@document_fields
 @dataclass(frozen=True)
 class Pose:
     """Position of the point of rotation and heading (continuous, not wrapped).
@@ -26,8 +27,11 @@ class Pose:
     """
 
     x_m: float
+    """x of the point of rotation, m."""
     y_m: float
+    """y of the point of rotation, m."""
     theta_rad: float
+    """The heading, counter-clockwise from the x axis, never wrapped, rad."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -43,10 +47,31 @@ def _sinc(z: float) -> float:
 
 
 def advance(pose: Pose, *, displacement_m: float, curvature_1_m: float) -> Pose:
-    """The pose after moving ``displacement_m`` (signed) along a path of constant curvature (1/m, + = left).
+    """The pose after moving along a path of constant curvature.
 
     The chord of a circular arc of length σ has length σ·sinc(κσ/2) and points along θ0 + κσ/2; with κ = 0
     this is the straight line.
+
+    Parameters
+    ----------
+    pose : Pose
+        The pose it starts from.
+    displacement_m : float
+        The signed distance moved along the path (negative: in reverse), m.
+    curvature_1_m : float
+        The path's curvature κ (positive: turning left going forwards), 1/m.
+
+    Returns
+    -------
+    Pose
+        The pose at the end.
+
+    Examples
+    --------
+    >>> import math
+    >>> end = advance(Pose(0.0, 0.0, 0.0), displacement_m=math.pi / 2, curvature_1_m=1.0)  # a quarter circle
+    >>> round(end.x_m, 9), round(end.y_m, 9), round(end.theta_rad, 9)
+    (1.0, 1.0, 1.570796327)
     """
     half = 0.5 * curvature_1_m * displacement_m
     chord = displacement_m * _sinc(half)
@@ -58,12 +83,24 @@ def advance(pose: Pose, *, displacement_m: float, curvature_1_m: float) -> Pose:
 
 
 def segment_kinematics(segment: Segment) -> tuple[str, float, float, int]:
-    """``(kind, distance, curvature_1_m, direction)`` of a segment.
+    """How a segment moves the vehicle, in the terms the planner works with.
 
-    ``kind`` is ``"path"`` (the coordinate is the distance travelled, m) or ``"spin"`` (the coordinate is the
-    heading change, rad); ``distance`` > 0 is the coordinate's total change; ``direction`` is ±1
-    (reverse for a negative line, clockwise for a negative turn). For an arc, the curvature is ±1/radius
-    (+ = left).
+    Parameters
+    ----------
+    segment : LineSegment, TurnSegment or ArcSegment
+        The segment.
+
+    Returns
+    -------
+    kind : str
+        ``"path"`` (the coordinate is the distance travelled, m) or ``"spin"`` (the coordinate is the heading
+        change, rad).
+    distance : float
+        The coordinate's total change, > 0 (m or rad).
+    curvature_1_m : float
+        ±1/radius for an arc (positive: left), 0 otherwise, 1/m.
+    direction : int
+        ±1: −1 in reverse for a negative line, clockwise for a negative turn.
     """
     if isinstance(segment, LineSegment):
         return "path", abs(segment.length_m), 0.0, 1 if segment.length_m > 0 else -1
@@ -77,7 +114,20 @@ def segment_kinematics(segment: Segment) -> tuple[str, float, float, int]:
 
 
 def segment_end_pose(pose: Pose, segment: Segment) -> Pose:
-    """Where ``segment`` ends when it starts at ``pose``."""
+    """Where a segment ends.
+
+    Parameters
+    ----------
+    pose : Pose
+        Where it starts.
+    segment : LineSegment, TurnSegment or ArcSegment
+        The segment.
+
+    Returns
+    -------
+    Pose
+        Its end.
+    """
     kind, distance, curvature, direction = segment_kinematics(segment)
     if kind == "spin":
         return Pose(pose.x_m, pose.y_m, pose.theta_rad + direction * distance)
@@ -85,7 +135,18 @@ def segment_end_pose(pose: Pose, segment: Segment) -> Pose:
 
 
 def path_end_pose(spec: PathSpec) -> Pose:
-    """The geometric end of a path: its segments composed from the start pose."""
+    """The geometric end of a path: its segments composed from the start pose.
+
+    Parameters
+    ----------
+    spec : PathSpec
+        The path (of segments).
+
+    Returns
+    -------
+    Pose
+        Where its last segment ends.
+    """
     pose = Pose.from_start(spec.start)
     for segment in spec.segments:
         pose = segment_end_pose(pose, segment)

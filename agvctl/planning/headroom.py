@@ -13,9 +13,24 @@ __all__ = ["limits_report"]
 
 
 def limits_report(reference: Reference, limits: PathLimits, vehicle: VehicleParams) -> list[str]:
-    """Readable lines: each wheel limit of ``reference`` (from the file or the default), whether the plan reaches
-    it (binds), and the smallest fractions of I_max and of the full-scale voltage the nominal ``vehicle`` has left
-    for feedback along the plan (straight-line model of eq 5 per wheel, sampled every 10 ms)."""
+    """Which wheel limits bind on a planned reference, and the actuator headroom it leaves, as readable lines.
+
+    Parameters
+    ----------
+    reference : Reference
+        The planned reference.
+    limits : PathLimits
+        The limits the path file set (None: the vehicle's default).
+    vehicle : VehicleParams
+        The nominal vehicle the headroom is computed for.
+
+    Returns
+    -------
+    list of str
+        One line per wheel limit (its value, from the file or the default, and whether the plan reaches it), and
+        one with the smallest fractions of I_max and of the full-scale voltage left for feedback along the plan
+        (straight-line model of eq 5 per wheel, sampled every 10 ms).
+    """
     peaks = reference.peaks()
     rows = (
         ("wheel speed", "m/s", reference.limits.wheel_speed_m_s, limits.wheel_speed_m_s, "peak_wheel_speed_m_s"),

@@ -69,8 +69,21 @@ def _target(k1: float, k2: float) -> complex:
 
 
 def join_shape(k1_l: float, k2_l: float, guess: FloatArray | None = None) -> FloatArray | None:
-    """The mode weights p of a window between the dimensionless curvatures κ₁L and κ₂L, or ``None`` if the
-    iteration does not converge (the window is too long for its curvatures)."""
+    """The mode weights p of a window between two curvatures, by the Gauss-Newton iteration of the module notes.
+
+    Parameters
+    ----------
+    k1_l, k2_l : float
+        The curvatures before and after the join times the window's length, κ₁L and κ₂L (dimensionless).
+    guess : ndarray or None
+        Weights to start from (a neighbouring window's); None starts from zero.
+
+    Returns
+    -------
+    ndarray or None
+        The six weights pᵢ, or None if the iteration does not converge (the window is too long for its
+        curvatures).
+    """
     base = np.zeros(DEGREE + 1)
     base[0] = k1_l
     base[:4] += (k2_l - k1_l) * _SMOOTHSTEP
@@ -103,7 +116,19 @@ def _coeffs(k1: float, k2: float, length_m: float, p: FloatArray) -> FloatArray:
 
 
 class JoinWindow:
-    """A designed window: its length, curvature coefficients, bounds and deviation from the corner."""
+    """A designed window: its length, curvature coefficients, bounds and deviation from the corner.
+
+    Parameters
+    ----------
+    k1 : float
+        The curvature before the join, 1/m.
+    k2 : float
+        The curvature after it, 1/m.
+    length_m : float
+        The window's length L, m.
+    p : ndarray
+        The mode weights, from :func:`join_shape`.
+    """
 
     def __init__(self, k1: float, k2: float, length_m: float, p: FloatArray) -> None:
         self.length_m = length_m
@@ -128,8 +153,36 @@ def design_join(
     half_b_m: float,
     max_length_m: float,
 ) -> JoinWindow:
-    """The shortest window (≤ ``max_length_m``) through which a wheel-limited speed of ``speed_m_s`` can be
-    kept; the longest that converges if none allows it (the speed planner then slows down there)."""
+    """The shortest window through which a wheel-limited speed can be kept.
+
+    Parameters
+    ----------
+    k1 : float
+        The curvature before the join, 1/m.
+    k2 : float
+        The curvature after it, 1/m.
+    speed_m_s : float
+        The path speed to keep through the window, m/s.
+    cap_m_s : float or None
+        The neighbouring segments' speed cap (None: none), m/s.
+    limits : WheelLimits
+        The wheel limits.
+    half_b_m : float
+        Half the wheel separation, b/2, m.
+    max_length_m : float
+        The longest window allowed (half of each neighbour), m.
+
+    Returns
+    -------
+    JoinWindow
+        The shortest window that keeps the speed; the longest that converges if none does (the speed planner
+        then slows down there).
+
+    Raises
+    ------
+    ValueError
+        No window converges between the two curvatures.
+    """
     best: JoinWindow | None = None
     guess: FloatArray | None = None
 

@@ -18,7 +18,15 @@ __all__ = ["PlanFailure", "motion_starts", "path_motion"]
 
 
 class PlanFailure(PlanningError):
-    """A planning failure with the file key it belongs to (``segments[i]`` or ``waypoints[i]``)."""
+    """A planning failure with the file key it belongs to.
+
+    Parameters
+    ----------
+    key : str
+        The key, ``segments[i]`` or ``waypoints[i]``.
+    problem : str
+        What could not be planned.
+    """
 
     def __init__(self, key: str, problem: str) -> None:
         super().__init__(f"{key}: {problem}")
@@ -26,7 +34,18 @@ class PlanFailure(PlanningError):
 
 
 def motion_starts(lengths: Sequence[float]) -> tuple[float, ...]:
-    """Where each of consecutive pieces of ``lengths`` starts (m from the first's start)."""
+    """Where each of consecutive pieces starts.
+
+    Parameters
+    ----------
+    lengths : sequence of float
+        The pieces' lengths, m.
+
+    Returns
+    -------
+    tuple of float
+        Each piece's start, from the first's start, m.
+    """
     return tuple(float(x) for x in np.concatenate(([0.0], np.cumsum(lengths)[:-1])))
 
 
@@ -40,7 +59,37 @@ def path_motion(
     segment_indices: tuple[int, ...],
     segment_starts: tuple[float, ...],
 ) -> Motion:
-    """Plan the speed along ``curve`` and wrap it as a path motion; a failure names the owner's key."""
+    """Plan the speed along a curve and wrap it as a path motion.
+
+    Parameters
+    ----------
+    curve : Curve
+        The motion's geometry.
+    sections : list of SectionLimits
+        The limits of the path coordinate on each section of the curve, in order.
+    owners : list of int
+        The index of the segment (or waypoint) each section belongs to, for errors.
+    key : str
+        ``"segments"`` or ``"waypoints"``, for errors.
+    solver : _Solver
+        The Ruckig instance, reused from call to call.
+    t : float
+        When the motion starts on the reference, s.
+    segment_indices : tuple of int
+        The path's segments the motion drives.
+    segment_starts : tuple of float
+        Where each of them starts along the curve, m.
+
+    Returns
+    -------
+    Motion
+        The path motion.
+
+    Raises
+    ------
+    PlanFailure
+        A section's speed cannot be planned, naming the key of the segment it belongs to.
+    """
     try:
         profiles, _ = plan_speed(sections, solver=solver)
     except PlanningError as exc:

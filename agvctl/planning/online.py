@@ -15,27 +15,39 @@ from dataclasses import dataclass
 
 import ruckig
 
+from agvctl.config import document_fields
 from agvctl.errors import PlanningError
 from agvctl.params import VehicleParams
+from agvctl.planning.limits import default_jerk_limit_m_s3
 from agvctl.planning.profile import LIMIT_MARGIN
-from agvctl.planning.spec import WheelLimits, default_jerk_limit_m_s3
+from agvctl.planning.spec import WheelLimits
 
 __all__ = ["VelocityCommandPlanner", "WheelCommand"]
 
 
+@document_fields
 @dataclass(frozen=True)
 class WheelCommand:
-    """The wheel reference at time ``t_s``, after one step of :class:`VelocityCommandPlanner` (SI units)."""
+    """The wheel reference after one step of :class:`VelocityCommandPlanner`."""
 
     t_s: float
+    """Its time, s."""
     speed_m_s: float
+    """The vehicle's speed U, m/s."""
     yaw_rate_rad_s: float
+    """Its yaw rate ω, rad/s."""
     wheel_speed_left_m_s: float
+    """The left wheel's speed, m/s."""
     wheel_speed_right_m_s: float
+    """The right wheel's speed, m/s."""
     wheel_accel_left_m_s2: float
+    """The left wheel's acceleration, m/s²."""
     wheel_accel_right_m_s2: float
+    """The right wheel's acceleration, m/s²."""
     wheel_jerk_left_m_s3: float
+    """The left wheel's jerk, m/s³."""
     wheel_jerk_right_m_s3: float
+    """The right wheel's jerk, m/s³."""
     saturated: bool
     """True if the target (U, ω) asked for a wheel speed above the limit and was scaled down."""
 
@@ -43,8 +55,26 @@ class WheelCommand:
 class VelocityCommandPlanner:
     """Jerk-limited tracking of streamed (U, ω) targets, re-planned from the current state every period.
 
+    Parameters
+    ----------
+    limits : WheelLimits
+        The wheel limits the references keep to.
+    separation_m : float
+        The wheel separation b, m.
+    sample_period_s : float
+        The period of :meth:`step`, s.
+
+    Raises
+    ------
+    ValueError
+        A separation or period that is not finite and > 0.
+
+    Examples
+    --------
     >>> cmd = VelocityCommandPlanner(WheelLimits(0.8, 0.657, 3.0), separation_m=0.54, sample_period_s=0.04)
-    >>> ref = cmd.step(speed_m_s=0.5, yaw_rate_rad_s=0.0)   # the reference at t = 0.04 s
+    >>> ref = cmd.step(speed_m_s=0.5, yaw_rate_rad_s=0.0)  # the reference at t = 0.04 s
+    >>> print(f"{ref.t_s:.2f} s: {ref.wheel_speed_left_m_s * 1e3:.1f} mm/s, {ref.wheel_accel_left_m_s2:.2f} m/s²")
+    0.04 s: 2.4 mm/s, 0.12 m/s²
     """
 
     def __init__(self, limits: WheelLimits, *, separation_m: float, sample_period_s: float) -> None:
@@ -70,7 +100,7 @@ class VelocityCommandPlanner:
     @classmethod
     def for_vehicle(cls, vehicle: VehicleParams, limits: WheelLimits | None = None) -> VelocityCommandPlanner:
         """A planner for ``vehicle``: its separation and sample period; limits default to the vehicle's
-        (no-load top speed, a_lim of eq 5, :func:`~agvctl.planning.spec.default_jerk_limit_m_s3`)."""
+        (no-load top speed, a_lim of eq 5, :func:`~agvctl.planning.limits.default_jerk_limit_m_s3`)."""
         if limits is None:
             limits = WheelLimits(
                 vehicle.derived.max_speed_m_s, vehicle.derived.accel_limit_m_s2, default_jerk_limit_m_s3(vehicle)

@@ -30,16 +30,11 @@ from agvctl.planning.arguments import MAX_DURATION_S, check_arguments, check_ref
 from agvctl.planning.curve import Curve
 from agvctl.planning.geometry import Pose, segment_kinematics
 from agvctl.planning.joins import JoinWindow, design_join
+from agvctl.planning.limits import resolve_limits
 from agvctl.planning.motion import PlanFailure, motion_starts, path_motion
 from agvctl.planning.profile import _Solver, rest_to_rest
 from agvctl.planning.reference import Motion, Reference
-from agvctl.planning.spec import (
-    PathSpec,
-    Segment,
-    WheelLimits,
-    load_path,
-    resolve_limits,
-)
+from agvctl.planning.spec import PathSpec, Segment, WheelLimits, load_path
 from agvctl.planning.speed import section_limits
 from agvctl.planning.waypoint_plan import plan_waypoints
 
@@ -52,15 +47,15 @@ _Part = tuple[int, float, float, float | None]  # segment index, distance, curva
 def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = False) -> Reference:
     """Plan the reference of a path for a vehicle.
 
-    The path's limits are resolved against the vehicle (see :func:`~agvctl.planning.spec.resolve_limits`).
+    The path's limits are resolved against the vehicle (see :func:`~agvctl.planning.limits.resolve_limits`).
 
     Parameters
     ----------
-    spec
+    spec : PathSpec
         The path, from :func:`~agvctl.planning.load_path` or built in code.
-    vehicle
-        Whose wheel separation, sample period and limits apply; default the shipped IAU AGV.
-    force
+    vehicle : VehicleParams or None
+        Whose wheel separation, sample period and limits apply; None: the shipped IAU AGV.
+    force : bool
         Turn a physically impossible limit from an error into a warning.
 
     Returns
@@ -74,6 +69,15 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
     ConfigError
         One line naming the file and the segment or waypoint: a failure to plan (numerical ones included), a
         limit above the physical one without ``force``, a reference longer than :data:`MAX_DURATION_S`.
+
+    Examples
+    --------
+    >>> from agvctl.planning import load_path
+    >>> reference = plan(load_path("trajectories/square.toml"))
+    >>> print(f"{reference.duration_s:.1f} s, {reference.path_length_m:.1f} m")
+    25.1 s, 8.0 m
+    >>> print(f"{reference.peaks()['peak_wheel_speed_m_s']:.3f} m/s")  # the file's wheel speed limit binds
+    0.800 m/s
     """
     expect_instance(spec, PathSpec, "plan", "spec")
     if vehicle is not None:
@@ -104,7 +108,27 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
 
 
 def plan_file(path: str | Path, vehicle: VehicleParams | None = None, *, force: bool = False) -> Reference:
-    """:func:`~agvctl.planning.spec.load_path` then :func:`plan`."""
+    """Plan the reference of a path file: :func:`~agvctl.planning.load_path` then :func:`plan`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The path file (TOML).
+    vehicle : VehicleParams or None
+        Whose wheel separation, sample period and limits apply; None: the shipped IAU AGV.
+    force : bool
+        Turn a physically impossible limit from an error into a warning.
+
+    Returns
+    -------
+    Reference
+        The planned reference.
+
+    Raises
+    ------
+    ConfigError
+        The file's problem, or a failure to plan, in one line naming the file and key.
+    """
     return plan(load_path(path), vehicle, force=force)
 
 
@@ -139,7 +163,27 @@ def plan_segments(
 ) -> Reference:
     """Plan segments with explicit limits and geometry (no vehicle file): the core of :func:`plan`.
 
-    ``start_pose`` defaults to the origin, heading along x.
+    Parameters
+    ----------
+    segments : sequence of LineSegment, TurnSegment or ArcSegment
+        The segments, driven in order.
+    limits : WheelLimits
+        The wheel limits.
+    separation_m : float
+        The wheel separation b, m.
+    sample_period_s : float
+        The control sample period of the reference's grid, s.
+    start_pose : Pose or None
+        Where the first segment starts; None: the origin, heading along x.
+    name : str
+        The reference's name.
+    join : {'smooth', 'stop'}
+        ``"smooth"`` drives through curvature changes, ``"stop"`` stops at each.
+
+    Returns
+    -------
+    Reference
+        The planned reference.
 
     Raises
     ------

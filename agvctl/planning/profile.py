@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import ruckig
 
+from agvctl.config import document_fields
 from agvctl.errors import PlanningError
 
 __all__ = ["JerkProfile", "between", "rest_to_rest"]
@@ -22,28 +23,39 @@ LIMIT_MARGIN = 1e-9
 """Relative margin kept below each limit, so rounding never lifts a wheel above its limit."""
 
 
+@document_fields
 @dataclass(frozen=True, eq=False)
 class JerkProfile:
     """q(t) on [0, duration_s] as phases of constant jerk; each array holds one entry per phase.
 
-    ``phase_durations_s`` and ``jerk`` describe the phases; ``q0``, ``v0``, ``a0`` the state at each phase's
-    start (v = q̇, a = q̈). Within a phase of length τ starting in state (q0, v0, a0) with jerk j:
+    The coordinate q is a distance along the path (m) or a heading change (rad), and the values below are in its
+    unit. Within a phase of length τ starting in state (q0, v0, a0) with jerk j:
     q = q0 + v0 τ + a0 τ²/2 + j τ³/6.
     """
 
     distance: float
+    """The coordinate's total change, > 0."""
     duration_s: float
+    """The profile's duration, s."""
     phase_durations_s: np.ndarray
+    """Each phase's duration (some zero), s."""
     jerk: np.ndarray
+    """Each phase's jerk q⃛, per s³."""
     q0: np.ndarray
+    """The coordinate at each phase's start."""
     v0: np.ndarray
+    """Its rate q̇ at each phase's start, per s."""
     a0: np.ndarray
+    """Its acceleration q̈ at each phase's start, per s²."""
     max_velocity: float
+    """The limit on ``|q̇|`` the profile was planned for, per s."""
     max_acceleration: float
+    """The limit on ``|q̈|``, per s²."""
     max_jerk: float
+    """The limit on ``|q⃛|``, per s³."""
 
     def peaks(self) -> tuple[float, float, float]:
-        """Exact peaks of |q̇|, |q̈| and |q⃛| over the profile."""
+        """Exact peaks of ``|q̇|``, ``|q̈|`` and ``|q⃛|`` over the profile."""
         tau, j, v0, a0 = self.phase_durations_s, self.jerk, self.v0, self.a0
         v_end = v0 + a0 * tau + 0.5 * j * tau**2
         a_end = a0 + j * tau
@@ -92,10 +104,36 @@ def rest_to_rest(
     max_jerk: float,
     solver: _Solver | None = None,
 ) -> JerkProfile:
-    """The time-optimal profile from 0 to ``distance`` > 0, at rest at both ends, within the given limits.
+    """The time-optimal profile from 0 to ``distance``, at rest at both ends, within the given limits.
 
-    ``solver`` lets a caller planning many profiles reuse one Ruckig instance. Raises :class:`PlanningError`
-    if Ruckig cannot find a profile (non-finite or non-positive input).
+    Parameters
+    ----------
+    distance : float
+        The coordinate's total change, > 0 (m along a path, rad for a spin).
+    max_velocity : float
+        The limit on ``|q̇|``, per s in the coordinate's unit.
+    max_acceleration : float
+        The limit on ``|q̈|``, per s².
+    max_jerk : float
+        The limit on ``|q⃛|``, per s³.
+    solver : _Solver or None
+        A Ruckig instance to reuse when planning many profiles (None: a new one).
+
+    Returns
+    -------
+    JerkProfile
+        The profile.
+
+    Raises
+    ------
+    PlanningError
+        Ruckig cannot find a profile (a non-finite or non-positive input).
+
+    Examples
+    --------
+    >>> profile = rest_to_rest(2.0, max_velocity=0.5, max_acceleration=0.6, max_jerk=3.0)
+    >>> print(f"{profile.duration_s:.3f} s")
+    5.033 s
     """
     return between(
         distance,
@@ -106,6 +144,28 @@ def rest_to_rest(
         max_jerk=max_jerk,
         solver=solver,
     )
+
+
+def _check_inputs(
+    distance: float,
+    start_velocity: float,
+    end_velocity: float,
+    max_velocity: float,
+    max_acceleration: float,
+    max_jerk: float,
+) -> None:
+    """Refuse a profile's input that is not finite and > 0, or an end speed outside [0, max_velocity)."""
+    for name, value in (
+        ("distance", distance),
+        ("max_velocity", max_velocity),
+        ("max_acceleration", max_acceleration),
+        ("max_jerk", max_jerk),
+    ):
+        if not (np.isfinite(value) and value > 0):
+            raise PlanningError(f"{name} must be finite and > 0 (got {value:g})")
+    for name, value in (("start_velocity", start_velocity), ("end_velocity", end_velocity)):
+        if not (np.isfinite(value) and 0.0 <= value <= max_velocity * (1.0 - LIMIT_MARGIN)):
+            raise PlanningError(f"{name} must be in [0, {max_velocity:g}] (got {value:g})")
 
 
 def between(
@@ -120,21 +180,37 @@ def between(
 ) -> JerkProfile:
     """The time-optimal profile from (0, ``start_velocity``, 0) to (``distance``, ``end_velocity``, 0).
 
-    Both speeds must be in [0, max_velocity); the profile never moves backwards. Raises
-    :class:`PlanningError` if Ruckig cannot find a profile within the limits.
+    The profile never moves backwards.
+
+    Parameters
+    ----------
+    distance : float
+        The coordinate's total change, > 0 (m along a path, rad for a spin).
+    start_velocity : float
+        q̇ at the start, in [0, max_velocity), per s.
+    end_velocity : float
+        q̇ at the end, in [0, max_velocity), per s.
+    max_velocity : float
+        The limit on ``|q̇|``, per s.
+    max_acceleration : float
+        The limit on ``|q̈|``, per s².
+    max_jerk : float
+        The limit on ``|q⃛|``, per s³.
+    solver : _Solver or None
+        A Ruckig instance to reuse when planning many profiles (None: a new one).
+
+    Returns
+    -------
+    JerkProfile
+        The profile.
+
+    Raises
+    ------
+    PlanningError
+        An input out of range, or Ruckig cannot find a profile within the limits.
     """
-    for name, value in (
-        ("distance", distance),
-        ("max_velocity", max_velocity),
-        ("max_acceleration", max_acceleration),
-        ("max_jerk", max_jerk),
-    ):
-        if not (np.isfinite(value) and value > 0):
-            raise PlanningError(f"{name} must be finite and > 0 (got {value:g})")
+    _check_inputs(distance, start_velocity, end_velocity, max_velocity, max_acceleration, max_jerk)
     keep = 1.0 - LIMIT_MARGIN
-    for name, value in (("start_velocity", start_velocity), ("end_velocity", end_velocity)):
-        if not (np.isfinite(value) and 0.0 <= value <= max_velocity * keep):
-            raise PlanningError(f"{name} must be in [0, {max_velocity:g}] (got {value:g})")
     s = solver if solver is not None else _Solver()
     s.inp.target_position = [distance]
     s.inp.current_velocity = [start_velocity]

@@ -24,6 +24,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agvctl.config import document_fields
 from agvctl.planning.curve import Curve
 from agvctl.planning.geometry import Pose
 from agvctl.planning.profile import JerkProfile
@@ -48,26 +49,32 @@ CSV_COLUMNS = (
 """The columns of ``agvctl plan --out``, in order."""
 
 
+@document_fields
 @dataclass(frozen=True, eq=False)
 class Motion:
-    """One piece of a reference driven without stopping, from rest to rest.
-
-    ``kind`` is ``"path"`` (q in m along ``curve``) or ``"spin"`` (a turn in place; q in rad, ``curve`` is
-    ``None``); ``direction`` is ±1 (reverse, clockwise). ``profiles`` are q(t) on the sections, which start at
-    q = ``section_starts`` and follow one another in time. ``segment_starts`` is the q at which each of the
-    path file's ``segment_indices`` begins (waypoint intervals for a waypoint path).
-    """
+    """One piece of a reference driven without stopping, from rest to rest, its coordinate q a distance along a
+    curve (m) or a heading change (rad)."""
 
     kind: Literal["path", "spin"]
+    """``"path"`` (q in m along ``curve``) or ``"spin"`` (a turn in place; q in rad)."""
     segment_indices: tuple[int, ...]
+    """The path file's segments it drives (waypoint intervals for a waypoint path)."""
     t_start_s: float
+    """When it starts on the reference, s."""
     start_pose: Pose
+    """Where it starts."""
     end_pose: Pose
+    """Where it ends."""
     direction: int
+    """±1: −1 in reverse (a path) or clockwise (a spin)."""
     profiles: tuple[JerkProfile, ...]
+    """q(t) on each section, one after another in time."""
     section_starts: tuple[float, ...]
+    """The q at which each section starts."""
     segment_starts: tuple[float, ...]
+    """The q at which each of ``segment_indices`` starts."""
     curve: Curve | None = None
+    """The geometry of a path motion (None for a spin)."""
 
     @property
     def duration_s(self) -> float:
@@ -83,33 +90,46 @@ class Motion:
         return float(self.section_starts[-1] + self.profiles[-1].distance)
 
 
+@document_fields
 @dataclass(frozen=True, eq=False)
 class ReferenceSamples:
-    """The reference at an array of times; every field is an array of the same length (SI units).
-
-    ``theta_rad`` is continuous (not wrapped). ``path_length_m`` is the distance travelled by the point of
-    rotation since the start (never decreasing; a spin adds nothing). ``segment_index`` is the index of the
-    path file's segment in progress (the last one once the reference has ended). ``curvature_1_m`` is κ of
-    the path at the current point (+ = left; 0 during a spin).
-    """
+    """The reference at an array of times; every field is an array of the same length."""
 
     t_s: FloatArray
+    """The times, s."""
     x_m: FloatArray
+    """x of the point of rotation, m."""
     y_m: FloatArray
+    """y of the point of rotation, m."""
     theta_rad: FloatArray
+    """The heading, continuous (not wrapped), rad."""
     speed_m_s: FloatArray
+    """The vehicle's speed U, m/s."""
     accel_m_s2: FloatArray
+    """Its acceleration U̇, m/s²."""
     yaw_rate_rad_s: FloatArray
+    """The yaw rate ω, rad/s."""
     yaw_accel_rad_s2: FloatArray
+    """The yaw acceleration ω̇, rad/s²."""
     wheel_speed_left_m_s: FloatArray
+    """The left wheel's speed, m/s."""
     wheel_speed_right_m_s: FloatArray
+    """The right wheel's speed, m/s."""
     wheel_accel_left_m_s2: FloatArray
+    """The left wheel's acceleration, m/s²."""
     wheel_accel_right_m_s2: FloatArray
+    """The right wheel's acceleration, m/s²."""
     wheel_jerk_left_m_s3: FloatArray
+    """The left wheel's jerk, m/s³."""
     wheel_jerk_right_m_s3: FloatArray
+    """The right wheel's jerk, m/s³."""
     path_length_m: FloatArray
+    """The distance the point of rotation has travelled since the start (never decreasing; a spin adds
+    nothing), m."""
     curvature_1_m: FloatArray
+    """κ of the path at the current point (positive: left; 0 during a spin), 1/m."""
     motion_index: NDArray[np.int64]
+    """The index of the motion in progress (the last one once the reference has ended)."""
 
     def __len__(self) -> int:
         return len(self.t_s)
@@ -125,6 +145,30 @@ class Reference:
     Evaluate it anywhere with :meth:`sample` (times before 0 give the start at rest, times after
     :attr:`duration_s` the final pose at rest), or use :attr:`grid`, the samples at t_k = k·T_s from 0 to the
     first grid time at or after the end.
+
+    Parameters
+    ----------
+    name : str
+        The path's name.
+    motions : sequence of Motion
+        Its motions, at least one, one after another in time.
+    limits : WheelLimits
+        The wheel limits it was planned within.
+    separation_m : float
+        The wheel separation b, m.
+    sample_period_s : float
+        The control sample period T_s of :attr:`grid`, s.
+    start_pose : Pose
+        Where it starts.
+    segment_count : int
+        The path's segments (or waypoint intervals).
+    geometry_deviation_m : float
+        The largest distance between the planned path and the one the file asks for (its smooth joins), m.
+
+    Raises
+    ------
+    ValueError
+        No motion.
     """
 
     def __init__(
@@ -270,7 +314,7 @@ class Reference:
         return Pose(float(s.x_m[0]), float(s.y_m[0]), float(s.theta_rad[0]))
 
     def peaks(self, dense_period_s: float = 1e-3) -> dict[str, float]:
-        """Peaks of |wheel speed|, |wheel accel| and |wheel jerk| (either wheel) over the reference, sampled
+        """Peaks of ``|wheel speed|``, ``|wheel accel|`` and ``|wheel jerk|`` (either wheel) over the reference, sampled
         every ``dense_period_s`` and at every phase switch (where the accelerations peak)."""
         t = np.unique(np.concatenate([np.arange(0.0, self.duration_s, dense_period_s), self._ph_t0, [self.duration_s]]))
         s = self.sample(t)

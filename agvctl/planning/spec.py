@@ -41,24 +41,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from agvctl.config import build, check_fields, did_you_mean, load_toml, number
+from agvctl.config import build, check_fields, did_you_mean, document_fields, load_toml, number
 from agvctl.errors import ConfigError
-from agvctl.feasibility import (
-    CURRENT_HEADROOM,
-    MIN_HEADROOM,
-    VOLTAGE_HEADROOM,
-    HeadroomWarning,
-    actuator_headroom,
-    feasible_wheel_limits,
-    no_default_limit_reasons,
-)
-from agvctl.params import VehicleParams
+from agvctl.feasibility import HeadroomWarning
 
 __all__ = [
     "ArcSegment",
@@ -66,24 +56,18 @@ __all__ = [
     "LineSegment",
     "PathLimits",
     "PathSpec",
-    "PhysicalLimitWarning",
     "Segment",
     "StartPose",
     "TurnSegment",
     "Waypoint",
     "WheelLimits",
-    "default_jerk_limit_m_s3",
     "load_path",
-    "resolve_limits",
 ]
 
 SEGMENT_TYPES = ("line", "turn", "arc")
 
-JERK_RAMP_SAMPLES = 5
-"""The default jerk limit lets the acceleration ramp from 0 to a_lim over this many control periods."""
-
 MAX_WAYPOINT_COORDINATE_M = 1e6
-"""The largest |x_m|, |y_m| of a waypoint: a thousand kilometres, beyond a day's drive (the planner's maximum
+"""The largest ``|x_m|``, ``|y_m|`` of a waypoint: a thousand kilometres, beyond a day's drive (the planner's maximum
 reference duration) and within the range where the spline fit stays well conditioned."""
 
 MAX_SEGMENTS = 10_000
@@ -91,37 +75,39 @@ MAX_SEGMENTS = 10_000
 planning work (each segment is a motion or a join to solve)."""
 
 
-class PhysicalLimitWarning(UserWarning):
-    """A limit above what the vehicle can physically do was accepted because ``force=True``."""
-
-
+@document_fields
 @dataclass(frozen=True)
 class StartPose:
     """The start pose as written in a path file (degrees at the user's edge)."""
 
-    x_m: float = number(default=0.0)
-    y_m: float = number(default=0.0)
-    theta_deg: float = number(default=0.0)
+    x_m: float = number(default=0.0, doc="x of the point midway between the wheels, m.")
+    y_m: float = number(default=0.0, doc="y of that point, m.")
+    theta_deg: float = number(default=0.0, doc="The heading, counter-clockwise from the x axis, °.")
 
     def __post_init__(self) -> None:
         check_fields(self)
 
 
+@document_fields
 @dataclass(frozen=True)
 class PathLimits:
-    """Per-wheel limits as written in a path file; ``None`` takes the vehicle's value."""
+    """Per-wheel limits as written in a path file; ``None`` takes the vehicle's value
+    (:func:`~agvctl.planning.resolve_limits`)."""
 
-    wheel_speed_m_s: float | None = number(gt=0, default=None)
-    wheel_accel_m_s2: float | None = number(gt=0, default=None)
-    wheel_jerk_m_s3: float | None = number(gt=0, default=None)
+    wheel_speed_m_s: float | None = number(gt=0, default=None, doc="The largest ``|speed|`` of either wheel, m/s.")
+    wheel_accel_m_s2: float | None = number(
+        gt=0, default=None, doc="The largest ``|acceleration|`` of either wheel, m/s²."
+    )
+    wheel_jerk_m_s3: float | None = number(gt=0, default=None, doc="The largest ``|jerk|`` of either wheel, m/s³.")
 
     def __post_init__(self) -> None:
         check_fields(self)
 
 
+@document_fields
 @dataclass(frozen=True)
 class WheelLimits:
-    """Resolved per-wheel limits: |wheel speed|, |wheel acceleration| and |wheel jerk| of either wheel.
+    """Resolved per-wheel limits: ``|wheel speed|``, ``|wheel acceleration|`` and ``|wheel jerk|`` of either wheel.
 
     Raises
     ------
@@ -130,8 +116,11 @@ class WheelLimits:
     """
 
     wheel_speed_m_s: float
+    """The largest ``|speed|`` of either wheel, m/s."""
     wheel_accel_m_s2: float
+    """The largest ``|acceleration|`` of either wheel, m/s²."""
     wheel_jerk_m_s3: float
+    """The largest ``|jerk|`` of either wheel, m/s³."""
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -149,13 +138,18 @@ def _nonzero(value: float, source: str, prefix: str, key: str) -> None:
         raise ConfigError(source, f"{prefix}.{key}" if prefix else key, "must not be zero")
 
 
+_SPEED_CAP = "A cap on the path speed U over the segment (None: the wheel limits alone), m/s."
+
+
+@document_fields
 @dataclass(frozen=True, kw_only=True)
 class LineSegment:
-    """A straight line of ``length_m`` along the current heading; negative drives in reverse."""
+    """A straight line along the current heading."""
 
-    length_m: float = number()
-    speed_m_s: float | None = number(gt=0, default=None)
+    length_m: float = number(doc="Its length, not zero; negative drives in reverse, m.")
+    speed_m_s: float | None = number(gt=0, default=None, doc=_SPEED_CAP)
     type: Literal["line"] = "line"
+    """The segment's kind, as the file's ``type`` key names it."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -164,13 +158,17 @@ class LineSegment:
         _nonzero(self.length_m, source, prefix, "length_m")
 
 
+@document_fields
 @dataclass(frozen=True, kw_only=True)
 class TurnSegment:
-    """A spin in place by ``angle_deg`` (positive = counter-clockwise); ``speed_m_s`` caps the wheel speed."""
+    """A spin in place about the point midway between the wheels."""
 
-    angle_deg: float = number()
-    speed_m_s: float | None = number(gt=0, default=None)
+    angle_deg: float = number(doc="The angle turned, not zero; positive is counter-clockwise, °.")
+    speed_m_s: float | None = number(
+        gt=0, default=None, doc="A cap on the wheel speed ω b/2 (None: the wheel limits alone), m/s."
+    )
     type: Literal["turn"] = "turn"
+    """The segment's kind, as the file's ``type`` key names it."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -179,14 +177,18 @@ class TurnSegment:
         _nonzero(self.angle_deg, source, prefix, "angle_deg")
 
 
+@document_fields
 @dataclass(frozen=True, kw_only=True)
 class ArcSegment:
-    """A circular arc of ``radius_m`` ≥ 1 mm through ``angle_deg`` (positive = left turn), driven forwards."""
+    """A circular arc, driven forwards."""
 
-    radius_m: float = number(ge=1e-3, doc='at least 1 mm: a smaller radius is a turn in place (type = "turn")')
-    angle_deg: float = number()
-    speed_m_s: float | None = number(gt=0, default=None)
+    radius_m: float = number(
+        ge=1e-3, doc='Its radius, at least 1 mm: a smaller one is a turn in place (``type = "turn"``), m.'
+    )
+    angle_deg: float = number(doc="The angle turned along it, not zero; positive is a left turn, °.")
+    speed_m_s: float | None = number(gt=0, default=None, doc=_SPEED_CAP)
     type: Literal["arc"] = "arc"
+    """The segment's kind, as the file's ``type`` key names it."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -195,13 +197,16 @@ class ArcSegment:
         _nonzero(self.angle_deg, source, prefix, "angle_deg")
 
 
+@document_fields
 @dataclass(frozen=True, kw_only=True)
 class Waypoint:
-    """A point the path passes through; ``theta_deg`` (optional) is the heading there."""
+    """A point the path passes through."""
 
-    x_m: float = number(ge=-MAX_WAYPOINT_COORDINATE_M, le=MAX_WAYPOINT_COORDINATE_M)
-    y_m: float = number(ge=-MAX_WAYPOINT_COORDINATE_M, le=MAX_WAYPOINT_COORDINATE_M)
-    theta_deg: float | None = number(default=None)
+    x_m: float = number(ge=-MAX_WAYPOINT_COORDINATE_M, le=MAX_WAYPOINT_COORDINATE_M, doc="Its x, m.")
+    y_m: float = number(ge=-MAX_WAYPOINT_COORDINATE_M, le=MAX_WAYPOINT_COORDINATE_M, doc="Its y, m.")
+    theta_deg: float | None = number(
+        default=None, doc="The heading there (None: chosen for a smooth path), counter-clockwise from x, °."
+    )
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -240,18 +245,42 @@ class _PathFile:
     limits: PathLimits = dataclasses.field(default_factory=PathLimits)
 
 
+@document_fields
 @dataclass(frozen=True)
 class PathSpec:
-    """A path: its segments (or waypoints), start pose, the limits the file sets, how segments join
-    (``"smooth"``: drive through curvature changes; ``"stop"``: stop at each), and where it came from."""
+    """A path: its segments (or waypoints), start pose, the limits it sets, how segments join, and where it came
+    from. :func:`load_path` reads one from a file; :func:`~agvctl.planning.plan` plans its reference.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``source``: both segments and waypoints, neither, more than :data:`MAX_SEGMENTS`, or waypoints
+        that are fewer than two or repeat a point.
+
+    Examples
+    --------
+    >>> from agvctl.planning import plan
+    >>> square = PathSpec(segments=[LineSegment(length_m=2.0), TurnSegment(angle_deg=90)] * 4, name="square")
+    >>> reference = plan(square)  # on the default vehicle
+    >>> print(f"{reference.duration_s:.1f} s")
+    27.5 s
+    """
 
     segments: tuple[Segment, ...] = ()
+    """The segments, driven in order (none for a waypoint path)."""
     name: str = "path"
+    """The path's name, for reports and output folders."""
     start: StartPose = dataclasses.field(default_factory=StartPose)
+    """The pose the first segment starts from (a waypoint path starts at its first waypoint)."""
     limits: PathLimits = dataclasses.field(default_factory=PathLimits)
+    """The wheel limits the path sets (those it leaves to None default to the vehicle's)."""
     source: str = "<path>"
+    """Where it came from (its file), as errors name it."""
     waypoints: tuple[Waypoint, ...] = ()
+    """The points it passes through, instead of segments."""
     join: Literal["smooth", "stop"] = "smooth"
+    """How consecutive segments join: ``"smooth"`` drives through the curvature changes, ``"stop"`` stops at
+    each."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -287,7 +316,7 @@ def load_path(path: str | Path) -> PathSpec:
 
     Parameters
     ----------
-    path
+    path : str or Path
         The path file (TOML): segments or waypoints, and optional limits.
 
     Returns
@@ -323,85 +352,3 @@ def load_path(path: str | Path) -> PathSpec:
         limits=data.limits,
         source=source,
     )
-
-
-def default_jerk_limit_m_s3(vehicle: VehicleParams) -> float:
-    """Default wheel jerk limit: a_lim reached in :data:`JERK_RAMP_SAMPLES` control periods (a planning
-    convention, not a physical limit: 0.657 / (5 · 0.04 s) = 3.29 m/s³ for the default vehicle)."""
-    return vehicle.derived.accel_limit_m_s2 / (JERK_RAMP_SAMPLES * vehicle.control.sample_period_s)
-
-
-def resolve_limits(spec: PathSpec, vehicle: VehicleParams, *, force: bool = False) -> WheelLimits:
-    """The wheel limits of ``spec`` with the vehicle's defaults filled in, checked against the vehicle.
-
-    Defaults leave headroom for feedback (:func:`~agvctl.actuator.feasible_wheel_limits`: the plan uses at most
-    80 % of I_max and of the full-scale voltage) and :func:`default_jerk_limit_m_s3`. A wheel speed limit (or a
-    segment's ``speed_m_s``) above the no-load top speed, or an acceleration limit above a_lim (eq 5), raises a
-    :class:`ConfigError` naming both values, unless ``force`` is true: then a :class:`PhysicalLimitWarning` is
-    issued instead. Explicit limits the actuator can deliver but with less than
-    :data:`~agvctl.actuator.MIN_HEADROOM` of current or voltage left get a :class:`~agvctl.actuator.HeadroomWarning`.
-    A limit left to its default when the vehicle has none (it cannot move, or not with the headroom) raises a
-    :class:`ConfigError` naming the vehicle keys why, ``force`` or not.
-    """
-    top, a_lim = vehicle.derived.max_speed_m_s, vehicle.derived.accel_limit_m_s2
-    lim = spec.limits
-    checks: list[tuple[str, float | None, float, str, str]] = [
-        ("limits.wheel_speed_m_s", lim.wheel_speed_m_s, top, "m/s", "no-load top speed"),
-        ("limits.wheel_accel_m_s2", lim.wheel_accel_m_s2, a_lim, "m/s²", "acceleration limit a_lim (eq 5)"),
-    ]
-    checks += [
-        (f"segments[{i}].speed_m_s", seg.speed_m_s, top, "m/s", "no-load top speed")
-        for i, seg in enumerate(spec.segments)
-    ]
-    over = set()
-    for key, value, physical, unit, what in checks:
-        if value is not None and value > physical:
-            over.add(key)
-            problem = f"{value:g} {unit} is above the vehicle's {what} of {physical:.4g} {unit}"
-            if not force:
-                raise ConfigError(spec.source, key, problem + " (use --force to plan anyway)")
-            warnings.warn(
-                f"{spec.source}: {key}: {problem}; planning anyway (--force)", PhysicalLimitWarning, stacklevel=2
-            )
-    _warn_headroom(spec, vehicle, skip=over)
-    default = feasible_wheel_limits(vehicle)
-    for key, why in no_default_limit_reasons(vehicle, default).items():
-        if getattr(lim, key) is None:
-            raise ConfigError(spec.source, f"limits.{key}", f"no default for this vehicle: {why}")
-    jerk = lim.wheel_jerk_m_s3 if lim.wheel_jerk_m_s3 is not None else default_jerk_limit_m_s3(vehicle)
-    return WheelLimits(
-        wheel_speed_m_s=lim.wheel_speed_m_s if lim.wheel_speed_m_s is not None else default.wheel_speed_m_s,
-        wheel_accel_m_s2=lim.wheel_accel_m_s2 if lim.wheel_accel_m_s2 is not None else default.wheel_accel_m_s2,
-        wheel_jerk_m_s3=jerk,
-    )
-
-
-def _warn_headroom(spec: PathSpec, vehicle: VehicleParams, skip: set[str]) -> None:
-    """A :class:`HeadroomWarning` for each explicit limit that leaves less than MIN_HEADROOM for feedback (but
-    those in ``skip``, already above the physical limit)."""
-    lim = spec.limits
-    if lim.wheel_accel_m_s2 is not None and "limits.wheel_accel_m_s2" not in skip:
-        a = lim.wheel_accel_m_s2
-        current, _ = actuator_headroom(vehicle, [[1e-9, 1e-9]], [[a, a]])
-        if current < MIN_HEADROOM:
-            warnings.warn(
-                f"{spec.source}: limits.wheel_accel_m_s2: {a:g} m/s² leaves {max(current, 0):.0%} of the current "
-                f"limit for feedback (at least {MIN_HEADROOM:.0%} advised; the default "
-                f"{feasible_wheel_limits(vehicle).wheel_accel_m_s2:.3g} m/s² leaves {CURRENT_HEADROOM:.0%})",
-                HeadroomWarning,
-                stacklevel=3,
-            )
-    speeds = [("limits.wheel_speed_m_s", lim.wheel_speed_m_s)]
-    speeds += [(f"segments[{i}].speed_m_s", seg.speed_m_s) for i, seg in enumerate(spec.segments)]
-    for key, v in speeds:
-        if v is None or key in skip:
-            continue
-        _, voltage = actuator_headroom(vehicle, [[v, v]], [[0.0, 0.0]])
-        if voltage < MIN_HEADROOM:
-            warnings.warn(
-                f"{spec.source}: {key}: {v:g} m/s leaves {max(voltage, 0):.0%} of the full-scale voltage for "
-                f"feedback at cruise (at least {MIN_HEADROOM:.0%} advised; the default "
-                f"{feasible_wheel_limits(vehicle).wheel_speed_m_s:.3g} m/s leaves {VOLTAGE_HEADROOM:.0%})",
-                HeadroomWarning,
-                stacklevel=3,
-            )

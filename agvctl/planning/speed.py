@@ -1,14 +1,14 @@
 """Speed along a path within the wheel limits: a velocity limit per section, forward/backward passes, Ruckig.
 
 A path motion is cut into *sections* (a line or an arc, a smooth join, a stretch of a waypoint spline). On a
-section with max |κ| = k₀, max |dκ/ds| = k₁ and max |d²κ/ds²| = k₂, with h = b/2 and the path speed ṡ ≥ 0,
+section with max ``|κ|`` = k₀, max ``|dκ/ds|`` = k₁ and max ``|d²κ/ds²|`` = k₂, with h = b/2 and the path speed ṡ ≥ 0,
 the wheel speeds v = ṡ (d ∓ κ h) (eqs 39-43) and their derivatives are bounded by
 
     |v|  ≤ ṡ F,                       F  = 1 + k₀ h
     |v̇|  ≤ |s̈| F + ṡ² K₁,             K₁ = k₁ h         (the U² dκ/ds b/2 term)
     |v̈|  ≤ |s⃛| F + 3 ṡ |s̈| K₁ + ṡ³ K₂,  K₂ = k₂ h
 
-so a profile of s with |ṡ| ≤ V, |s̈| ≤ A = (a − V² K₁)/F and |s⃛| ≤ (j − 3 V A K₁ − V³ K₂)/F keeps every wheel
+so a profile of s with ``|ṡ|`` ≤ V, ``|s̈|`` ≤ A = (a − V² K₁)/F and ``|s⃛|`` ≤ (j − 3 V A K₁ − V³ K₂)/F keeps every wheel
 within (v, a, j) at every instant. V is the section's velocity limit: v/F, the segment's speed cap, and, where
 the curvature varies, the speed at which the curvature terms take :data:`CURVATURE_SHARE` of the wheel
 acceleration and jerk. On a line or an arc (K₁ = K₂ = 0) these are the exact wheel limits divided by F.
@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 from scipy.optimize import brentq
 
+from agvctl.config import document_fields
 from agvctl.errors import PlanningError
 from agvctl.planning.profile import LIMIT_MARGIN, JerkProfile, _Solver, between
 from agvctl.planning.spec import WheelLimits
@@ -40,20 +41,44 @@ neighbours' speed, so most of the budget goes to the curvature (0.5 and 0.75 mad
 slower)."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class SectionLimits:
-    """Limits on the path coordinate s of one section: length (m), |ṡ| (m/s), |s̈| (m/s²), |s⃛| (m/s³)."""
+    """Limits on the path coordinate s of one section."""
 
     length_m: float
+    """The section's length, m."""
     speed_m_s: float
+    """The largest ``|ṡ|``, m/s."""
     accel_m_s2: float
+    """The largest ``|s̈|``, m/s²."""
     jerk_m_s3: float
+    """The largest ``|s⃛|``, m/s³."""
 
 
 def section_limits(
     length_m: float, bounds: Sequence[float], cap_m_s: float | None, limits: WheelLimits, half_b_m: float
 ) -> SectionLimits:
-    """The limits of s on a section with curvature bounds ``(k₀, k₁, k₂)`` (see the module docstring)."""
+    """The limits of the path coordinate on a section, from its curvature bounds (see the module notes).
+
+    Parameters
+    ----------
+    length_m : float
+        The section's length, m.
+    bounds : sequence of float
+        Its curvature bounds (k₀, k₁, k₂): max ``|κ|`` (1/m), ``|dκ/ds|`` (1/m²), ``|d²κ/ds²|`` (1/m³).
+    cap_m_s : float or None
+        The segment's speed cap (None: none), m/s.
+    limits : WheelLimits
+        The wheel limits.
+    half_b_m : float
+        Half the wheel separation, b/2, m.
+
+    Returns
+    -------
+    SectionLimits
+        The limits that keep every wheel within ``limits`` at every instant.
+    """
     k0, k1, k2 = bounds
     f, c1, c2 = 1.0 + k0 * half_b_m, k1 * half_b_m, k2 * half_b_m
     v_lim, a_lim, j_lim = limits.wheel_speed_m_s, limits.wheel_accel_m_s2, limits.wheel_jerk_m_s3
@@ -93,9 +118,26 @@ def _reach(u: float, d: float, a: float, j: float, v_max: float) -> float:
 def plan_speed(
     sections: Sequence[SectionLimits], *, solver: _Solver | None = None
 ) -> tuple[list[JerkProfile], list[float]]:
-    """Profiles of s on each section, at rest at both ends of the chain, and the junction speeds.
+    """The speed along a chain of sections: one profile of s per section, at rest at both ends of the chain.
 
-    Raises :class:`PlanningError` (with the section's index in ``args[1]``) if a profile cannot be planned.
+    Parameters
+    ----------
+    sections : sequence of SectionLimits
+        The sections, in order.
+    solver : _Solver or None
+        A Ruckig instance to reuse (None: a new one).
+
+    Returns
+    -------
+    profiles : list of JerkProfile
+        One profile per section.
+    junction_speeds_m_s : list of float
+        The path speed at each junction, the chain's two ends (0) included, m/s.
+
+    Raises
+    ------
+    PlanningError
+        A profile cannot be planned, with the section's index in ``args[1]``.
     """
     solver = solver if solver is not None else _Solver()
     n = len(sections)

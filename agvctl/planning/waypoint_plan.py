@@ -6,14 +6,16 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import NDArray
 
 from agvctl.errors import ConfigError
 from agvctl.planning.arguments import check_geometry, check_reference
+from agvctl.planning.curve import Curve
 from agvctl.planning.motion import PlanFailure, path_motion
 from agvctl.planning.profile import _Solver
 from agvctl.planning.reference import Reference
 from agvctl.planning.spec import MAX_SEGMENTS, Waypoint, WheelLimits, check_waypoints
-from agvctl.planning.speed import section_limits
+from agvctl.planning.speed import SectionLimits, section_limits
 from agvctl.planning.waypoints import waypoint_curve
 
 __all__ = ["WAYPOINT_SECTION_PIECES", "plan_waypoints"]
@@ -35,6 +37,26 @@ def plan_waypoints(
     """Plan a path through waypoints with explicit limits (no vehicle file): one motion, its speed planned on
     sections of :data:`WAYPOINT_SECTION_PIECES` curve pieces.
 
+    Parameters
+    ----------
+    waypoints : sequence of Waypoint
+        The points to pass through, at least two, the first the start.
+    limits : WheelLimits
+        The wheel limits.
+    separation_m : float
+        The wheel separation b, m.
+    sample_period_s : float
+        The control sample period of the reference's grid, s.
+    name : str
+        The reference's name.
+    source : str
+        What errors name as the file.
+
+    Returns
+    -------
+    Reference
+        The planned reference.
+
     Raises
     ------
     ConfigError
@@ -51,15 +73,7 @@ def plan_waypoints(
     check_waypoints(waypoints, source)
     check_geometry(source, separation_m, sample_period_s)
     curve, s_i, deviation = waypoint_curve(waypoints, source=source)
-    half_b = 0.5 * separation_m
-    bounds = curve.piece_bounds()
-    n = len(curve.lengths_m)
-    sections, owners = [], []
-    for lo in range(0, n, WAYPOINT_SECTION_PIECES):
-        hi = min(n, lo + WAYPOINT_SECTION_PIECES)
-        length = float(np.sum(curve.lengths_m[lo:hi]))
-        sections.append(section_limits(length, tuple(np.max(bounds[lo:hi], axis=0)), None, limits, half_b))
-        owners.append(int(np.searchsorted(s_i, curve.s0_m[lo], side="right")) - 1)
+    sections, owners = _sections(curve, s_i, limits, 0.5 * separation_m)
     try:
         motion = path_motion(
             curve,
@@ -85,3 +99,19 @@ def plan_waypoints(
     )
     check_reference(reference, source, "waypoints")
     return reference
+
+
+def _sections(
+    curve: Curve, s_i: NDArray[np.float64], limits: WheelLimits, half_b: float
+) -> tuple[list[SectionLimits], list[int]]:
+    """The speed sections of a waypoint curve, :data:`WAYPOINT_SECTION_PIECES` pieces each, and the waypoint
+    interval each starts in."""
+    bounds = curve.piece_bounds()
+    n = len(curve.lengths_m)
+    sections, owners = [], []
+    for lo in range(0, n, WAYPOINT_SECTION_PIECES):
+        hi = min(n, lo + WAYPOINT_SECTION_PIECES)
+        length = float(np.sum(curve.lengths_m[lo:hi]))
+        sections.append(section_limits(length, tuple(np.max(bounds[lo:hi], axis=0)), None, limits, half_b))
+        owners.append(int(np.searchsorted(s_i, curve.s0_m[lo], side="right")) - 1)
+    return sections, owners

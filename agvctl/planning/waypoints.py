@@ -101,8 +101,30 @@ def _cusp_check(spline: BSpline, u_i: FloatArray, waypoints: Sequence[Waypoint],
 
 
 def waypoint_curve(waypoints: Sequence[Waypoint], *, source: str = "<path>") -> tuple[Curve, FloatArray, float]:
-    """``(curve, s_i, deviation_m)``: the path through the waypoints, the arc length at each waypoint, and
-    the largest distance from a waypoint to the curve at its arc length."""
+    """The smooth path through waypoints as a polynomial-curvature curve.
+
+    Parameters
+    ----------
+    waypoints : sequence of Waypoint
+        The points, with their headings where given.
+    source : str
+        What errors name as the file.
+
+    Returns
+    -------
+    curve : Curve
+        The path through the waypoints.
+    s_i : ndarray
+        The arc length at each waypoint, m.
+    deviation_m : float
+        The largest distance from a waypoint to the curve at its arc length, m.
+
+    Raises
+    ------
+    ConfigError
+        A path that would fold back on itself near a waypoint (a cusp, which cannot be driven forwards), naming
+        the waypoint or its heading.
+    """
     points = np.array([[w.x_m, w.y_m] for w in waypoints], dtype=float)
     headings = [None if w.theta_deg is None else math.radians(w.theta_deg) for w in waypoints]
     spline, u_i = _fit(points, headings)

@@ -35,8 +35,13 @@ _COMPILER_FLAGS = ("-O2", "-fPIC", "-shared")
 
 
 def cache_dir() -> Path:
-    """Where compiled plant code is kept: ``$AGVCTL_CACHE_DIR``, else ``$XDG_CACHE_HOME/agvctl``, else
-    ``~/.cache/agvctl``."""
+    """Where compiled plant code is kept.
+
+    Returns
+    -------
+    Path
+        ``$AGVCTL_CACHE_DIR``, else ``$XDG_CACHE_HOME/agvctl``, else ``~/.cache/agvctl`` (not made here).
+    """
     env = os.environ.get("AGVCTL_CACHE_DIR")
     if env:
         return Path(env)
@@ -170,10 +175,20 @@ def native_functions(functions: Sequence[ca.Function], name: str) -> list[Numeri
 
     Parameters
     ----------
-    functions
+    functions : sequence of casadi.Function
         The CasADi functions, generated together into one C file.
-    name
+    name : str
         Stem of the C file and of the cached shared object (``<name>_<hash>.so``).
+
+    Returns
+    -------
+    list of NumericFunction
+        One callable per function, in their order: inputs as numpy arrays, outputs as 2-D arrays.
+
+    Warns
+    -----
+    RuntimeWarning
+        When compiling fails and the functions run in CasADi's virtual machine instead.
     """
     if os.environ.get("AGVCTL_NO_COMPILE", "") not in ("", "0"):
         return [_VmCall(f) for f in functions]

@@ -17,7 +17,15 @@ __all__ = ["DecoupledModels", "decoupled_wheel_models"]
 
 
 class DecoupledModels(NamedTuple):
-    """Left and right motor: voltage (V) → motor speed (rad/s)."""
+    """Left and right motor: voltage (V) → motor speed (rad/s).
+
+    Parameters
+    ----------
+    left : control.TransferFunction
+        The left motor's model, from its voltage (V) to its speed (rad/s).
+    right : control.TransferFunction
+        The right motor's.
+    """
 
     left: control.TransferFunction
     right: control.TransferFunction
@@ -28,7 +36,7 @@ def decoupled_wheel_models(vehicle: VehicleParams) -> DecoupledModels:
 
     Parameters
     ----------
-    vehicle
+    vehicle : VehicleParams
         The vehicle whose equivalent inertia and damping (eqs 60-62) give each side's first-order model.
 
     Returns

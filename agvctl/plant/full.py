@@ -21,6 +21,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from agvctl.config import document_fields
 from agvctl.params import (
     SIDES,
     VehicleParams,
@@ -80,7 +81,18 @@ PARAMETER_NAMES = (
 
 
 def parameter_vector(vehicle: VehicleParams) -> np.ndarray:
-    """The plant's numeric parameter vector for ``vehicle``, laid out as :data:`PARAMETER_NAMES`."""
+    """The plant's numeric parameter vector for a vehicle: the ``p`` of :attr:`FullModel.rhs`.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle.
+
+    Returns
+    -------
+    ndarray
+        Its constants laid out as :data:`PARAMETER_NAMES`, each in the unit its name ends in.
+    """
     values: list[float] = [
         vehicle.body.mass_kg,
         inertia_rotation_point(vehicle.body),
@@ -105,6 +117,7 @@ def parameter_vector(vehicle: VehicleParams) -> np.ndarray:
     return np.array(values, dtype=float)
 
 
+@document_fields
 @dataclass(frozen=True)
 class PlantOptions:
     """Which nonlinear effects the model includes. All on is the full model of eqs 31-34 / 52-59."""
@@ -133,8 +146,14 @@ class _Side:
 class FullModel:
     """The nonlinear AGV model as CasADi expressions and functions.
 
-    ``FullModel().rhs`` is a ``casadi.Function`` ``(x[5], u[2], p[n]) -> (xdot[5], aux[10])``; ``aux`` holds the
-    quantities named in :data:`AUX_NAMES` at that instant.
+    ``FullModel().rhs`` is a ``casadi.Function`` ``(x[5], u[2], p[n]) -> (xdot[5], aux[10])``: the state
+    :data:`STATE_NAMES`, the motor voltages :data:`INPUT_NAMES` and the parameters :func:`parameter_vector` give
+    the state's derivative and the quantities named in :data:`AUX_NAMES` at that instant.
+
+    Parameters
+    ----------
+    options : PlantOptions or None
+        The nonlinear effects it includes (None: all of them).
     """
 
     def __init__(self, options: PlantOptions | None = None) -> None:
@@ -213,7 +232,22 @@ class FullModel:
 def state_from_motor_speeds(
     vehicle: VehicleParams, omega_motor_rad_s: tuple[float, float], pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
 ) -> np.ndarray:
-    """The state vector for given motor speeds (sliding in their direction) and pose: the inverse of eq 2."""
+    """The state vector for given motor speeds, sliding in their direction, and pose: the inverse of eq 2.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle: its stiction and friction gain P set the dead zone between ω̃ and ω_mot.
+    omega_motor_rad_s : tuple of float
+        The motor speeds (left, right), rad/s.
+    pose : tuple of float
+        x (m), y (m) and heading (rad).
+
+    Returns
+    -------
+    ndarray
+        The state, laid out as :data:`STATE_NAMES`.
+    """
     d = vehicle.derived
     state = [0.0, 0.0, *pose]
     for i, (w, side) in enumerate(zip(omega_motor_rad_s, (vehicle.motor.left, vehicle.motor.right), strict=True)):

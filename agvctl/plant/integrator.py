@@ -67,10 +67,20 @@ STIFFNESS_STEP = PLANT_STIFFNESS_STEP
 
 
 def choose_substeps(vehicle: VehicleParams) -> int:
-    """RK4 substeps per sample for ``vehicle``: at least one per 5 ms, and h·λ_max ≤ 0.4, rounded up to 2^k.
+    """RK4 substeps per sample for a vehicle: at least one per 5 ms, and h·λ_max ≤ 0.4, rounded up to 2^k.
 
     λ_max is :meth:`~agvctl.params.VehicleParams.stiffest_rate_1_s`: the stiction spring of eqs 2-3 (or the
     back-EMF damping, if P is set below it) against the inertia.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle: its sample period and its stiffest mode.
+
+    Returns
+    -------
+    int
+        The substeps, a power of two.
 
     Raises
     ------
@@ -91,8 +101,18 @@ def choose_substeps(vehicle: VehicleParams) -> int:
 
 
 def sample_splits(vehicles: VehicleParams | Iterable[VehicleParams]) -> int:
-    """Sub-samples per sample so that the kernel's 8 substeps give :func:`choose_substeps` (the most any of the
-    vehicles needs)."""
+    """Sub-samples per sample so that the kernel's 8 substeps give :func:`choose_substeps`.
+
+    Parameters
+    ----------
+    vehicles : VehicleParams or iterable of VehicleParams
+        The vehicle, or the vehicles simulated together in one batch.
+
+    Returns
+    -------
+    int
+        The sub-samples the kernel runs per control sample, for the vehicle that needs the most.
+    """
     vs = [vehicles] if isinstance(vehicles, VehicleParams) else list(vehicles)
     return max(1, max(choose_substeps(v) for v in vs) // KERNEL_SUBSTEPS)
 
@@ -160,6 +180,11 @@ class CompiledPlant:
     """The full model's sample step, chunk accumulation and batch map, compiled (or in CasADi's VM).
 
     Use :func:`compiled_plant` to get a shared, cached instance.
+
+    Parameters
+    ----------
+    options : PlantOptions
+        The nonlinear effects the model includes.
     """
 
     def __init__(self, options: PlantOptions) -> None:
@@ -286,7 +311,18 @@ _LOCK = threading.Lock()
 
 
 def compiled_plant(options: PlantOptions | None = None) -> CompiledPlant:
-    """The shared :class:`CompiledPlant` for these options (built, or loaded from the disk cache, on first use)."""
+    """The shared :class:`CompiledPlant` for a set of model options.
+
+    Parameters
+    ----------
+    options : PlantOptions or None
+        The nonlinear effects the model includes (None: all of them).
+
+    Returns
+    -------
+    CompiledPlant
+        Built, or loaded from the disk cache, on first use; the same instance afterwards.
+    """
     key = options or PlantOptions()
     with _LOCK:
         plant = _CACHE.get(key)

@@ -20,7 +20,20 @@ _INPUTS = ["voltage_left_v", "voltage_right_v"]
 
 
 def linear_model_matrices(vehicle: VehicleParams) -> tuple[np.ndarray, np.ndarray]:
-    """``(A, B)`` of eqs 35-38 written as ``M ω̇ = K u − D ω`` and solved for ω̇."""
+    """The matrices of eqs 35-38 written as ``M ω̇ = K u − D ω`` and solved for ω̇.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle whose constants fill the matrices.
+
+    Returns
+    -------
+    A : ndarray
+        2 × 2, from the motor speeds (rad/s) to their derivatives, 1/s.
+    B : ndarray
+        2 × 2, from the motor voltages (V) to the motor accelerations, rad/(V s²).
+    """
     d = vehicle.derived
     ml, mr = vehicle.motor.left, vehicle.motor.right
     # eqs 35 + 37 and 36 + 38: (J + k_ll) ω̇_l + k_lr ω̇_r = k_t/R u_l − (k_e k_t/R + f_m) ω_l, and mirrored
@@ -37,7 +50,7 @@ def linear_model(vehicle: VehicleParams) -> control.StateSpace:
 
     Parameters
     ----------
-    vehicle
+    vehicle : VehicleParams
         The vehicle whose constants (and derived constants) fill the matrices.
 
     Returns
@@ -54,7 +67,19 @@ def linear_model(vehicle: VehicleParams) -> control.StateSpace:
 
 
 def linear_model_speed_yaw_rate(vehicle: VehicleParams) -> control.StateSpace:
-    """Eqs 35-38 with outputs vehicle speed U (m/s) and yaw rate ω (rad/s) by eqs 39-40."""
+    """Eqs 35-38 with the vehicle's speed U and yaw rate ω as outputs (eqs 39-40).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle whose constants fill the matrices.
+
+    Returns
+    -------
+    control.StateSpace
+        Inputs ``voltage_left_v``, ``voltage_right_v`` (V); states the motor speeds (rad/s); outputs
+        ``speed_m_s`` (m/s) and ``yaw_rate_rad_s`` (rad/s).
+    """
     A, B = linear_model_matrices(vehicle)
     r_l, r_r, b = vehicle.wheels.left.radius_m, vehicle.wheels.right.radius_m, vehicle.wheels.separation_m
     n_l, n_r = vehicle.motor.left.gear_ratio, vehicle.motor.right.gear_ratio

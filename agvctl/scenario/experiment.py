@@ -35,7 +35,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from agvctl.config import build, load_toml
+from agvctl.config import build, document_fields, load_toml
 from agvctl.controllers.base import PoseController, WheelSpeedController
 from agvctl.controllers.registry import POSE_CONTROLLERS, WheelLoops, design_wheel_loops
 from agvctl.errors import ConfigError, expect_instance
@@ -48,6 +48,7 @@ from agvctl.sim.loop import ClosedLoopResult, run_closed_loop
 __all__ = ["Experiment", "experiment_from_spec", "load_experiment", "run_experiment"]
 
 
+@document_fields
 @dataclass(frozen=True)
 class Experiment:
     """Everything a run needs, loaded and validated once."""
@@ -82,7 +83,7 @@ def load_experiment(path: str | Path) -> Experiment:
 
     Parameters
     ----------
-    path
+    path : str or Path
         The experiment file (TOML); the paths it names are relative to it.
 
     Returns
@@ -97,6 +98,12 @@ def load_experiment(path: str | Path) -> Experiment:
     ConfigError
         A one-line message naming the file and key: a missing or unreadable file, an unknown or misspelt key, a
         value out of range, a path that cannot be planned.
+
+    Examples
+    --------
+    >>> experiment = load_experiment("experiments/figure8.toml")
+    >>> experiment.spec.controller.pose, f"{experiment.reference.duration_s:.1f} s"
+    ('mpc', '26.6 s')
     """
     path = Path(path)
     spec = build(ExperimentSpec, load_toml(path), source=str(path))
@@ -104,8 +111,25 @@ def load_experiment(path: str | Path) -> Experiment:
 
 
 def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
-    """Load the vehicles (nominal and true), plan the reference, design the wheel loops and complete the pose
-    controller's settings with them. Errors name the experiment file and key."""
+    """An experiment from its validated file: the vehicles (nominal and true) loaded, the reference planned, the
+    wheel loops designed and the pose controller's settings completed with them.
+
+    Parameters
+    ----------
+    spec : ExperimentSpec
+        The experiment file, validated (its ``source`` the file, against which its paths are resolved).
+
+    Returns
+    -------
+    Experiment
+        Everything a run needs.
+
+    Raises
+    ------
+    ConfigError
+        A file it names that is missing or invalid, or a path that cannot be planned, naming the experiment file
+        and key.
+    """
     src = spec.source
     vehicle_path = None if spec.vehicle == "default" else spec.resolve(spec.vehicle)
     if vehicle_path is not None and not vehicle_path.exists():
@@ -144,12 +168,15 @@ def run_experiment(
 
     Parameters
     ----------
-    experiment
+    experiment : Experiment
         From :func:`load_experiment`.
-    pose_controller, wheel_controller
-        Your own controllers (:class:`~agvctl.controllers.base.PoseController`, wheel-speed setpoints in m/s;
-        :class:`~agvctl.controllers.base.WheelSpeedController`, DA voltages in V) instead of the file's.
-    progress
+    pose_controller : PoseController or None
+        Your own pose controller (wheel-speed setpoints in m/s, :class:`~agvctl.controllers.base.PoseController`)
+        instead of the file's.
+    wheel_controller : WheelSpeedController or None
+        Your own wheel loops (DA voltages in V, :class:`~agvctl.controllers.base.WheelSpeedController`) instead of
+        the file's.
+    progress : callable or None
         Called with the fraction done (0…1) about every simulated second.
 
     Returns

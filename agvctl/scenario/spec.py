@@ -20,6 +20,7 @@ from agvctl.config import (
     check_plain_name,
     convert_value,
     did_you_mean,
+    document_fields,
     join_key,
     number,
     to_dict,
@@ -35,12 +36,16 @@ from agvctl.sim.loop import ComputeDelay
 __all__ = ["ControllerSpec", "ExperimentSpec", "PlantSpec", "RobustnessSpec", "Spread"]
 
 
+@document_fields
 @dataclass(frozen=True)
 class PlantSpec:
-    """The simulated truth: dotted-key overrides of the vehicle, and where the vehicle starts."""
+    """``[plant]``: the simulated truth, as dotted-key overrides of the vehicle, and where the vehicle starts."""
 
     set: dict[str, Any] = dataclasses.field(default_factory=dict)
+    """The true vehicle's differences from the controller's, by dotted key (``"wheels.left.radius_m" = 0.101``),
+    each in the unit of its key."""
     initial_pose: StartPose | None = None
+    """Where the vehicle starts (None: the reference's start)."""
     sensor_seed: int = number(ge=0, default=0)
     """The seed of the true vehicle's sensor noise (encoder phases, gyro, fixes)."""
 
@@ -94,6 +99,7 @@ def _with_settings_file(
     return merged_settings(keys, rest)
 
 
+@document_fields
 @dataclass(frozen=True)
 class ControllerSpec:
     """The controllers of an experiment. Keys other than these go to the pose controller's settings, over those of
@@ -102,13 +108,14 @@ class ControllerSpec:
     pose: str = "mpc"
     """A name of :data:`~agvctl.controllers.registry.POSE_CONTROLLERS`."""
     compute_delay: ComputeDelay = "none"
+    """``"one_sample"`` applies the setpoints computed at one sample from the next."""
     localization: str = "truth"
     """A name of :data:`~agvctl.estimation.registry.ESTIMATORS`."""
     wheel_speed: str = "exact"
     """How the loops measure the motor speeds: a name of :data:`~agvctl.estimation.registry.WHEEL_SPEED_ESTIMATORS`.
     """
     pi_gains: str | None = None
-    """A gains file written by ``agvctl tune --out`` (relative to the experiment); default: tuned on the fly."""
+    """A gains file written by ``agvctl tune --out`` (relative to the experiment); None: tuned on the fly."""
     coulomb_feedforward: bool = True
     """Add the Coulomb-friction voltage τ_c R/k_t to the PI output (ramped in near zero speed). On by default: the
     wheels then answer small setpoints instead of sitting in the friction until the integrator winds up
@@ -159,11 +166,13 @@ class ControllerSpec:
         return {**own, **(to_dict(self.pose_settings) if self.pose_settings is not None else {})}
 
 
+@document_fields
 @dataclass(frozen=True)
 class Spread:
     """How one vehicle value varies across Monte Carlo samples, relative to its nominal value."""
 
     kind: Literal["uniform", "normal"]
+    """The distribution."""
     relative: float
     """Half-width of the uniform interval (value · (1 ± relative)) or the Gaussian sigma (value · (1 + N(0, σ)))."""
 
@@ -171,13 +180,16 @@ class Spread:
         check_fields(self)
 
 
+@document_fields
 @dataclass(frozen=True)
 class RobustnessSpec:
     """``[robustness]``: Monte Carlo over the plant's parameters (the controller keeps the nominal model)."""
 
-    samples: int = number(ge=1, le=100000, default=100)
-    seed: int = number(ge=0, default=0)
+    samples: int = number(ge=1, le=100000, default=100, doc="How many runs, each with its own plant.")
+    seed: int = number(ge=0, default=0, doc="The seed the plants are drawn from.")
     spread: dict[str, Spread] = dataclasses.field(default_factory=dict)
+    """How each varied vehicle value spreads, by dotted key; the file gives a relative half-width (uniform) or
+    ``{ normal = SIGMA }``."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -212,23 +224,39 @@ class RobustnessSpec:
         return {"samples": self.samples, "seed": self.seed, "spread": spread}
 
 
+@document_fields
 @dataclass(frozen=True)
 class ExperimentSpec:
-    """An experiment file, validated. Paths are resolved relative to the file."""
+    """An experiment file, validated. Paths are resolved relative to the file.
+
+    :func:`~agvctl.scenario.experiment.load_experiment` reads one and makes it an
+    :class:`~agvctl.scenario.experiment.Experiment`.
+    """
 
     name: str
     """A plain name (no ``/`` or ``\\``, not ``.`` or ``..``): ``agvctl run`` writes to ``out/<name>`` by default
     and ``agvctl check`` names its histograms after it, always under their folder."""
     trajectory: str
+    """The path file (``trajectories/*.toml``)."""
     vehicle: str = "default"
+    """The controller's vehicle file (``"default"``: the shipped IAU AGV)."""
     settle_s: float = number(
-        ge=0, le=600.0, default=2.0, doc="at most 600 s, as in a fuzz configuration: the run keeps every sample"
+        ge=0,
+        le=600.0,
+        default=2.0,
+        doc="How long the run goes on after the reference ends, at most 600 s as in a fuzz configuration (the run "
+        "keeps every sample), s.",
     )
     plant: PlantSpec = dataclasses.field(default_factory=PlantSpec)
+    """``[plant]``: the simulated truth."""
     controller: ControllerSpec = dataclasses.field(default_factory=ControllerSpec)
+    """``[controller]``: the controllers and estimators."""
     limits: LimitsSpec = dataclasses.field(default_factory=LimitsSpec)
+    """``[limits]``: the bounds the run is judged by, over the default gate."""
     robustness: RobustnessSpec | None = None
+    """``[robustness]``: Monte Carlo runs for ``agvctl check`` (None: one run)."""
     source: str = dataclasses.field(default="<experiment>", metadata={"derived": True})
+    """The file it was read from, as errors name it; relative paths are resolved against its folder."""
 
     def __post_init__(self) -> None:
         check_fields(self)

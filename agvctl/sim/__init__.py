@@ -5,9 +5,10 @@ the closed loop.
 * :mod:`agvctl.sim.open_loop` — voltage profiles applied open loop, one run or a batch.
 * :mod:`agvctl.sim.wheel_step` — the PI wheel loops' step response.
 * :mod:`agvctl.sim.loop` — the closed loop: reference, pose controller, wheel loops, sensors and estimator.
+* :mod:`agvctl.sim.records` — what the closed loop records per sample, and its log.
 
-Inside the package the layers point one way (an import-linter contract): ``loop`` → ``open_loop`` and
-``wheel_step`` → ``stepper``."""
+Inside the package the layers point one way (an import-linter contract): ``loop`` → ``open_loop``, ``wheel_step``
+and ``records`` → ``stepper``."""
 
 from agvctl.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.sim.open_loop import OpenLoopResult, load_input_profile, simulate_batch, simulate_open_loop

@@ -21,30 +21,30 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal, NamedTuple
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.angles import wrap_angle
-from agvctl.controllers.base import PoseCommand, PoseController, WheelSpeedController
+from agvctl.config import document_fields
+from agvctl.controllers.base import PoseController, WheelSpeedController
 from agvctl.errors import ConfigError
-from agvctl.estimation.base import (
-    CALIBRATION_COLUMNS,
-    PoseEstimator,
-    WheelSpeedEstimator,
-    calibration_readout,
-    consistency,
-)
+from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
-from agvctl.evaluation.metrics import NON_FINITE_COMMAND_STATUS
-from agvctl.evaluation.path_metrics import path_error_columns
-from agvctl.log import PLANT_LOG_COLUMNS, SimLog
+from agvctl.log import SimLog
 from agvctl.params import SIDES, VehicleParams
 from agvctl.params.schema import check_sample_count
-from agvctl.planning.reference import Reference, ReferenceSamples
+from agvctl.planning.reference import Reference
 from agvctl.plant.full import PlantOptions
-from agvctl.sensing import SENSOR_READING_COLUMNS, Measurements, Sensors
+from agvctl.sensing import Measurements, Sensors
+from agvctl.sim.records import (
+    CONTROL_LOG_COLUMNS,
+    SENSOR_NAN_COLUMNS,
+    _checked_command,
+    _closed_loop_log,
+    _control_row,
+    _ControlRow,
+)
 from agvctl.sim.stepper import PlantStepper
 
 __all__ = ["CONTROL_LOG_COLUMNS", "SENSOR_NAN_COLUMNS", "ClosedLoopResult", "ComputeDelay", "run_closed_loop"]
@@ -52,104 +52,26 @@ __all__ = ["CONTROL_LOG_COLUMNS", "SENSOR_NAN_COLUMNS", "ClosedLoopResult", "Com
 ComputeDelay = Literal["none", "one_sample"]
 
 
-class _ControlRow(NamedTuple):
-    """What the loop records at each sample, by column name (plain floats)."""
-
-    est_x_m: float
-    est_y_m: float
-    est_theta_rad: float
-    setpoint_wheel_speed_left_m_s: float
-    setpoint_wheel_speed_right_m_s: float
-    setpoint_omega_motor_left_rad_s: float
-    setpoint_omega_motor_right_rad_s: float
-    da_command_left_v: float
-    da_command_right_v: float
-    solve_time_s: float
-    solver_status: float
-    motor_angle_left_rad: float
-    motor_angle_right_rad: float
-    measured_omega_motor_left_rad_s: float
-    measured_omega_motor_right_rad_s: float
-    encoder_count_left: float
-    encoder_count_right: float
-    gyro_rate_rad_s: float
-    fix_x_m: float
-    fix_y_m: float
-    fix_theta_rad: float
-    fix_measured_t_s: float
-    est_sigma_x_m: float
-    est_sigma_y_m: float
-    est_sigma_theta_rad: float
-    nees: float
-    nis: float
-    est_radius_error_left: float
-    est_radius_error_right: float
-    est_separation_error: float
-    est_sigma_radius_error_left: float
-    est_sigma_radius_error_right: float
-    est_sigma_separation_error: float
-    fixes_rejected: float
-    fixes_dropped: float
-    fixes_reordered: float
-
-
-_SENSOR_COLUMNS = _ControlRow._fields[_ControlRow._fields.index("motor_angle_left_rad") :]
-"""What the sensors read and the estimators made of it: the true shaft angles (the encoders' source), the motor
-speeds the wheel loops used, the latched counts (and the rest of :data:`~agvctl.sensing.SENSOR_READING_COLUMNS`: the
-gyro, the last fix arriving at the sample, NaN when none, with its measurement time), the estimate's σ and its NEES
-against the truth, and the NIS of a fix (NaN for estimators without a covariance), then the odometry calibration
-and the fixes' bookkeeping (:data:`~agvctl.estimation.base.CALIBRATION_COLUMNS`)."""
-assert set(SENSOR_READING_COLUMNS) <= set(_SENSOR_COLUMNS)
-assert _SENSOR_COLUMNS[-len(CALIBRATION_COLUMNS) :] == CALIBRATION_COLUMNS
-
-SENSOR_NAN_COLUMNS = _SENSOR_COLUMNS[_SENSOR_COLUMNS.index("gyro_rate_rad_s") :]
-"""The columns that are NaN where there is no reading: no gyro, no fix arriving, no covariance, no fix's NIS, no
-calibration."""
-
-CONTROL_LOG_COLUMNS = (
-    "ref_x_m",
-    "ref_y_m",
-    "ref_theta_rad",
-    "ref_wheel_speed_left_m_s",
-    "ref_wheel_speed_right_m_s",
-    "est_x_m",
-    "est_y_m",
-    "est_theta_rad",
-    "setpoint_wheel_speed_left_m_s",
-    "setpoint_wheel_speed_right_m_s",
-    "setpoint_omega_motor_left_rad_s",
-    "setpoint_omega_motor_right_rad_s",
-    "wheel_speed_left_m_s",
-    "wheel_speed_right_m_s",
-    "da_command_left_v",
-    "da_command_right_v",
-    "position_error_m",
-    "heading_error_rad",
-    "solve_time_s",
-    "solver_status",
-    *_SENSOR_COLUMNS,
-)
-"""Columns the closed loop adds to :data:`~agvctl.log.PLANT_LOG_COLUMNS`. ``solver_status`` is 0 when the
-pose controller solved, 1 for the shifted previous solution, 2 for the reference feed-forward, 3 for a NaN or
-infinite command (the wheel loops get a stop, 0 m/s, instead; ``setpoint_*`` hold what they got); ``wheel_speed_*``
-are the true rim speeds ω_mot·r/N of the plant. :class:`ClosedLoopResult` adds the errors against the path,
-:data:`~agvctl.evaluation.path_metrics.PATH_LOG_COLUMNS` (cross-track error, along-track lag, path heading error)."""
-
-_STATUS_CODE = {"solved": 0, "fallback_shifted": 1, "fallback_feedforward": 2}
-
-
+@document_fields
 @dataclass(frozen=True)
 class ClosedLoopResult:
     """A closed-loop run: the full log (with the errors against the reference's path), its duration and timing."""
 
     log: SimLog
+    """The log: :data:`~agvctl.log.PLANT_LOG_COLUMNS`, :data:`CONTROL_LOG_COLUMNS` and the errors against the
+    reference's path (:data:`~agvctl.evaluation.path_metrics.PATH_LOG_COLUMNS`), one row per sample."""
     reference: Reference
+    """The reference tracked."""
     wall_time_s: float
-    """Wall time of the loop (controllers and plant), excluding setup and plots."""
+    """Wall time of the loop (controllers and plant), excluding setup and plots, s."""
     setup_time_s: float
+    """Wall time of the setup (the plant compiled or loaded, the estimators and controllers reset), s."""
     solver_failures: int
+    """Samples at which the pose controller fell back or commanded a non-finite setpoint."""
     n_samples: int
+    """The run's length in samples: the log has one row more, the final state."""
     sample_period_s: float
+    """The control sample period T_s, s."""
 
 
 def _rim_per_motor(vehicle: VehicleParams) -> NDArray[np.float64]:
@@ -288,14 +210,47 @@ def run_closed_loop(
 ) -> ClosedLoopResult:
     """Run the cascade on the full plant for the reference's duration plus ``settle_s``.
 
-    ``initial_pose`` (x_m, y_m, theta_rad) defaults to the reference's start. ``localization`` names an estimator
-    of :data:`~agvctl.estimation.registry.ESTIMATORS` (built for the controller's vehicle) or is one;
-    ``wheel_speed`` likewise names one of :data:`~agvctl.estimation.registry.WHEEL_SPEED_ESTIMATORS` or is one.
-    ``sensor_seed`` seeds the true vehicle's sensor noise. ``progress``, if given, is called with the fraction done
-    (0…1) about every second of simulated time. A controller that keeps its own clock (its commands'
-    :attr:`~agvctl.controllers.base.PoseCommand.reference_done` set) sets the run's length.
+    A controller that keeps its own clock (its commands' :attr:`~agvctl.controllers.base.PoseCommand.reference_done`
+    set) sets the run's length instead. :func:`~agvctl.scenario.experiment.run_experiment` runs an experiment file.
 
-    Raises ``ConfigError`` (``run_closed_loop: <argument>: <problem>``) for an argument no experiment file can hold.
+    Parameters
+    ----------
+    plant_vehicle : VehicleParams
+        The true vehicle: the plant, its actuator chain and its sensors.
+    controller_vehicle : VehicleParams
+        The vehicle the controllers and estimators believe in; its sample period T_s (s) is the loop's.
+    reference : Reference
+        The planned reference, tracked from its time 0 (the pose controller is reset to it).
+    pose_controller : PoseController
+        Wheel-speed setpoints (m/s) from the estimated pose and the measured wheel speeds.
+    wheel_controller : WheelSpeedController
+        DA voltage commands (V) from the setpoints and the measured motor speeds.
+    initial_pose : tuple of float or None
+        The vehicle's start: x (m), y (m), heading (rad); None: the reference's start.
+    settle_s : float
+        How long the run goes on after the reference ends, 0 … 600 s.
+    compute_delay : {'none', 'one_sample'}
+        ``"one_sample"`` applies the setpoints computed at t_k from t_k+1 on.
+    localization : str or PoseEstimator
+        A name of :data:`~agvctl.estimation.registry.ESTIMATORS` (built on ``controller_vehicle``), or one.
+    wheel_speed : str or WheelSpeedEstimator
+        A name of :data:`~agvctl.estimation.registry.WHEEL_SPEED_ESTIMATORS`, or one.
+    sensor_seed : int
+        The seed of the true sensors' noise, ≥ 0.
+    plant_options : PlantOptions or None
+        The nonlinear effects the plant includes (None: all of them).
+    progress : callable or None
+        Called with the fraction done (0 … 1) about every second of simulated time.
+
+    Returns
+    -------
+    ClosedLoopResult
+        The run's log, timing and solver failures.
+
+    Raises
+    ------
+    ConfigError
+        ``run_closed_loop: <argument>: <problem>`` for an argument no experiment file can hold.
     """
     t_setup = time.perf_counter()
     ts = controller_vehicle.control.sample_period_s
@@ -306,16 +261,35 @@ def run_closed_loop(
         initial_pose = (float(ref0.x_m[0]), float(ref0.y_m[0]), float(ref0.theta_rad[0]))
     plant = PlantStepper(plant_vehicle, initial_state=[0.0, 0.0, *initial_pose], options=plant_options)
     estimator, speeds = _estimators(controller_vehicle, localization, wheel_speed, initial_pose)
-    sensors = Sensors(plant_vehicle, seed=sensor_seed)
-    rim_per_motor = _rim_per_motor(controller_vehicle)  # the controller's belief
-    delay = _Delay(compute_delay)
     pose_controller.reset(reference)
     wheel_controller.reset()
+    parts = (plant, Sensors(plant_vehicle, seed=sensor_seed), estimator, speeds, pose_controller, wheel_controller)
+    setup = time.perf_counter() - t_setup
+    rows, failures, n, wall = _run(*parts, _Delay(compute_delay), _rim_per_motor(controller_vehicle), length, progress)
+    ref = reference.sample(np.arange(n + 1) * ts)
+    log = _closed_loop_log(plant.log(), rows, ref, _rim_per_motor(plant_vehicle), reference)
+    return ClosedLoopResult(log, reference, wall, setup, failures, n, ts)
+
+
+def _run(
+    plant: PlantStepper,
+    sensors: Sensors,
+    estimator: PoseEstimator,
+    speeds: WheelSpeedEstimator,
+    pose_controller: PoseController,
+    wheel_controller: WheelSpeedController,
+    delay: _Delay,
+    rim_per_motor: NDArray[np.float64],
+    length: _RunLength,
+    progress: Callable[[float], None] | None,
+) -> tuple[list[_ControlRow], int, int, float]:
+    """The loop over the samples, set up: (the rows recorded, the solver failures, the run's length in samples, the
+    wall time of the loop in s)."""
+    ts = plant.sample_period_s
     rows: list[_ControlRow] = []
     estimate = _estimate_step(estimator, pose_controller)
     failures, n, k = 0, length.samples, 0
     progress_every = max(1, int(round(1.0 / ts)))
-    setup = time.perf_counter() - t_setup
     t0 = time.perf_counter()
     while True:
         angle = plant.motor_angle_rad  # 1. measure and estimate
@@ -347,72 +321,4 @@ def run_closed_loop(
     wall = time.perf_counter() - t0
     if progress is not None:
         progress(1.0)
-    ref = reference.sample(np.arange(n + 1) * ts)
-    log = _closed_loop_log(plant.log(), rows, ref, _rim_per_motor(plant_vehicle), reference)
-    return ClosedLoopResult(log, reference, wall, setup, failures, n, ts)
-
-
-def _checked_command(cmd: PoseCommand) -> tuple[int, NDArray[np.float64]]:
-    """(solver status code, wheel-speed setpoints in m/s) of a pose controller's command: a NaN or infinite
-    setpoint is a controller failure (:data:`~agvctl.evaluation.metrics.NON_FINITE_COMMAND_STATUS`) and the wheel
-    loops get a stop instead, never a silent 0 V from the DA converter."""
-    setpoint = np.array([cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s], dtype=np.float64)
-    if not np.all(np.isfinite(setpoint)):
-        return NON_FINITE_COMMAND_STATUS, np.zeros(2)
-    return _STATUS_CODE.get(cmd.status, 2), setpoint
-
-
-def _control_row(
-    est: NDArray[np.float64],
-    setpoint: NDArray[np.float64],
-    sp_motor: NDArray[np.float64],
-    da_cmd: NDArray[np.float64],
-    solve_s: float,
-    status: int,
-    angle: NDArray[np.float64],
-    omega: NDArray[np.float64],
-    counts: NDArray[np.int64],
-    meas: Measurements,
-    estimator: PoseEstimator,
-) -> _ControlRow:
-    """One sample's record, with the estimator's consistency and calibration."""
-    checks = (*consistency(estimator, est, meas.true_pose), *calibration_readout(estimator))
-    x, y, theta = np.asarray(est, dtype=np.float64).tolist()
-    sp_l, sp_r = setpoint.tolist()
-    spm_l, spm_r = sp_motor.tolist()
-    da_l, da_r = da_cmd.tolist()
-    angle_l, angle_r = angle.tolist()
-    omega_l, omega_r = omega.tolist()
-    count_l, count_r = counts.tolist()
-    fix = meas.fixes[-1].pose if meas.fixes else (math.nan, math.nan, math.nan)
-    fix_t = meas.fixes[-1].measured_t_s if meas.fixes else math.nan
-    return _ControlRow(
-        x, y, theta, sp_l, sp_r, spm_l, spm_r, da_l, da_r, solve_s, float(status), angle_l, angle_r, omega_l, omega_r,
-        float(count_l), float(count_r), meas.gyro_rate_rad_s, float(fix[0]), float(fix[1]), float(fix[2]), fix_t,
-        *checks,
-    )  # fmt: skip
-
-
-def _closed_loop_log(
-    plant_log: SimLog,
-    rows: list[_ControlRow],
-    ref: ReferenceSamples,
-    true_rim_per_motor: NDArray[np.float64],
-    reference: Reference,
-) -> SimLog:
-    """The plant's columns, the control columns recorded per sample, those derived from the reference and the
-    errors against the reference's path (:data:`~agvctl.evaluation.path_metrics.PATH_LOG_COLUMNS`, computed once for
-    the whole run from its poses: one k-d tree on the path, none of it in the per-sample loop)."""
-    cols = dict(plant_log.columns)
-    control = np.array(rows, dtype=np.float64)
-    cols.update({name: control[:, j] for j, name in enumerate(_ControlRow._fields)})
-    cols["wheel_speed_left_m_s"] = cols["omega_motor_left_rad_s"] * true_rim_per_motor[0]
-    cols["wheel_speed_right_m_s"] = cols["omega_motor_right_rad_s"] * true_rim_per_motor[1]
-    cols["ref_x_m"], cols["ref_y_m"], cols["ref_theta_rad"] = ref.x_m, ref.y_m, ref.theta_rad
-    cols["ref_wheel_speed_left_m_s"] = ref.wheel_speed_left_m_s
-    cols["ref_wheel_speed_right_m_s"] = ref.wheel_speed_right_m_s
-    cols["position_error_m"] = np.hypot(cols["x_m"] - ref.x_m, cols["y_m"] - ref.y_m)
-    cols["heading_error_rad"] = wrap_angle(cols["theta_rad"] - ref.theta_rad)
-    ordered = {name: cols[name] for name in (*PLANT_LOG_COLUMNS, *CONTROL_LOG_COLUMNS)}
-    ordered.update(path_error_columns(cols["t_s"], cols["x_m"], cols["y_m"], cols["theta_rad"], reference))
-    return SimLog(ordered)
+    return rows, failures, n, wall

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvctl.actuator import Actuator
-from agvctl.config import read_text
+from agvctl.config import document_fields, read_text
 from agvctl.errors import ConfigError
 from agvctl.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.params import VehicleParams
@@ -30,19 +30,33 @@ from agvctl.sim.stepper import PlantStepper, instant_stats, plant_log_rows
 __all__ = ["OpenLoopResult", "load_input_profile", "sample_count", "simulate_batch", "simulate_open_loop"]
 
 
+@document_fields
 @dataclass
 class OpenLoopResult:
     """A simulated run: the log, the time spent simulating, and any one-time preparation."""
 
     log: SimLog
+    """The run's log, :data:`~agvctl.log.PLANT_LOG_COLUMNS`, one row per sample and the final state."""
     wall_time_s: float
-    """Time spent integrating, measured in this process (excludes setup)."""
+    """Time spent integrating, measured in this process (excludes setup), s."""
     setup_time_s: float
-    """One-time preparation: model building, code generation and compilation, or loading the cached library."""
+    """One-time preparation: model building, code generation and compilation, or loading the cached library, s."""
 
 
 def sample_count(duration_s: float, sample_period_s: float) -> int:
-    """Number of whole samples in ``duration_s`` (rounded to the nearest sample).
+    """The number of whole samples in a duration (rounded to the nearest sample), as ``--duration`` asks.
+
+    Parameters
+    ----------
+    duration_s : float
+        The duration, s.
+    sample_period_s : float
+        The sample period, s.
+
+    Returns
+    -------
+    int
+        The samples, at least 1.
 
     Raises
     ------
@@ -129,15 +143,15 @@ def simulate_open_loop(
 
     Parameters
     ----------
-    vehicle
+    vehicle : VehicleParams
         The simulated vehicle, from :func:`~agvctl.params.load_vehicle`.
-    da_voltage_v
+    da_voltage_v : array_like
         An (n, 2) array of requested DA voltages in V (left, right), one row per sample period; each goes through
         the DA converter and amplifier (:class:`~agvctl.actuator.Actuator`) and is held over its sample.
-    initial_state
-        The plant state (:data:`~agvctl.plant.full.STATE_NAMES`, SI units); default at rest at the origin.
-    options
-        Which nonlinear effects the model includes (:class:`~agvctl.plant.full.PlantOptions`); default all.
+    initial_state : array_like or None
+        The plant state (:data:`~agvctl.plant.full.STATE_NAMES`, SI units); None: at rest at the origin.
+    options : PlantOptions or None
+        Which nonlinear effects the model includes (:class:`~agvctl.plant.full.PlantOptions`); None: all.
 
     Returns
     -------
@@ -177,15 +191,15 @@ def simulate_batch(
 
     Parameters
     ----------
-    vehicles
+    vehicles : sequence of VehicleParams
         The B simulated vehicles; all must share the sample period.
-    da_voltage_v
+    da_voltage_v : array_like
         Requested DA voltages in V (left, right): (n, 2) for the same commands to every vehicle, or (B, n, 2) per
         vehicle.
-    initial_states
-        Plant states, one row per vehicle (B, n_states; SI units); default at rest at the origin.
-    options
-        Which nonlinear effects the model includes (:class:`~agvctl.plant.full.PlantOptions`); default all.
+    initial_states : array_like or None
+        Plant states, one row per vehicle (B, n_states; SI units); None: at rest at the origin.
+    options : PlantOptions or None
+        Which nonlinear effects the model includes (:class:`~agvctl.plant.full.PlantOptions`); None: all.
 
     Returns
     -------
@@ -244,8 +258,22 @@ def _comment(line: str) -> bool:
 def load_input_profile(path: str | Path, sample_period_s: float, duration_s: float) -> NDArray[np.float64]:
     """Read a CSV profile with columns ``t_s,da_left_v,da_right_v`` and hold each row until the next one.
 
-    Returns the (n, 2) DA voltages on the sample grid for ``duration_s``. Before the first row's time the
-    command is zero. Blank lines and lines starting with ``#`` are skipped; a byte-order mark is dropped.
+    Before the first row's time the command is zero. Blank lines and lines starting with ``#`` are skipped; a
+    byte-order mark is dropped.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file: times in s, DA voltages in V.
+    sample_period_s : float
+        The sample grid's period, s.
+    duration_s : float
+        How long the profile is played, s (:func:`sample_count` samples).
+
+    Returns
+    -------
+    ndarray
+        (n, 2): the DA voltages (left, right) on the sample grid, V.
 
     Raises
     ------

@@ -81,8 +81,19 @@ _INSTANT_STATS = {
 
 
 def instant_stats(aux: FloatArray) -> FloatArray:
-    """The statistics of :data:`~agvctl.plant.integrator.STATS_NAMES` at one instant (…×10 auxiliaries in, …×8
-    out): the final row of a log, where no interval follows (no angle turned)."""
+    """The statistics of :data:`~agvctl.plant.integrator.STATS_NAMES` at one instant: the final row of a log, where
+    no interval follows (no angle turned).
+
+    Parameters
+    ----------
+    aux : ndarray
+        The auxiliaries (:data:`~agvctl.plant.full.AUX_NAMES`) at the instant, … × 10.
+
+    Returns
+    -------
+    ndarray
+        The statistics, … × 8: fractions and peaks of that instant, increments zero.
+    """
     cols = []
     for name in STATS_NAMES:
         if name not in _INSTANT_STATS:  # an increment over an interval of zero length
@@ -97,8 +108,26 @@ def instant_stats(aux: FloatArray) -> FloatArray:
 def plant_log_rows(
     t_s: ArrayLike, actuated: ActuatorOutput, aux: FloatArray, stats: FloatArray, state: FloatArray
 ) -> FloatArray:
-    """Rows of :data:`~agvctl.log.PLANT_LOG_COLUMNS` (m × columns) from m samples' times, actuator outputs
-    (m × 2 each), auxiliaries at the start (m × 10), interval statistics (m × 8) and states (m × 5)."""
+    """Rows of :data:`~agvctl.log.PLANT_LOG_COLUMNS` for m samples.
+
+    Parameters
+    ----------
+    t_s : array_like
+        The samples' times (m), s.
+    actuated : ActuatorOutput
+        What the actuator chain did at each (m × 2 each).
+    aux : ndarray
+        The auxiliaries (:data:`~agvctl.plant.full.AUX_NAMES`) at each sample's start, m × 10.
+    stats : ndarray
+        The statistics over each sample's interval (:data:`~agvctl.plant.integrator.STATS_NAMES`), m × 8.
+    state : ndarray
+        The plant states at the samples (:data:`~agvctl.plant.full.STATE_NAMES`), m × 5.
+
+    Returns
+    -------
+    ndarray
+        m × columns, in the order of :data:`~agvctl.log.PLANT_LOG_COLUMNS`.
+    """
     limited = stats[:, _LIMITED] > 0
     parts = (
         np.reshape(t_s, (-1, 1)),

@@ -16,51 +16,57 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from agvctl.config import document_fields
 from agvctl.controllers.base import WheelSpeedController
 from agvctl.controllers.pi.wheel_loop import PIGains, PIWheelController
+from agvctl.log import SimLog
 from agvctl.params import SIDES, VehicleParams
 from agvctl.sim.stepper import PlantStepper
 
 __all__ = ["StepMetrics", "WheelStepResult", "step_metrics", "wheel_step_response"]
 
 
+@document_fields
 @dataclass(frozen=True)
 class StepMetrics:
     """Step-response figures, all relative to the setpoint (the step size, from rest)."""
 
     rise_time_s: float
-    """From 10 % to 90 % of the setpoint (first crossings, linearly interpolated between samples)."""
+    """From 10 % to 90 % of the setpoint (first crossings, linearly interpolated between samples), s."""
     overshoot_pct: float
-    """(peak − setpoint)/setpoint · 100, or 0 if the response never exceeds the setpoint."""
+    """(peak − setpoint)/setpoint · 100, or 0 if the response never exceeds the setpoint, %."""
     settling_time_s: float
-    """Time after which the response stays within ±2 % of the setpoint (``inf`` if it never does)."""
+    """Time after which the response stays within ±2 % of the setpoint (``inf`` if it never does), s."""
     steady_state_error_pct: float
-    """|setpoint − mean over the final window| / setpoint · 100."""
+    """``|setpoint − mean over the final window|`` / setpoint · 100, %."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class WheelStepResult:
     """A simulated step of both wheel loops. Arrays have one row per sample time (n + 1) or per interval
     (n)."""
 
     t_s: NDArray[np.float64]
-    """Sample times k·T_s, k = 0…n."""
+    """Sample times k·T_s, k = 0…n, s."""
     setpoint_rad_s: NDArray[np.float64]
-    """Motor-speed setpoints (left, right)."""
+    """Motor-speed setpoints (left, right), rad/s."""
     omega_motor_rad_s: NDArray[np.float64]
-    """(n + 1) × 2 measured motor speeds at the sample times."""
+    """(n + 1) × 2 measured motor speeds at the sample times, rad/s."""
     da_code: NDArray[np.int64]
     """n × 2 DA codes sent."""
     motor_voltage_v: NDArray[np.float64]
-    """n × 2 amplifier output voltages."""
+    """n × 2 amplifier output voltages, V."""
     current_a: NDArray[np.float64]
-    """(n + 1) × 2 armature currents at the sample times."""
+    """(n + 1) × 2 armature currents at the sample times, A."""
     current_peak_a: NDArray[np.float64]
-    """n × 2 peak |current| within each sample interval."""
+    """n × 2 peak ``|current|`` within each sample interval, A."""
     metrics: StepMetrics
     """The worse of the two wheels for each figure."""
     metrics_left: StepMetrics = field(repr=False)
+    """The left wheel's figures."""
     metrics_right: StepMetrics = field(repr=False)
+    """The right wheel's figures."""
 
 
 def step_metrics(
@@ -71,8 +77,33 @@ def step_metrics(
     settle_band: float = 0.02,
     final_window_s: float = 0.5,
 ) -> StepMetrics:
-    """Rise time (10-90 %), overshoot, settling time (±``settle_band``) and steady-state error of a step
-    response from 0 to ``setpoint`` sampled at ``t_s``."""
+    """Rise time (10-90 %), overshoot, settling time and steady-state error of a step response from 0.
+
+    Parameters
+    ----------
+    t_s : ndarray
+        The sample times, s.
+    y : ndarray
+        The response at each, in the setpoint's unit.
+    setpoint : float
+        The step's size, not zero.
+    settle_band : float
+        The band about the setpoint the response settles in, relative (0.02: ±2 %).
+    final_window_s : float
+        How long before the last sample the steady state is averaged over, s.
+
+    Returns
+    -------
+    StepMetrics
+        The figures.
+
+    Examples
+    --------
+    >>> t = np.arange(0.0, 3.0, 0.01)
+    >>> m = step_metrics(t, 1.0 - np.exp(-t / 0.1), 1.0)  # a first-order lag of 0.1 s
+    >>> print(f"rise {m.rise_time_s:.3f} s, settling {m.settling_time_s:.3f} s, overshoot {m.overshoot_pct:g} %")
+    rise 0.220 s, settling 0.391 s, overshoot 0 %
+    """
     t = np.asarray(t_s, dtype=float)
     r = np.asarray(y, dtype=float) / setpoint  # normalised: the target is 1
 
@@ -124,11 +155,37 @@ def wheel_step_response(
     coulomb_feedforward: bool = False,
     anti_windup: bool = True,
 ) -> WheelStepResult:
-    """Step both wheels' rim-speed setpoints from rest to ``wheel_speed_step_m_s`` on the full nonlinear
-    plant.
+    """Step both wheels' rim-speed setpoints from rest on the full nonlinear plant.
 
-    The controller is ``controller`` if given, else a :class:`PIWheelController` with ``gains``,
-    ``coulomb_feedforward`` and ``anti_windup``. All commands go through :class:`~agvctl.actuator.Actuator`.
+    All commands go through the DA converter and the amplifier (:class:`~agvctl.actuator.Actuator`).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The simulated vehicle, also the controller's model.
+    gains : PIGains or None
+        The gains of a :class:`~agvctl.controllers.pi.wheel_loop.PIWheelController`, when no ``controller`` is
+        given.
+    controller : WheelSpeedController or None
+        The wheel loops to step (None: a PI with ``gains``, ``coulomb_feedforward`` and ``anti_windup``).
+    wheel_speed_step_m_s : float
+        The step of both rim speeds, finite and not zero, m/s.
+    duration_s : float
+        How long to simulate, s.
+    coulomb_feedforward : bool
+        The PI's Coulomb-friction feed-forward.
+    anti_windup : bool
+        The PI's anti-windup.
+
+    Returns
+    -------
+    WheelStepResult
+        The response of both wheels and its figures.
+
+    Raises
+    ------
+    ValueError
+        Neither gains nor a controller, a step that is zero or not finite, or a duration that is not positive.
     """
     if controller is None:
         if gains is None:
@@ -146,7 +203,11 @@ def wheel_step_response(
     for _ in range(n):
         plant.step(controller.update(setpoint, plant.measure()))
     plant.finish()
-    log = plant.log()
+    return _result(plant.log(), n, ts, setpoint)
+
+
+def _result(log: SimLog, n: int, ts: float, setpoint: NDArray[np.float64]) -> WheelStepResult:
+    """The step's result from the plant's log of its n samples."""
 
     def sides(name: str, rows: slice = slice(None)) -> NDArray[np.float64]:
         return np.column_stack([log[name.format("left")][rows], log[name.format("right")][rows]])

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agvctl.config import check_fields, number
+from agvctl.config import check_fields, document_fields, number
 from agvctl.errors import ConfigError
 from agvctl.fuzz.report import FuzzOutcome
 
@@ -36,26 +36,25 @@ NEVER_DONE_RATIO = 3.0
 reference's duration plus its settling time)."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class ObjectiveWeights:
-    """The weights of the objective (a fuzz file's ``[objective]`` table).
+    """The weights of the objective (a fuzz file's ``[objective]`` table)."""
 
-    Parameters
-    ----------
-    gate : float
-        Per unit of the share of runs that fail the gate (crashes included).
-    cross_track_p90 : float
-        Per centimetre of the 90th percentile of the runs' largest cross-track errors once on the path.
-    cross_track_rms : float
-        Per centimetre of the cross-track error's RMS over all runs.
-    time : float
-        Per unit of the mean ratio of completion time to the reference's duration, above 1.
-    """
-
-    gate: float = number(ge=0, default=100.0, doc="per unit of failed share")
-    cross_track_p90: float = number(ge=0, default=1.0, doc="per cm of p90 largest cross-track error")
-    cross_track_rms: float = number(ge=0, default=1.0, doc="per cm of cross-track RMS")
-    time: float = number(ge=0, default=1.0, doc="per unit of completion-time ratio above 1")
+    gate: float = number(
+        ge=0, default=100.0, doc="Per unit of the share of runs that fail the gate (crashes included)."
+    )
+    cross_track_p90: float = number(
+        ge=0,
+        default=1.0,
+        doc="Per centimetre of the 90th percentile of the runs' largest cross-track errors once on the path.",
+    )
+    cross_track_rms: float = number(
+        ge=0, default=1.0, doc="Per centimetre of the cross-track error's RMS over all runs."
+    )
+    time: float = number(
+        ge=0, default=1.0, doc="Per unit of the mean ratio of completion time to the reference's duration, above 1."
+    )
 
     def __post_init__(self) -> None:
         check_fields(self)

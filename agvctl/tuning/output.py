@@ -15,8 +15,18 @@ __all__ = ["importances", "result_dict", "settings_text", "summary_text", "tunin
 
 
 def importances(result: PoseTuningResult) -> dict[str, float]:
-    """Each searched setting's share of the objective's variance over the finished trials (Optuna's fANOVA), by
-    name, largest first; empty with fewer than two finished trials."""
+    """Each searched setting's share of the objective's variance over the finished trials (Optuna's fANOVA).
+
+    Parameters
+    ----------
+    result : PoseTuningResult
+        From :func:`~agvctl.tuning.study.tune_pose`.
+
+    Returns
+    -------
+    dict of str to float
+        The shares by setting, largest first; empty with fewer than two finished trials.
+    """
     import optuna
 
     finished = [t for t in result.study.trials if t.state.name == "COMPLETE"]
@@ -46,7 +56,18 @@ def _verdict(result: PoseTuningResult) -> str:
 
 def summary_text(result: PoseTuningResult) -> str:
     """The readable report: the search, defaults against tuned on the validation scenarios, the verdict, and how
-    much each setting mattered."""
+    much each setting mattered.
+
+    Parameters
+    ----------
+    result : PoseTuningResult
+        From :func:`~agvctl.tuning.study.tune_pose`.
+
+    Returns
+    -------
+    str
+        The report, lines of text.
+    """
     c = result.trial_counts()
     v = result.validation
     spec = result.spec
@@ -69,7 +90,18 @@ def summary_text(result: PoseTuningResult) -> str:
 
 
 def result_dict(result: PoseTuningResult) -> dict[str, Any]:
-    """The report as plain data (for ``report.json``)."""
+    """The report as plain data, for ``report.json``.
+
+    Parameters
+    ----------
+    result : PoseTuningResult
+        From :func:`~agvctl.tuning.study.tune_pose`.
+
+    Returns
+    -------
+    dict
+        The search, the best settings, the validation and the importances.
+    """
     v = result.validation
     return {
         "fuzz": result.spec.name,
@@ -137,9 +169,20 @@ def settings_text(result: PoseTuningResult, command: str = "") -> str:
 
 
 def tuning_figures(result: PoseTuningResult) -> dict[str, bytes]:
-    """``history.png`` (the objective of each trial and the best so far) and, with two or more finished trials,
-    ``importance.png`` (each setting's share), drawn by Optuna's matplotlib plots, as PNG bytes; the history on a
-    log axis, so that one diverged trial does not flatten the others."""
+    """The search's figures, drawn by Optuna's matplotlib plots.
+
+    Parameters
+    ----------
+    result : PoseTuningResult
+        From :func:`~agvctl.tuning.study.tune_pose`.
+
+    Returns
+    -------
+    dict of str to bytes
+        ``history.png`` (the objective of each trial and the best so far, on a log axis, so that one diverged
+        trial does not flatten the others) and, with two or more finished trials, ``importance.png`` (each
+        setting's share), as PNG bytes.
+    """
     import matplotlib.pyplot as plt
     import optuna
 

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from agvctl.checks.runner import ExecutorKind, open_executor, resolved_jobs
+from agvctl.checks.executors import ExecutorKind, open_executor, resolved_jobs
 from agvctl.config import build
 from agvctl.errors import ConfigError
 from agvctl.fuzz.generate import Scenario, generate_scenario, scenario_files

@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from agvctl.actuator import Actuator
 from agvctl.calibration.friction.log import FrictionLog
+from agvctl.config import document_fields
 from agvctl.controllers.pi.tuning import design_pi
 from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.params import VehicleParams
@@ -27,26 +28,34 @@ SPEED_NOISE_RAD_S = 0.5
 the top motor speed, about 1.4 mm/s at the rim)."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class FrictionExperiment:
-    """How the simulated friction experiment is driven (and what a real one should look like)."""
+    """How the simulated friction experiment is driven (and what a real one should look like).
+
+    Raises
+    ------
+    ValueError
+        A speed, time or rate that is not a positive number, or fewer than one ramp.
+    """
 
     motor_speeds_rad_s: tuple[float, ...] = (50.0, 100.0, 150.0, 200.0)
-    """The constant motor speeds the speed loops hold, both sides alike (straight line)."""
+    """The constant motor speeds the speed loops hold, both sides alike (straight line), rad/s."""
     both_directions: bool = True
     """Hold every speed forward and in reverse (separates τ_c from an offset; averages direction effects)."""
     settle_s: float = 1.5
-    """Time given to reach each speed before the steady window."""
+    """Time given to reach each speed before the steady window, s."""
     hold_s: float = 3.0
-    """Length of each steady window."""
+    """Length of each steady window, s."""
     rest_s: float = 1.0
-    """Standstill between experiments (0 V)."""
+    """Standstill between experiments (0 V), s."""
     ramp_rate_da_v_s: float = 0.05
-    """DA voltage ramp rate for the break-away experiment (V/s; 2 mV, under one DA code, per 40 ms sample)."""
+    """DA voltage ramp rate for the break-away experiment (2 mV, under one DA code, per 40 ms sample), V/s."""
     ramp_repeats: int = 1
     """Ramps per side and direction (forward and reverse each)."""
     ramp_stop_speed_rad_s: float = 5.0
-    """The simulated experimenter ends a ramp once the measured speed passes this (the wheel clearly turns)."""
+    """The simulated experimenter ends a ramp once the measured speed passes this (the wheel clearly turns),
+    rad/s."""
 
     def __post_init__(self) -> None:
         if not self.motor_speeds_rad_s or any(not (math.isfinite(w) and w > 0) for w in self.motor_speeds_rad_s):
@@ -131,15 +140,35 @@ def simulate_friction_experiment(
 ) -> FrictionLog:
     """Run the friction experiment on the full nonlinear plant and return its log.
 
-    ``plant_vehicle`` is the truth; the PI loops are designed for, and know only, ``controller_vehicle`` (no
-    friction feed-forward). Every command goes through the DA converter and amplifier
-    (:class:`~agvctl.actuator.Actuator`). The measured motor speeds carry white Gaussian noise of
-    ``noise_scale`` × :data:`SPEED_NOISE_RAD_S`; the controller sees the noisy speeds, as a real one would.
-
-    Sequence: the speed loops hold each of ``experiment.motor_speeds_rad_s`` (then the same in reverse) for
+    Every command goes through the DA converter and amplifier (:class:`~agvctl.actuator.Actuator`). Sequence: the
+    speed loops hold each of ``experiment.motor_speeds_rad_s`` (then the same in reverse) for
     ``settle_s + hold_s`` (phase ``hold``); a stop (``idle``); then, one side at a time with the other at 0 V, a
     DA ramp from 0 V at ``ramp_rate_da_v_s`` until the wheel turns (``ramp``), forward then reverse, each
     followed by ``rest_s`` at 0 V (``idle``).
+
+    Parameters
+    ----------
+    plant_vehicle : VehicleParams
+        The truth, whose friction is to be found.
+    controller_vehicle : VehicleParams
+        What the PI loops are designed for and know (no friction feed-forward).
+    experiment : FrictionExperiment or None
+        How the experiment is driven (None: the defaults).
+    noise_scale : float
+        The measured motor speeds' white Gaussian noise in units of :data:`SPEED_NOISE_RAD_S` (0: none); the
+        controller sees the noisy speeds, as a real one would.
+    seed : int or None
+        The noise's seed.
+
+    Returns
+    -------
+    FrictionLog
+        The experiment's log, one row per control sample.
+
+    Raises
+    ------
+    ValueError
+        A negative or non-finite ``noise_scale``.
     """
     exp = experiment or FrictionExperiment()
     if not (math.isfinite(noise_scale) and noise_scale >= 0):
@@ -172,7 +201,17 @@ def simulate_friction_experiment(
     for _ in range(samples(exp.rest_s)):
         _sample(bench, rows, "idle", zero, open_loop(zero))
 
-    v_max = bench.max_da_voltage_v
+    _ramps(bench, rows, exp, samples(exp.rest_s))
+    return rows.log()
+
+
+def _ramps(bench: _Bench, rows: _Rows, exp: FrictionExperiment, rest_samples: int) -> None:
+    """The break-away ramps: one side at a time, forward then reverse, each followed by a rest at 0 V."""
+    ts, v_max, zero = bench.sample_period_s, bench.max_da_voltage_v, np.zeros(2)
+
+    def open_loop(da_command_v: NDArray[np.float64]) -> Controller:
+        return lambda _measured: da_command_v
+
     for side in range(2):
         for sign in (1.0, -1.0):
             for _ in range(exp.ramp_repeats):
@@ -184,6 +223,5 @@ def simulate_friction_experiment(
                     k += 1
                     if sign * meas[side] > exp.ramp_stop_speed_rad_s or abs(cmd[side]) >= v_max:
                         break
-                for _ in range(samples(exp.rest_s)):
+                for _ in range(rest_samples):
                     _sample(bench, rows, "idle", zero, open_loop(zero))
-    return rows.log()

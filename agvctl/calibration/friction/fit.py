@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 from agvctl.calibration.common import Estimate
 from agvctl.calibration.friction.breakaway import Breakaway, breakaways
 from agvctl.calibration.friction.log import SIDES, FrictionLog, Side
+from agvctl.config import document_fields
 from agvctl.errors import ConfigError
 from agvctl.params import MotorParams, VehicleParams, motor_damping
 
@@ -25,33 +26,42 @@ __all__ = [
 ]
 
 
+@document_fields
 @dataclass(frozen=True)
 class HoldWindow:
     """One steady constant-speed window of one side."""
 
     t_start_s: float
+    """Its start, s."""
     t_end_s: float
+    """Its end, s."""
     setpoint_rad_s: float
+    """The motor-speed setpoint the loop held, rad/s."""
     omega_mean_rad_s: float
-    """ω̄, the mean measured motor speed."""
+    """ω̄, the mean measured motor speed, rad/s."""
     da_voltage_mean_v: float
-    """ū, the mean DA voltage."""
+    """ū, the mean DA voltage, V."""
     drive_torque_n_m: float
-    """k_pow k_t ū/R − k_e k_t ω̄/R: the torque the friction absorbs (steady state)."""
+    """k_pow k_t ū/R − k_e k_t ω̄/R: the torque the friction absorbs (steady state), N m."""
     drive_torque_stderr_n_m: float
-    """Standard error of the window's mean torque (Newey-West, from the sample-to-sample scatter)."""
+    """Standard error of the window's mean torque (Newey-West, from the sample-to-sample scatter), N m."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class SideFriction:
     """The identified friction of one side, eqs 65-69."""
 
     viscous_friction_n_m_s_rad: Estimate
+    """f_m, N m s/rad."""
     coulomb_friction_n_m: Estimate
+    """τ_c, N m."""
     stiction_n_m: Estimate
+    """τ_s, N m."""
     windows: tuple[HoldWindow, ...] = ()
+    """The hold windows f_m and τ_c were fitted to."""
     breakaway_da_voltages_v: tuple[float, ...] = ()
-    """|u| held over the last still sample of each ramp (DA volts), before the resolution and lag corrections."""
+    """``|u|`` held over the last still sample of each ramp, before the resolution and lag corrections, V."""
 
     def as_dict(self) -> dict[str, dict[str, float | None]]:
         """The ``--json`` object of one side."""
@@ -62,13 +72,17 @@ class SideFriction:
         }
 
 
+@document_fields
 @dataclass(frozen=True)
 class FrictionFit:
     """Both sides' identified friction."""
 
     left: SideFriction
+    """The left side's."""
     right: SideFriction
+    """The right side's."""
     notes: tuple[str, ...] = field(default=())
+    """What the fit noted (hold windows dropped, and why)."""
 
     def side(self, name: Side) -> SideFriction:
         return self.left if name == "left" else self.right
@@ -88,12 +102,35 @@ def two_speed_friction(
     *,
     corrected: bool = True,
 ) -> tuple[float, float]:
-    """The report's two-speed formula: ``(f_m, τ_c)`` from the DA voltages u₁, u₂ holding ω₁, ω₂ (one side).
+    """The report's two-speed formula: f_m and τ_c of one side from the DA voltages that hold two speeds.
 
-    eq 66 (68): f_m = (k_pow k_t/R (u₂ − u₁) − k_e k_t/R (ω₂ − ω₁)) / (ω₂ − ω₁).
-    eq 67 (69), corrected as in the docs' model notes: τ_c = k_pow k_t u₂/R − (k_e k_t/R + f_m) ω₂. With
-    ``corrected=False`` the report's printed sign, τ_c = k_pow k_t u₂/R − (k_e k_t/R − f_m) ω₂, which is
-    2 f_m ω₂ too large.
+    Eq 66 (68): f_m = (k_pow k_t/R (u₂ − u₁) − k_e k_t/R (ω₂ − ω₁)) / (ω₂ − ω₁). Eq 67 (69), corrected as in
+    the docs' model notes: τ_c = k_pow k_t u₂/R − (k_e k_t/R + f_m) ω₂.
+
+    Parameters
+    ----------
+    motor : MotorParams
+        The side's motor: k_t, k_e and R (known, as in the report).
+    amplifier_gain : float
+        k_pow, motor volts per DA volt.
+    omega_1_rad_s : float
+        The first held motor speed ω₁, rad/s.
+    u_1_v : float
+        The DA voltage u₁ that holds it, V.
+    omega_2_rad_s : float
+        The second held motor speed ω₂, rad/s.
+    u_2_v : float
+        The DA voltage u₂ that holds it, V.
+    corrected : bool
+        False: the report's printed sign, τ_c = k_pow k_t u₂/R − (k_e k_t/R − f_m) ω₂, which is 2 f_m ω₂ too
+        large.
+
+    Returns
+    -------
+    viscous_friction_n_m_s_rad : float
+        f_m, N m s/rad.
+    coulomb_friction_n_m : float
+        τ_c, N m.
     """
     k_t, k_e, R = motor.torque_constant_n_m_a, motor.voltage_constant_v_s_rad, motor.resistance_ohm
     d_omega = omega_2_rad_s - omega_1_rad_s
@@ -220,7 +257,7 @@ def _viscous_coulomb(
 
 
 def _stiction(found: list[Breakaway], torque_per_da_v: float) -> tuple[float, float]:
-    """τ_s and its standard error from the ramps' break-aways (eq 65, corrected: τ_s = k_pow k_t |u_b|/R).
+    """τ_s and its standard error from the ramps' break-aways (eq 65, corrected: τ_s = k_pow k_t ``|u_b|``/R).
 
     u_b broke the wheel away and one step less did not; with noise the wheel may have moved up to the lag bound
     earlier: so half a resolution step and half the lag bound are taken off. The standard error combines the
@@ -243,57 +280,59 @@ def fit_friction(
     max_speed_deviation: float = 0.02,
     truth: VehicleParams | None = None,
 ) -> FrictionFit:
-    """Identify f_m, τ_c (least squares over the hold windows) and τ_s (ramps) per side from ``log``.
+    """Identify f_m, τ_c (least squares over the hold windows) and τ_s (ramps) per side from a friction log.
 
-    ``vehicle`` supplies the motor constants k_t, k_e, R and the amplifier gain k_pow (known, as in the report),
-    and the DA resolution. ``settle_s`` is dropped at the start of every hold window; windows shorter than
-    ``min_window_s`` after that are ignored, and so are windows whose mean speed misses the setpoint by more than
-    ``max_speed_deviation`` (relative: the loop hit a current or voltage limit). ``truth`` (simulations only)
-    fills each :class:`Estimate`'s truth.
+    Parameters
+    ----------
+    log : FrictionLog
+        The experiment's log (:func:`~agvctl.calibration.friction.log.read_friction_log`, or simulated).
+    vehicle : VehicleParams
+        The motor constants k_t, k_e, R and the amplifier gain k_pow (known, as in the report), and the DA
+        resolution.
+    settle_s : float
+        Dropped at the start of every hold window, s.
+    min_window_s : float
+        Windows shorter than this after that are ignored, s.
+    max_speed_deviation : float
+        Windows whose mean speed misses the setpoint by more than this, relative, are ignored (the loop hit a
+        current or voltage limit).
+    breakaway_threshold_rad_s : float
+        The motor speed beyond which a ramped wheel counts as moving (without noise), rad/s.
+    truth : VehicleParams or None
+        The true vehicle (simulations only): fills each :class:`~agvctl.calibration.common.Estimate`'s truth.
 
+    Returns
+    -------
+    FrictionFit
+        Both sides' f_m, τ_c and τ_s with their standard errors.
+
+    Raises
+    ------
+    ConfigError
+        One line naming ``log.source``: a side with fewer than two hold windows, all its windows at one speed, or
+        no ramp that breaks away.
+
+    Notes
+    -----
     Least squares: per window i, the mean drive torque y_i = k_pow k_t ū_i/R − k_e k_t ω̄_i/R (the steady state
     of eqs 66-69, corrected) and the regressors (ω̄_i, sign ω̄_i); weighted by each window's Newey-West variance;
     the covariance scaled by the reduced χ² when it exceeds 1 (:func:`_viscous_coulomb`). Stiction:
-    τ_s = k_pow k_t |u_b|/R (eq 65 corrected) with u the voltage held over the last sample at which the wheel
+    τ_s = k_pow k_t ``|u_b|``/R (eq 65 corrected) with u the voltage held over the last sample at which the wheel
     was still, less half a resolution step and half the noise's detection lag
     (:func:`~agvctl.calibration.friction.breakaway.breakaways`), averaged over the ramps; its standard error
     combines the ramps' scatter with the resolution and the lag bound (each uniform).
-
-    Raises :class:`ConfigError` (one line, naming ``log.source``) when a side has fewer than two hold windows,
-    all its windows at one speed, or no ramp that breaks away.
     """
     k_pow = vehicle.amplifier.gain
     notes: list[str] = []
     sides: list[SideFriction] = []
-    ts_log = float(np.median(np.diff(log.t_s))) if len(log.t_s) > 1 else vehicle.control.sample_period_s
-    if not (math.isfinite(ts_log) and ts_log > 0):
-        raise ConfigError(log.source, "t_s", "sample times must increase")
-    max_lag = max(1, int(round(1.0 / ts_log)))
+    max_lag = _max_lag(log, vehicle)
     for j, name in enumerate(SIDES):
         motor = vehicle.motor.side(name)
-        k_t, k_e, R = motor.torque_constant_n_m_a, motor.voltage_constant_v_s_rad, motor.resistance_ohm
         ranges = _steady_windows(log, j, settle_s, min_window_s, max_speed_deviation, notes)
         theta, se, windows = _viscous_coulomb(log, j, ranges, k_pow, motor, max_lag)
         f_m, tau_c = float(theta[0]), float(theta[1])
 
-        torque_per_v = k_pow * k_t / R  # eq 65, corrected
-        found = breakaways(
-            log,
-            j,
-            threshold_rad_s=breakaway_threshold_rad_s,
-            volts_per_code=vehicle.da.volts_per_code,
-            torque_per_da_v=torque_per_v,
-            damping_n_m_s_rad=motor_damping(k_e, k_t, R, max(f_m, 0.0)),
-            inertia_kg_m2=getattr(vehicle.derived, name).inertia_equivalent_kg_m2,
-        )
-        if not found:
-            raise ConfigError(
-                log.source,
-                f"da_voltage_{name}_v",
-                "no ramp breaks the wheel away (phase = ramp: a slow DA ramp from standstill until the measured "
-                f"speed exceeds {breakaway_threshold_rad_s:g} rad/s); the stiction needs one",
-            )
-        tau_s, tau_s_se = _stiction(found, torque_per_v)
+        found, tau_s, tau_s_se = _side_stiction(log, j, vehicle, f_m, breakaway_threshold_rad_s)
 
         true_motor = truth.motor.side(name) if truth is not None else None
         sides.append(
@@ -312,11 +351,61 @@ def fit_friction(
     return FrictionFit(left=sides[0], right=sides[1], notes=tuple(notes))
 
 
+def _max_lag(log: FrictionLog, vehicle: VehicleParams) -> int:
+    """The Newey-West lags of a window's mean torque: the samples of one second of the log."""
+    ts_log = float(np.median(np.diff(log.t_s))) if len(log.t_s) > 1 else vehicle.control.sample_period_s
+    if not (math.isfinite(ts_log) and ts_log > 0):
+        raise ConfigError(log.source, "t_s", "sample times must increase")
+    return max(1, int(round(1.0 / ts_log)))
+
+
+def _side_stiction(
+    log: FrictionLog, j: int, vehicle: VehicleParams, f_m: float, threshold_rad_s: float
+) -> tuple[list[Breakaway], float, float]:
+    """One side's break-aways, and τ_s with its standard error from them (:func:`_stiction`)."""
+    name = SIDES[j]
+    motor = vehicle.motor.side(name)
+    k_t, k_e, R = motor.torque_constant_n_m_a, motor.voltage_constant_v_s_rad, motor.resistance_ohm
+    torque_per_v = vehicle.amplifier.gain * k_t / R  # eq 65, corrected
+    found = breakaways(
+        log,
+        j,
+        threshold_rad_s=threshold_rad_s,
+        volts_per_code=vehicle.da.volts_per_code,
+        torque_per_da_v=torque_per_v,
+        damping_n_m_s_rad=motor_damping(k_e, k_t, R, max(f_m, 0.0)),
+        inertia_kg_m2=getattr(vehicle.derived, name).inertia_equivalent_kg_m2,
+    )
+    if not found:
+        raise ConfigError(
+            log.source,
+            f"da_voltage_{name}_v",
+            "no ramp breaks the wheel away (phase = ramp: a slow DA ramp from standstill until the measured "
+            f"speed exceeds {threshold_rad_s:g} rad/s); the stiction needs one",
+        )
+    tau_s, tau_s_se = _stiction(found, torque_per_v)
+    return found, tau_s, tau_s_se
+
+
 def apply_friction(vehicle: VehicleParams, fit: FrictionFit) -> tuple[VehicleParams, list[str]]:
-    """``vehicle`` with the identified f_m, τ_c, τ_s per side, and notes on any value that had to be clamped.
+    """A vehicle with the identified f_m, τ_c, τ_s per side.
 
     A vehicle file needs f_m ≥ 0 and τ_s ≥ τ_c (model note 5, docs/model-notes.md): a slightly negative f_m (a true
     f_m near zero plus noise) becomes 0, a τ_s below τ_c becomes τ_c.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle to update.
+    fit : FrictionFit
+        The identified friction.
+
+    Returns
+    -------
+    vehicle : VehicleParams
+        A copy with the friction.
+    notes : list of str
+        One line per value that had to be clamped.
     """
     notes: list[str] = []
     overrides: list[tuple[str, float]] = []

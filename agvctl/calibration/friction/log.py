@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.calibration.common import read_csv_columns
+from agvctl.config import document_fields
 
 __all__ = ["FRICTION_LOG_COLUMNS", "SIDES", "FrictionLog", "Side", "read_friction_log"]
 
@@ -31,18 +32,21 @@ FRICTION_LOG_COLUMNS: dict[str, str] = {
 """The friction log's columns (CSV with a header row; other columns are ignored). Values must be finite."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class FrictionLog:
     """A friction experiment's log, one row per control sample (columns as :data:`FRICTION_LOG_COLUMNS`)."""
 
     t_s: NDArray[np.float64]
+    """The sample times, s."""
     phase: tuple[str, ...]
+    """Each sample's phase: ``hold``, ``ramp`` or anything else (ignored)."""
     setpoint_rad_s: NDArray[np.float64]
-    """n × 2 speed-loop setpoints (left, right), motor shaft."""
+    """n × 2 speed-loop setpoints (left, right), motor shaft, rad/s."""
     omega_motor_rad_s: NDArray[np.float64]
-    """n × 2 measured motor speeds (left, right)."""
+    """n × 2 measured motor speeds (left, right), rad/s."""
     da_voltage_v: NDArray[np.float64]
-    """n × 2 DA output voltages (left, right): the control input u of eqs 65-69."""
+    """n × 2 DA output voltages (left, right): the control input u of eqs 65-69, V."""
     source: str = "<simulated>"
     """Where the log came from (for error messages)."""
 
@@ -72,8 +76,23 @@ class FrictionLog:
 
 
 def read_friction_log(path: str | Path) -> FrictionLog:
-    """Read a friction log (CSV, :data:`FRICTION_LOG_COLUMNS`). Missing columns, empty or non-finite cells:
-    :class:`ConfigError` naming the column or row."""
+    """Read a friction log.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file, with the columns of :data:`FRICTION_LOG_COLUMNS`.
+
+    Returns
+    -------
+    FrictionLog
+        The log.
+
+    Raises
+    ------
+    ConfigError
+        A missing column, an empty or non-finite cell, naming the file and the column or line.
+    """
     numeric = [c for c in FRICTION_LOG_COLUMNS if c != "phase"]
     values, text = read_csv_columns(path, numeric, ["phase"])
     return FrictionLog(

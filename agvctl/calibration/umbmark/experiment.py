@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.calibration.umbmark.model import Method, UmbmarkCorrection, e_max_syst, umbmark_correction
+from agvctl.config import document_fields
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.pi.wheel_loop import PIWheelController
@@ -34,6 +35,7 @@ MAX_RUNS_PER_DIRECTION = 100
 """The most runs per direction: 20 times the usual 5; each is a simulated square."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class UmbmarkConfig:
     """The simulated UMBmark runs.
@@ -46,14 +48,17 @@ class UmbmarkConfig:
     """
 
     side_length_m: float = 4.0
-    """L, the side of the square (Borenstein & Feng: 4 m; smaller works, with less resolution)."""
+    """L, the side of the square (Borenstein & Feng: 4 m; smaller works, with less resolution), m."""
     runs_per_direction: int = 5
     """n: measured end positions per direction."""
     wheel_speed_m_s: float = 0.5
+    """The squares' wheel speed limit, m/s."""
     wheel_accel_m_s2: float = 0.5
+    """Their wheel acceleration limit, m/s²."""
     wheel_jerk_m_s3: float = 3.0
+    """Their wheel jerk limit, m/s³."""
     settle_s: float = 2.0
-    """Time after the reference ends for the controller to come to rest on its odometry."""
+    """Time after the reference ends for the controller to come to rest on its odometry, s."""
 
     def __post_init__(self) -> None:
         for name in ("side_length_m", "wheel_speed_m_s", "wheel_accel_m_s2", "wheel_jerk_m_s3"):
@@ -80,12 +85,26 @@ def drive_square(
     direction: Direction,
     config: UmbmarkConfig | None = None,
 ) -> NDArray[np.float64]:
-    """Drive one UMBmark square closed-loop on odometry and return its return-position error (x, y) in m.
+    """Drive one UMBmark square closed-loop on odometry and return its return-position error.
 
     The LTV MPC pose controller and the PI wheel loops (with Coulomb feed-forward and gentle stops, as in
-    ``experiments/square.toml``) are designed for ``controller_vehicle`` and see the pose integrated from the
-    measured wheel speeds with its radii and wheel base; the plant is ``plant_vehicle``. The error is the true
-    end position minus the odometry's, in the start frame.
+    ``experiments/square.toml``) see the pose integrated from the measured wheel speeds.
+
+    Parameters
+    ----------
+    plant_vehicle : VehicleParams
+        The true vehicle.
+    controller_vehicle : VehicleParams
+        What the controllers are designed for and the odometry integrates with (its radii and wheel base).
+    direction : {'cw', 'ccw'}
+        Clockwise or counter-clockwise.
+    config : UmbmarkConfig or None
+        The square's size and limits (None: the defaults).
+
+    Returns
+    -------
+    ndarray
+        The true end position minus the odometry's, (x, y) in the start frame, m.
     """
     cfg = config or UmbmarkConfig()
     turn = 90.0 if direction == "ccw" else -90.0
@@ -113,21 +132,25 @@ def drive_square(
     return np.array([log["x_m"][-1] - log["est_x_m"][-1], log["y_m"][-1] - log["est_y_m"][-1]], dtype=float)
 
 
+@document_fields
 @dataclass(frozen=True)
 class UmbmarkResult:
     """A simulated UMBmark: runs with the believed geometry, the correction, runs with the corrected one."""
 
     correction: UmbmarkCorrection
+    """What the runs with the believed geometry say."""
     corrected_vehicle: VehicleParams
+    """The controller's vehicle with the corrected geometry."""
     errors_before_m: dict[str, NDArray[np.float64]]
-    """Measured return-position errors per direction (n × 2), believed geometry."""
+    """Measured return-position errors per direction (n × 2), believed geometry, m."""
     errors_after_m: dict[str, NDArray[np.float64]]
-    """The same with the corrected geometry."""
+    """The same with the corrected geometry, m."""
     error_before_m: float
-    """E_max,syst before the correction."""
+    """E_max,syst before the correction, m."""
     error_after_m: float
-    """E_max,syst after it."""
+    """E_max,syst after it, m."""
     notes: tuple[str, ...] = field(default=())
+    """How the runs were simulated."""
 
 
 def _measured_runs(
@@ -148,11 +171,36 @@ def simulate_umbmark(
     seed: int | None = None,
     method: Method = "exact",
 ) -> UmbmarkResult:
-    """UMBmark on the simulator: squares cw and ccw with the believed geometry (``controller_vehicle``) on the
-    true plant, the correction, and the squares again with the corrected geometry.
+    """UMBmark on the simulator: squares cw and ccw with the believed geometry on the true plant, the correction,
+    and the squares again with the corrected geometry.
 
     The simulator is deterministic, so each direction is simulated once and its n runs differ only by the
-    measurement noise on the end position (``noise_scale`` × :data:`POSITION_NOISE_M` per axis).
+    measurement noise on the end position.
+
+    Parameters
+    ----------
+    plant_vehicle : VehicleParams
+        The true vehicle.
+    controller_vehicle : VehicleParams
+        The believed one, whose geometry is corrected.
+    config : UmbmarkConfig or None
+        The squares (None: Borenstein & Feng's 4 m, 5 runs per direction).
+    noise_scale : float
+        The noise of each measured end position, per axis, in units of :data:`POSITION_NOISE_M` (0: none).
+    seed : int or None
+        The noise's seed.
+    method : {'exact', 'first_order'}
+        How α and β are found (:func:`~agvctl.calibration.umbmark.model.umbmark_correction`).
+
+    Returns
+    -------
+    UmbmarkResult
+        The correction, the corrected vehicle, and the errors before and after.
+
+    Raises
+    ------
+    ValueError
+        A negative or non-finite ``noise_scale``.
     """
     cfg = config or UmbmarkConfig()
     if not (math.isfinite(noise_scale) and noise_scale >= 0):

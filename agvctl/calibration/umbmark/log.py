@@ -23,9 +23,23 @@ UMBMARK_LOG_COLUMNS: dict[str, str] = {
 
 
 def read_umbmark_log(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Read measured UMBmark end positions (CSV, :data:`UMBMARK_LOG_COLUMNS`) and return the return-position
-    errors ``(cw, ccw)``, each n × 2 (x, y) in m. Raises :class:`ConfigError` (one line) for a missing column,
-    a non-finite cell, a direction other than cw/ccw, or a direction without runs."""
+    """Read measured UMBmark end positions and return the return-position errors.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file, one row per run, with the columns of :data:`UMBMARK_LOG_COLUMNS`.
+
+    Returns
+    -------
+    cw_errors_m, ccw_errors_m : ndarray
+        The clockwise and counter-clockwise runs' errors, each n × 2 (x, y), m.
+
+    Raises
+    ------
+    ConfigError
+        One line: a missing column, a non-finite cell, a direction other than cw/ccw, or a direction without runs.
+    """
     source = str(path)
     values, text = read_csv_columns(path, ["x_m", "y_m"], ["direction"], {"direction": ("cw", "ccw")})
     try:

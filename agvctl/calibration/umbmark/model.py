@@ -11,6 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
 from agvctl.calibration.common import Estimate
+from agvctl.config import document_fields
 from agvctl.params import VehicleParams
 
 __all__ = ["Method", "UmbmarkCorrection", "e_max_syst", "square_end_errors", "umbmark_correction"]
@@ -19,9 +20,29 @@ Method = Literal["exact", "first_order"]
 
 
 def square_end_errors(alpha_rad: float, beta_rad: float, side_length_m: float) -> NDArray[np.float64]:
-    """The exact return-position errors ``[[x_cw, y_cw], [x_ccw, y_ccw]]`` of the UMBmark error model: four
-    legs, each an arc of length L turning by β (a chord of 2(L/β) sin(β/2) at heading θ + β/2), and corners
-    of ∓(90° − α)."""
+    """The exact return-position errors of the UMBmark error model: four legs, each an arc of length L turning by β
+    (a chord of 2(L/β) sin(β/2) at heading θ + β/2), and corners of ∓(90° − α).
+
+    Parameters
+    ----------
+    alpha_rad : float
+        α, the corner turn error (type A), rad.
+    beta_rad : float
+        β, the heading change over a leg (type B), rad.
+    side_length_m : float
+        L, the square's side, m.
+
+    Returns
+    -------
+    ndarray
+        ``[[x_cw, y_cw], [x_ccw, y_ccw]]``, m.
+
+    Examples
+    --------
+    >>> square_end_errors(0.01, 0.0, 4.0).round(4)  # corners 0.01 rad short: both squares miss by about 11 cm
+    array([[-0.0792, -0.0816],
+           [-0.0792,  0.0816]])
+    """
     out = np.empty((2, 2))
     chord = side_length_m if beta_rad == 0 else 2.0 * side_length_m / beta_rad * math.sin(0.5 * beta_rad)
     for row, turn in enumerate((-1.0, 1.0)):
@@ -35,38 +56,63 @@ def square_end_errors(alpha_rad: float, beta_rad: float, side_length_m: float) -
 
 
 def e_max_syst(cw_errors_m: ArrayLike, ccw_errors_m: ArrayLike) -> float:
-    """Borenstein & Feng's measure of systematic odometry error: max(|c_cw|, |c_ccw|), c the centre of gravity of
-    each direction's return-position errors (rows (x, y) in m)."""
+    """Borenstein & Feng's measure of systematic odometry error, E_max,syst = max(``|c_cw|``, ``|c_ccw|``).
+
+    Parameters
+    ----------
+    cw_errors_m : array_like
+        The clockwise runs' return-position errors, rows (x, y), m.
+    ccw_errors_m : array_like
+        The counter-clockwise runs', m.
+
+    Returns
+    -------
+    float
+        The larger distance of the two directions' centres of gravity from the origin, m.
+
+    Examples
+    --------
+    >>> e_max_syst([[0.03, 0.04], [0.03, 0.04]], [[0.01, 0.0]])
+    0.05
+    """
     c_cw = np.mean(np.asarray(cw_errors_m, dtype=float).reshape(-1, 2), axis=0)
     c_ccw = np.mean(np.asarray(ccw_errors_m, dtype=float).reshape(-1, 2), axis=0)
     return float(max(np.hypot(*c_cw), np.hypot(*c_ccw)))
 
 
+@document_fields
 @dataclass(frozen=True)
 class UmbmarkCorrection:
     """What one set of UMBmark runs says about the geometry."""
 
     alpha_rad: Estimate
-    """α, the corner turn error (type A, wheel base): the true corner is 90° − α."""
+    """α, the corner turn error (type A, wheel base): the true corner is 90° − α, rad."""
     beta_rad: Estimate
-    """β, the heading change over a leg (type B, unequal wheel diameters)."""
+    """β, the heading change over a leg (type B, unequal wheel diameters), rad."""
     alpha_first_order_rad: float
-    """α from Borenstein & Feng's first-order formulas (x and y averaged)."""
+    """α from Borenstein & Feng's first-order formulas (x and y averaged), rad."""
     beta_first_order_rad: float
+    """β from the same formulas, rad."""
     wheel_radius_ratio: Estimate
     """r_r/r_l after correction (the believed ratio times E_d)."""
     diameter_ratio_correction: float
     """E_d = (R + b/2)/(R − b/2), R = (L/2)/sin(β/2): the true ratio over the believed one."""
     separation_m: Estimate
-    """b_actual = 90°/(90° − α) · b_believed."""
+    """b_actual = 90°/(90° − α) · b_believed, m."""
     radius_left_m: Estimate
+    """The corrected left wheel radius (the mean radius kept), m."""
     radius_right_m: Estimate
+    """The corrected right wheel radius, m."""
     error_m: float
-    """E_max,syst of the runs the correction comes from."""
+    """E_max,syst of the runs the correction comes from, m."""
     centroid_cw_m: tuple[float, float]
+    """The centre of gravity (x, y) of the clockwise runs' errors, m."""
     centroid_ccw_m: tuple[float, float]
+    """That of the counter-clockwise runs' errors, m."""
     side_length_m: float
+    """The square's side, m."""
     runs_per_direction: tuple[int, int]
+    """The runs clockwise and counter-clockwise."""
 
     def apply(self, vehicle: VehicleParams) -> VehicleParams:
         """``vehicle`` with the corrected wheel radii and wheel base."""
@@ -162,37 +208,11 @@ def _truths(
     return true_geom, [alpha_true, beta_true]
 
 
-def umbmark_correction(
-    cw_errors_m: ArrayLike,
-    ccw_errors_m: ArrayLike,
-    *,
-    side_length_m: float,
-    vehicle: VehicleParams,
-    method: Method = "exact",
-    truth: VehicleParams | None = None,
-) -> UmbmarkCorrection:
-    """The corrected wheel radii and wheel base from UMBmark return-position errors (n × 2 arrays of (x, y) in m,
-    true minus odometry, in the start frame) of squares of side ``side_length_m`` driven with ``vehicle``'s
-    (believed) geometry.
-
-    Standard errors come from each cluster's scatter (the centroid's standard error per coordinate, s/√n),
-    propagated to α, β linearly and on to the geometry by the delta method; with one run per direction they are
-    NaN. ``truth`` (simulations only) fills the truths of the geometry estimates; the ``separation_m`` truth is
-    b·r̄_believed/r̄_true, the wheel base the odometry needs (see the notes of :mod:`agvctl.calibration.umbmark`).
-    """
-    cw = np.asarray(cw_errors_m, dtype=float).reshape(-1, 2)
-    ccw = np.asarray(ccw_errors_m, dtype=float).reshape(-1, 2)
-    if not (math.isfinite(side_length_m) and side_length_m > 0):
-        raise ValueError(f"side_length_m must be > 0 (got {side_length_m})")
-    if len(cw) < 1 or len(ccw) < 1:
-        raise ValueError("umbmark_correction: at least one run per direction")
-    centroids = np.array([cw.mean(axis=0), ccw.mean(axis=0)])
-    var = np.full(4, math.nan)
-    if len(cw) > 1 and len(ccw) > 1:
-        var = np.concatenate([cw.var(axis=0, ddof=1) / len(cw), ccw.var(axis=0, ddof=1) / len(ccw)])
-        var[var < 1e-24] = 0.0  # identical runs: rounding, not scatter
-    a1, b1 = _first_order(centroids, side_length_m)
-    params = np.array([a1, b1]) if method == "first_order" else _fit_exact(centroids, side_length_m, (a1, b1))
+def _propagated(
+    params: NDArray[np.float64], var: NDArray[np.float64], method: Method, vehicle: VehicleParams, side_length_m: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The geometry of (α, β) = ``params``, and the standard errors of α, β and the geometry from the centroids'
+    variances ``var``: linearly to α, β, then by the delta method."""
     if method == "first_order":
         # the linear map from the centroids (x_cw, y_cw, x_ccw, y_ccw) to (α, β), x and y formulas averaged
         k = -4.0 * side_length_m
@@ -214,8 +234,66 @@ def umbmark_correction(
         ]
     )
     cov_g = Jg @ cov_p @ Jg.T
-    se_p = np.sqrt(np.diag(cov_p))
-    se_g = np.sqrt(np.diag(cov_g))
+    return geom, np.sqrt(np.diag(cov_p)), np.sqrt(np.diag(cov_g))
+
+
+def umbmark_correction(
+    cw_errors_m: ArrayLike,
+    ccw_errors_m: ArrayLike,
+    *,
+    side_length_m: float,
+    vehicle: VehicleParams,
+    method: Method = "exact",
+    truth: VehicleParams | None = None,
+) -> UmbmarkCorrection:
+    """The corrected wheel radii and wheel base from UMBmark return-position errors.
+
+    Standard errors come from each cluster's scatter (the centroid's standard error per coordinate, s/√n),
+    propagated to α, β linearly and on to the geometry by the delta method; with one run per direction they are
+    NaN.
+
+    Parameters
+    ----------
+    cw_errors_m : array_like
+        The clockwise squares' return-position errors, n × 2 (x, y): true minus odometry, in the start frame, m.
+    ccw_errors_m : array_like
+        The counter-clockwise squares', m.
+    side_length_m : float
+        The squares' side, m.
+    vehicle : VehicleParams
+        The geometry the squares were driven with (believed).
+    method : {'exact', 'first_order'}
+        Fit α, β to the exact error model (:func:`square_end_errors`), or take Borenstein & Feng's first-order
+        formulas.
+    truth : VehicleParams or None
+        The true vehicle (simulations only): fills the truths of the geometry estimates; the ``separation_m``
+        truth is b·r̄_believed/r̄_true, the wheel base the odometry needs (see the notes of
+        :mod:`agvctl.calibration.umbmark`).
+
+    Returns
+    -------
+    UmbmarkCorrection
+        α, β and the corrected geometry with their standard errors.
+
+    Raises
+    ------
+    ValueError
+        A side that is not positive, or a direction without runs.
+    """
+    cw = np.asarray(cw_errors_m, dtype=float).reshape(-1, 2)
+    ccw = np.asarray(ccw_errors_m, dtype=float).reshape(-1, 2)
+    if not (math.isfinite(side_length_m) and side_length_m > 0):
+        raise ValueError(f"side_length_m must be > 0 (got {side_length_m})")
+    if len(cw) < 1 or len(ccw) < 1:
+        raise ValueError("umbmark_correction: at least one run per direction")
+    centroids = np.array([cw.mean(axis=0), ccw.mean(axis=0)])
+    var = np.full(4, math.nan)
+    if len(cw) > 1 and len(ccw) > 1:
+        var = np.concatenate([cw.var(axis=0, ddof=1) / len(cw), ccw.var(axis=0, ddof=1) / len(ccw)])
+        var[var < 1e-24] = 0.0  # identical runs: rounding, not scatter
+    a1, b1 = _first_order(centroids, side_length_m)
+    params = np.array([a1, b1]) if method == "first_order" else _fit_exact(centroids, side_length_m, (a1, b1))
+    geom, se_p, se_g = _propagated(params, var, method, vehicle, side_length_m)
 
     true_geom, true_ab = _truths(truth, vehicle, side_length_m)
 

@@ -13,7 +13,7 @@ weights (Bryson's rule, as WPILib builds them)
 
 and the command is (v, ω) = (v_d, ω_d) + K(v_d) e. The gains are computed at construction on a grid of v_d
 from −v_max to v_max in steps of ``schedule_step_m_s`` and interpolated linearly in v_d. At v_d = 0 the lateral
-error is not controllable (the Riccati equation is ill-posed), so, as in WPILib, |v_d| below 10⁻⁴ m/s is
+error is not controllable (the Riccati equation is ill-posed), so, as in WPILib, ``|v_d|`` below 10⁻⁴ m/s is
 linearised at 10⁻⁴ m/s: the vehicle then corrects e_x and e_θ and leaves e_y alone. The setpoints are the
 wheel speeds of (v, ω) (eqs 39-43), scaled down together to the wheel-speed limit.
 
@@ -35,7 +35,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from agvctl.config import check_fields, number
+from agvctl.config import check_fields, document_fields, number
 from agvctl.controllers.baselines.unicycle import UnicycleTracker
 from agvctl.errors import expect_instance
 from agvctl.params import VehicleParams
@@ -45,28 +45,45 @@ __all__ = ["LtvLqrConfig", "LtvLqrController", "gain_schedule", "unicycle_error_
 FloatArray = NDArray[np.float64]
 
 MIN_LINEARISATION_SPEED_M_S = 1e-4
-"""|v_d| below this is linearised at this speed (WPILib's choice): at rest e_y is not controllable."""
+"""``|v_d|`` below this is linearised at this speed (WPILib's choice): at rest e_y is not controllable."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class LtvLqrConfig:
     """Settings of the LTV unicycle controller, as in an experiment file's ``[controller]`` table."""
 
-    tolerance_x_m: float = number(gt=0, default=0.0625, doc="largest wanted error ahead (Q = 1/tol²), m")
-    tolerance_y_m: float = number(gt=0, default=0.125, doc="largest wanted error to the side, m")
-    tolerance_heading_rad: float = number(gt=0, default=2.0, doc="largest wanted heading error, rad")
-    effort_speed_m_s: float = number(gt=0, default=1.0, doc="largest wanted speed correction (R = 1/effort²)")
-    effort_yaw_rate_rad_s: float = number(gt=0, default=2.0, doc="largest wanted yaw-rate correction, rad/s")
-    schedule_step_m_s: float = number(gt=0, default=0.01, doc="spacing of the gain schedule in v_d, m/s")
-    max_wheel_speed_m_s: float | None = number(gt=0, default=None, doc="default: the vehicle's max speed")
+    tolerance_x_m: float = number(gt=0, default=0.0625, doc="Largest wanted error ahead (Q = 1/tol²), m.")
+    tolerance_y_m: float = number(gt=0, default=0.125, doc="Largest wanted error to the side, m.")
+    tolerance_heading_rad: float = number(gt=0, default=2.0, doc="Largest wanted heading error, rad.")
+    effort_speed_m_s: float = number(gt=0, default=1.0, doc="Largest wanted speed correction (R = 1/effort²), m/s.")
+    effort_yaw_rate_rad_s: float = number(gt=0, default=2.0, doc="Largest wanted yaw-rate correction, rad/s.")
+    schedule_step_m_s: float = number(gt=0, default=0.01, doc="Spacing of the gain schedule in v_d, m/s.")
+    max_wheel_speed_m_s: float | None = number(
+        gt=0, default=None, doc="The wheel-speed limit of the setpoints (None: the vehicle's max speed), m/s."
+    )
 
     def __post_init__(self) -> None:
         check_fields(self)
 
 
 def unicycle_error_model(speed_m_s: float, sample_period_s: float) -> tuple[FloatArray, FloatArray]:
-    """(A_d, B_d): the zero-order-hold discretisation over ``sample_period_s`` of the robot-frame error
-    dynamics linearised at reference speed ``speed_m_s`` (|v| raised to the 10⁻⁴ m/s floor)."""
+    """The robot-frame error dynamics linearised at a reference speed, discretised with a zero-order hold.
+
+    Parameters
+    ----------
+    speed_m_s : float
+        The reference speed v_d (``|v_d|`` raised to :data:`MIN_LINEARISATION_SPEED_M_S`), m/s.
+    sample_period_s : float
+        The discretisation step, s.
+
+    Returns
+    -------
+    A_d : ndarray
+        3 × 3, the error (e_x, e_y, e_θ) from sample to sample.
+    B_d : ndarray
+        3 × 2, the effect of the correction (δv, δω) held over the sample.
+    """
     v = (
         speed_m_s
         if abs(speed_m_s) >= MIN_LINEARISATION_SPEED_M_S
@@ -80,7 +97,22 @@ def unicycle_error_model(speed_m_s: float, sample_period_s: float) -> tuple[Floa
 
 
 def unicycle_lqr_gain(speed_m_s: float, sample_period_s: float, config: LtvLqrConfig) -> FloatArray:
-    """K (2×3): the discrete LQR gain at reference speed ``speed_m_s``, δu = K e."""
+    """The discrete LQR gain at a reference speed: the correction δu = K e.
+
+    Parameters
+    ----------
+    speed_m_s : float
+        The reference speed v_d, m/s.
+    sample_period_s : float
+        The discretisation step, s.
+    config : LtvLqrConfig
+        The tolerances and efforts that weigh Q and R.
+
+    Returns
+    -------
+    ndarray
+        K, 2 × 3: from the error (e_x in m, e_y in m, e_θ in rad) to the correction (δv in m/s, δω in rad/s).
+    """
     a_d, b_d = unicycle_error_model(speed_m_s, sample_period_s)
     q = np.diag(1.0 / np.array([config.tolerance_x_m, config.tolerance_y_m, config.tolerance_heading_rad]) ** 2)
     r = np.diag(1.0 / np.array([config.effort_speed_m_s, config.effort_yaw_rate_rad_s]) ** 2)
@@ -106,11 +138,12 @@ class LtvLqrController(UnicycleTracker):
 
     Parameters
     ----------
-    vehicle
+    vehicle : VehicleParams
         The controller's model: wheel separation b (m), sample period T_s (s, the discretisation step) and its
         derived max speed (the default wheel-speed limit and the range of the gain schedule).
-    config
-        LQR tolerances and efforts, the schedule's spacing and the wheel-speed limit (m/s).
+    config : LtvLqrConfig or None
+        LQR tolerances and efforts, the schedule's spacing and the wheel-speed limit (m/s); None: WPILib's
+        defaults.
     """
 
     def __init__(self, vehicle: VehicleParams, config: LtvLqrConfig | None = None) -> None:

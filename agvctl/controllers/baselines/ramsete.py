@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agvctl.config import check_fields, number
+from agvctl.config import check_fields, document_fields, number
 from agvctl.controllers.baselines.unicycle import UnicycleTracker
 from agvctl.errors import expect_instance
 from agvctl.params import VehicleParams
@@ -32,13 +32,16 @@ from agvctl.params import VehicleParams
 __all__ = ["RamseteConfig", "RamseteController", "ramsete_law"]
 
 
+@document_fields
 @dataclass(frozen=True)
 class RamseteConfig:
     """Settings of the Ramsete law, as in an experiment file's ``[controller]`` table."""
 
-    b_rad2_m2: float = number(gt=0, default=2.0, doc="b, the convergence gain on the lateral error, rad²/m²")
-    zeta: float = number(gt=0, le=1, default=0.7, doc="ζ, the damping ratio of the error dynamics")
-    max_wheel_speed_m_s: float | None = number(gt=0, default=None, doc="default: the vehicle's max speed")
+    b_rad2_m2: float = number(gt=0, default=2.0, doc="b, the convergence gain on the lateral error, rad²/m².")
+    zeta: float = number(gt=0, le=1, default=0.7, doc="ζ, the damping ratio of the error dynamics.")
+    max_wheel_speed_m_s: float | None = number(
+        gt=0, default=None, doc="The wheel-speed limit of the setpoints (None: the vehicle's max speed), m/s."
+    )
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -47,8 +50,33 @@ class RamseteConfig:
 def ramsete_law(
     error: tuple[float, float, float], speed_m_s: float, yaw_rate_rad_s: float, b_rad2_m2: float, zeta: float
 ) -> tuple[float, float]:
-    """(v in m/s, ω in rad/s) of the Ramsete law for the robot-frame error (e_x_m, e_y_m, e_theta_rad) and the
-    reference's speed v_d (m/s) and yaw rate ω_d (rad/s)."""
+    """The speed and yaw rate the Ramsete law commands (see the module notes).
+
+    Parameters
+    ----------
+    error : tuple of float
+        The robot-frame pose error (e_x in m, e_y in m, e_θ in rad), reference minus vehicle.
+    speed_m_s : float
+        The reference's speed v_d, m/s.
+    yaw_rate_rad_s : float
+        The reference's yaw rate ω_d, rad/s.
+    b_rad2_m2 : float
+        b, the convergence gain on the lateral error, rad²/m².
+    zeta : float
+        ζ, the damping ratio of the error dynamics.
+
+    Returns
+    -------
+    speed_m_s : float
+        v, m/s.
+    yaw_rate_rad_s : float
+        ω, rad/s.
+
+    Examples
+    --------
+    >>> ramsete_law((0.0, 0.0, 0.0), 0.5, 0.1, 2.0, 0.7)  # on the reference: its own speed and yaw rate
+    (0.5, 0.1)
+    """
     e_x, e_y, e_theta = error
     k = 2.0 * zeta * math.sqrt(yaw_rate_rad_s**2 + b_rad2_m2 * speed_m_s**2)
     sinc = float(np.sinc(e_theta / math.pi))  # numpy's sinc is sin(πx)/(πx)
@@ -62,11 +90,11 @@ class RamseteController(UnicycleTracker):
 
     Parameters
     ----------
-    vehicle
+    vehicle : VehicleParams
         The controller's model: its wheel separation b (m) turns (v, ω) into wheel speeds, its sample period
         is the control grid, and its derived max speed is the default wheel-speed limit.
-    config
-        Gains and the wheel-speed limit (m/s).
+    config : RamseteConfig or None
+        Gains and the wheel-speed limit (m/s); None: WPILib's defaults.
     """
 
     def __init__(self, vehicle: VehicleParams, config: RamseteConfig | None = None) -> None:

@@ -12,7 +12,7 @@ of the controller's vehicle):
 
     v_l = v − ω b/2,  v_r = v + ω b/2.
 
-If either setpoint exceeds the wheel-speed limit v_max, both are scaled by v_max / max(|v_l|, |v_r|): the
+If either setpoint exceeds the wheel-speed limit v_max, both are scaled by v_max / max(``|v_l|``, ``|v_r|``): the
 curvature ω/v (the path the vehicle turns onto) is kept and only the speed along it is reduced. A law whose
 output is not finite (a non-finite pose, say) is replaced by the reference's own wheel speeds for that sample
 and reported as ``fallback_feedforward``, so a setpoint is always finite.
@@ -38,8 +38,29 @@ FloatArray = NDArray[np.float64]
 def robot_frame_error(
     pose: FloatArray, x_ref_m: float, y_ref_m: float, theta_ref_rad: float
 ) -> tuple[float, float, float]:
-    """(e_x in m, e_y in m, e_θ in rad): the reference pose seen from the robot at ``pose`` (x_m, y_m,
-    theta_rad), heading error wrapped to [−π, π)."""
+    """The reference pose seen from the robot: the pose error in the robot's frame.
+
+    Parameters
+    ----------
+    pose : ndarray
+        The robot's pose: x (m), y (m), heading (rad).
+    x_ref_m : float
+        The reference's x, m.
+    y_ref_m : float
+        The reference's y, m.
+    theta_ref_rad : float
+        The reference's heading, rad.
+
+    Returns
+    -------
+    tuple of float
+        (e_x in m ahead, e_y in m to the left, e_θ in rad wrapped to [−π, π)).
+
+    Examples
+    --------
+    >>> robot_frame_error(np.array([0.0, 0.0, 0.0]), 1.0, 0.5, 0.0)  # 1 m ahead, 0.5 m to the left
+    (1.0, 0.5, 0.0)
+    """
     x, y, theta = float(pose[0]), float(pose[1]), float(pose[2])
     c, s = math.cos(theta), math.sin(theta)
     dx, dy = x_ref_m - x, y_ref_m - y
@@ -50,8 +71,31 @@ def robot_frame_error(
 def desaturated_wheel_speeds(
     speed_m_s: float, yaw_rate_rad_s: float, separation_m: float, max_wheel_speed_m_s: float
 ) -> tuple[float, float]:
-    """(v_l, v_r) in m/s of body speed v and yaw rate ω (eqs 39-43), both scaled down by the same factor if
-    either would exceed ``max_wheel_speed_m_s`` (keeps the curvature ω/v)."""
+    """The wheel speeds of a body speed and yaw rate (eqs 39-43), scaled down together into the limit.
+
+    Scaling both by the same factor keeps the curvature ω/v: the vehicle turns onto the same path, slower.
+
+    Parameters
+    ----------
+    speed_m_s : float
+        The body speed v, m/s.
+    yaw_rate_rad_s : float
+        The yaw rate ω, rad/s.
+    separation_m : float
+        The wheel separation b, m.
+    max_wheel_speed_m_s : float
+        The limit on either wheel's ``|speed|``, m/s.
+
+    Returns
+    -------
+    tuple of float
+        (v_l, v_r), m/s.
+
+    Examples
+    --------
+    >>> desaturated_wheel_speeds(1.0, 1.0, 1.0, 0.75)  # 0.5 and 1.5 m/s asked, 0.75 m/s allowed
+    (0.25, 0.75)
+    """
     half = 0.5 * separation_m * yaw_rate_rad_s
     return _within(speed_m_s - half, speed_m_s + half, max_wheel_speed_m_s)
 
@@ -70,6 +114,11 @@ class UnicycleTracker:
 
     Subclasses set ``max_wheel_speed_m_s`` and implement :meth:`_law`. The reference is sampled once at
     :meth:`reset` on the control grid t_k = k·T_s (any other time is sampled directly).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The controller's model: its wheel separation (m) and sample period (s).
     """
 
     max_wheel_speed_m_s: float

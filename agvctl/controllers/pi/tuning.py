@@ -1,24 +1,7 @@
 """PI wheel-speed loop design from the decoupled model (eqs 60-61), sampled with a zero-order hold.
 
-The loop, per wheel, broken at the controller's input::
-
-    L(z) = C(z) · k_chain · G_zoh(z)
-
-* G_zoh(z): the decoupled model ω/u = (k_t/R)/(J̃ s + k_e k_t/R + f_m) (eqs 1, 60-61) sampled with a ZOH at
-  T_s
-  (``control.sample_system(..., "zoh")``), K(1 − a)/(z − a) with a = exp(−T_s/τ_m);
-* k_chain: the gain from the controller's output to the motor voltage. The controller outputs a motor
-  voltage u_c,
-  :class:`~agvctl.controllers.pi.wheel_loop.PIWheelController` sends the DA the voltage u_c/k_pow, the DA outputs that
-  voltage (code·α = u_c/k_pow up to half a step: gain 1 V/V, quantisation neglected) and the amplifier
-  multiplies by k_pow: k_chain = k_pow · 1 · (1/k_pow) = 1;
-* C(z) = k_p + k_i T_s z/(z − 1) (:class:`~agvctl.controllers.pi.wheel_loop.PIGains`).
-
-Margins are those of this sampled loop, computed from its frequency response L(e^{jωT_s}) on a dense grid
-up to and including the Nyquist frequency ω = π/T_s (z = −1). For a PI on this first-order plant the phase
-reaches −180° exactly at z = −1 (both C(−1) and G_zoh(−1) are real), which ``control.margin`` /
-``control.stability_margins`` miss (they report an infinite gain margin); here that point is a phase crossing
-like any other, and the gain margin there is −20 log10 |L(−1)|.
+The loop and its margins are those of :mod:`agvctl.controllers.pi.margins`: L(z) = C(z) · k_chain · G_zoh(z), the
+decoupled model sampled with a zero-order hold, the margins taken up to and including the Nyquist frequency.
 
 Design ("as fast as the margins allow"): for a crossover ω_c, the PI that gives exactly the required phase
 margin there is unique (solve C(e^{jω_c T}) = e^{j(PM − 180°)} / (k_chain G(e^{jω_c T})) for k_p, k_i). For
@@ -38,17 +21,24 @@ from typing import NamedTuple
 
 import control
 import numpy as np
-from numpy.typing import NDArray
 from scipy.optimize import brentq
 
-from agvctl.actuator import Actuator
-from agvctl.config import check_fields
+from agvctl.config import check_fields, document_fields
+from agvctl.controllers.pi.margins import (
+    GRID_POINTS,
+    LoopMargins,
+    chain_gain,
+    frequency_response,
+    loop_margins,
+    loop_polynomials,
+    sampled_wheel_models,
+    tf_polynomials,
+)
 from agvctl.controllers.pi.wheel_loop import PIGains
 from agvctl.errors import ConfigError, expect_instance
 from agvctl.params import VehicleParams
-from agvctl.plant.decoupled import decoupled_wheel_models
 
-__all__ = [
+__all__ = [  # the loop's analysis is agvctl.controllers.pi.margins's, and still importable from here
     "LoopMargins",
     "TuningResult",
     "TuningSpec",
@@ -60,26 +50,31 @@ __all__ = [
     "sampled_wheel_models",
 ]
 
-GRID_POINTS = 20_000
-"""Frequency points (linear in ω, up to π/T_s inclusive) for the final margins."""
 _SEARCH_GRID_POINTS = 2_000
 _PM_DESIGN_EXTRA_DEG = 1e-4
+"""Designed phase margin above the spec, so the achieved margin is >= the spec despite rounding."""
 _CROSSOVER_XTOL_RAD_S, _CROSSOVER_RTOL = 1e-13, 4 * float(np.finfo(float).eps)
 """Brent's method tolerances for the fastest feasible crossover (the smallest relative tolerance it accepts)."""
-"""Designed phase margin above the spec, so the achieved margin is >= the spec despite rounding."""
 SPEC_SOURCE = "tuning specification"
 
 
+@document_fields
 @dataclass(frozen=True)
 class TuningSpec:
-    """What the wheel loops must achieve."""
+    """What the wheel loops must achieve (``agvctl tune --pm --gm --crossover``).
+
+    Raises
+    ------
+    ConfigError
+        A phase margin outside (0°, 180°), a negative gain margin, or a crossover that is not a positive number.
+    """
 
     phase_margin_deg: float = 60.0
-    """Minimum phase margin."""
+    """Minimum phase margin, °."""
     gain_margin_db: float = 10.0
-    """Minimum gain margin (taken up to and including the Nyquist frequency)."""
+    """Minimum gain margin (taken up to and including the Nyquist frequency), dB."""
     crossover_rad_s: float | None = None
-    """Demanded gain crossover (bandwidth); ``None``: as fast as the margins allow."""
+    """Demanded gain crossover (bandwidth); ``None``: as fast as the margins allow, rad/s."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -92,37 +87,29 @@ class TuningSpec:
             raise ConfigError(SPEC_SOURCE, "crossover_rad_s", f"must be a positive number of rad/s (got {wc:g})")
 
 
-@dataclass(frozen=True)
-class LoopMargins:
-    """Stability margins of a sampled loop."""
-
-    gain_margin_db: float
-    """Smallest −20 log10 |L| over the phase crossings in (0, π/T_s] (``inf`` if none)."""
-    phase_margin_deg: float
-    """Smallest 180° + ∠L over the gain crossings (``inf`` if |L| never crosses 1)."""
-    crossover_rad_s: float
-    """Gain crossover frequency (the lowest, if several; ``nan`` if none)."""
-    phase_crossover_rad_s: float
-    """Frequency where the gain margin is taken (π/T_s for the PI wheel loop; ``nan`` if none)."""
-
-
+@document_fields
 @dataclass(frozen=True)
 class TuningResult:
     """A PI design and its verification on the sampled linear loops of both wheels."""
 
     gains: PIGains
+    """The designed gains, one set for both wheels."""
     margins: LoopMargins
     """The worse of the two wheels' margins (smallest GM, PM and crossover)."""
     margins_left: LoopMargins
+    """The left wheel loop's margins."""
     margins_right: LoopMargins
+    """The right wheel loop's margins."""
     spec: TuningSpec
+    """What the design was asked for."""
     chain_gain: float
-    """Controller output to motor voltage (V/V), see the module docstring."""
+    """Controller output to motor voltage (:func:`~agvctl.controllers.pi.margins.chain_gain`), V/V."""
     plant_left: control.TransferFunction = field(repr=False)
     """ZOH-sampled decoupled model of the left wheel, motor voltage (V) → motor speed (rad/s)."""
     plant_right: control.TransferFunction = field(repr=False)
+    """The same of the right wheel."""
     max_crossover_rad_s: float = math.nan
-    """The fastest crossover the margins allow (what the design picks when no crossover is demanded)."""
+    """The fastest crossover the margins allow (what the design picks when no crossover is demanded), rad/s."""
 
     def loop(self, side: str = "left") -> control.TransferFunction:
         """The open loop L(z) = C(z) k_chain G_zoh(z) of one wheel as a python-control transfer function."""
@@ -130,96 +117,6 @@ class TuningResult:
             self.gains, self.plant_left if side == "left" else self.plant_right, self.chain_gain
         )
         return control.tf(num, den, self.gains.dt_s)
-
-
-def chain_gain(vehicle: VehicleParams) -> float:
-    """Gain from the controller's motor-voltage output to the motor voltage: (1/k_pow) · 1 · k_pow.
-
-    The controller divides by k_pow to get the DA command; the DA's gain is code·α per requested volt = 1 V/V
-    (up to quantisation); the amplifier multiplies by k_pow.
-    """
-    k_pow = Actuator(vehicle).gain
-    da_gain_v_v = 1.0  # v_DA = α · round(v/α) ≈ v
-    return (1.0 / k_pow) * da_gain_v_v * k_pow
-
-
-def sampled_wheel_models(vehicle: VehicleParams) -> tuple[control.TransferFunction, control.TransferFunction]:
-    """The decoupled models (eqs 60-61) of the left and right wheel sampled with a ZOH at the sample
-    period."""
-    ts = vehicle.control.sample_period_s
-    models = decoupled_wheel_models(vehicle)
-    return (
-        control.sample_system(models.left, ts, method="zoh"),
-        control.sample_system(models.right, ts, method="zoh"),
-    )
-
-
-def _tf_polys(tf: control.TransferFunction) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    num, den = control.tfdata(tf)
-    return np.atleast_1d(np.asarray(num[0][0], dtype=float)), np.atleast_1d(np.asarray(den[0][0], dtype=float))
-
-
-def loop_polynomials(
-    gains: PIGains, plant_z: control.TransferFunction, chain: float = 1.0
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Numerator and denominator (descending powers of z) of L(z) = C(z) · chain · G(z)."""
-    g_num, g_den = _tf_polys(plant_z)
-    num = np.asarray(chain * np.polymul(gains.num, g_num), dtype=np.float64)
-    return num, np.asarray(np.polymul(gains.den, g_den), dtype=np.float64)
-
-
-def frequency_response(
-    num: NDArray[np.float64], den: NDArray[np.float64], dt_s: float, omega_rad_s: NDArray[np.float64]
-) -> NDArray[np.complex128]:
-    """L(e^{jωT}) of a discrete transfer function given by polynomials in descending powers of z."""
-    z = np.exp(1j * np.asarray(omega_rad_s, dtype=float) * dt_s)
-    return np.asarray(np.polyval(num, z) / np.polyval(den, z), dtype=np.complex128)
-
-
-def loop_margins(
-    num: NDArray[np.float64], den: NDArray[np.float64], dt_s: float, *, grid_points: int = GRID_POINTS
-) -> LoopMargins:
-    """Gain and phase margins of the discrete loop ``num/den`` from its frequency response on (0, π/T_s].
-
-    The grid is linear in ω and includes the Nyquist frequency itself; crossings are refined with Brent's
-    method. A phase crossing is a zero of Im L with Re L < 0, including ω = π/T_s where Im L = 0 identically.
-    """
-    w_nyq = math.pi / dt_s
-    w = np.linspace(0.0, w_nyq, grid_points + 1)[1:]
-    resp = frequency_response(num, den, dt_s, w)
-
-    def at(omega: float) -> complex:
-        return complex(frequency_response(num, den, dt_s, np.array([omega]))[0])
-
-    phase = np.unwrap(np.angle(resp))
-    # gain crossings: |L| = 1
-    mag_log = np.log(np.abs(resp))
-    pms, wcs = [], []
-    for i in np.nonzero(np.signbit(mag_log[:-1]) != np.signbit(mag_log[1:]))[0]:
-        wc = brentq(lambda om: math.log(abs(at(om))), w[i], w[i + 1], xtol=1e-12)
-        ph = math.atan2(at(wc).imag, at(wc).real)
-        ph += 2 * math.pi * round((phase[i] - ph) / (2 * math.pi))  # same branch as the unwrapped grid phase
-        pms.append(180.0 + math.degrees(ph))
-        wcs.append(wc)
-    # phase crossings: Im L = 0 with Re L < 0, and z = -1 itself
-    gms, wps = [], []
-    im = resp.imag
-    for i in np.nonzero(np.sign(im[:-1]) * np.sign(im[1:]) < 0)[0]:
-        wp = brentq(lambda om: at(om).imag, w[i], w[i + 1], xtol=1e-12)
-        if at(wp).real < 0:
-            gms.append(-20.0 * math.log10(abs(at(wp))))
-            wps.append(wp)
-    l_nyq = at(w_nyq)
-    if l_nyq.real < 0:
-        gms.append(-20.0 * math.log10(abs(l_nyq)))
-        wps.append(w_nyq)
-    i_gm = int(np.argmin(gms)) if gms else -1
-    return LoopMargins(
-        gain_margin_db=gms[i_gm] if gms else math.inf,
-        phase_margin_deg=min(pms) if pms else math.inf,
-        crossover_rad_s=min(wcs) if wcs else math.nan,
-        phase_crossover_rad_s=wps[i_gm] if gms else math.nan,
-    )
 
 
 def _pi_for_crossover(
@@ -233,7 +130,7 @@ def _pi_for_crossover(
     k_i <= 0 (a PI cannot provide the phase lead). Where it would need k_p < 0, the pure integrator (k_p =
     0) instead."""
     theta = crossover_rad_s * dt_s
-    g_num, g_den = _tf_polys(plant_z)
+    g_num, g_den = tf_polynomials(plant_z)
     g = chain * complex(frequency_response(g_num, g_den, dt_s, np.array([crossover_rad_s]))[0])
     c = np.exp(1j * math.radians(phase_margin_deg - 180.0)) / g
     # C(e^{jθ}) = k_p + k_i T (1/2 − j/2 · cot(θ/2)), since z/(z − 1) = 1/(1 − e^{−jθ})
@@ -350,11 +247,11 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
 
     Parameters
     ----------
-    vehicle
+    vehicle : VehicleParams
         The controller's model: its decoupled per-wheel models (eqs 60-61), sampled with a zero-order hold at
         its sample period, and its actuator chain.
-    spec
-        The margins (degrees, dB) and optionally a demanded crossover (rad/s).
+    spec : TuningSpec or None
+        The margins (degrees, dB) and optionally a demanded crossover (rad/s); None: the defaults.
 
     Returns
     -------
@@ -365,6 +262,14 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
     ------
     ConfigError
         One line, when no PI meets the spec.
+
+    Examples
+    --------
+    >>> from agvctl.params import load_vehicle
+    >>> result = design_pi(load_vehicle(), TuningSpec(phase_margin_deg=60.0, gain_margin_db=10.0))
+    >>> m = result.margins
+    >>> print(f"PM {m.phase_margin_deg:.1f}°, GM {m.gain_margin_db:.1f} dB, crossover {m.crossover_rad_s:.1f} rad/s")
+    PM 60.0°, GM 10.0 dB, crossover 17.4 rad/s
     """
     expect_instance(vehicle, VehicleParams, "design_pi", "vehicle")
     spec = TuningSpec() if spec is None else spec
@@ -417,6 +322,20 @@ def closed_loop_time_constant_s(vehicle: VehicleParams, gains: PIGains, horizon_
     The MPC's ``kinematic+wheel_loop`` prediction model treats each wheel's closed PI loop as such a lag; this
     is its value for ``gains`` on the sampled linear model (ZOH plant of eqs 60-61, PI, chain gain), the slower
     side. 0.031 s for the default design (whose closed loop reaches 68 % of a step in one 40 ms sample).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The controller's model.
+    gains : PIGains
+        The PI's gains.
+    horizon_s : float
+        How much of the step response the fit covers, s.
+
+    Returns
+    -------
+    float
+        τ of the slower wheel, s.
     """
     ts = gains.dt_s
     n = max(3, int(round(horizon_s / ts)))
@@ -443,7 +362,18 @@ class WheelLoopDesign(NamedTuple):
 
 @functools.lru_cache(maxsize=32)
 def default_pi_gains(vehicle: VehicleParams) -> WheelLoopDesign:
-    """The PI designed for the default spec (PM ≥ 60°, GM ≥ 10 dB, fastest) and the time constant (s) of the
-    first-order lag that best fits its closed loop (the MPC's wheel-loop model)."""
+    """The PI designed for the default spec (PM ≥ 60°, GM ≥ 10 dB, fastest) and its closed loop's time constant.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The controller's model.
+
+    Returns
+    -------
+    WheelLoopDesign
+        The gains and the time constant (s) of the first-order lag that best fits their closed loop (the MPC's
+        wheel-loop model); cached per vehicle.
+    """
     gains = design_pi(vehicle).gains
     return WheelLoopDesign(gains, closed_loop_time_constant_s(vehicle, gains))

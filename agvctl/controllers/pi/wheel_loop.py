@@ -25,7 +25,7 @@ and it is back-calculated onto the window if it alone lies beyond the clamped ed
 moves with the speed). Stopping rather than fully back-calculating (I = u_sat − k_p e) keeps the full
 current available during a current-limited acceleration: the full back-calculation drops the command below
 the limit as soon as the error shrinks, since k_p exceeds k_e. The prediction holds at
-the start of the sample; over the sample the speed moves towards the command, so |i| only decreases.
+the start of the sample; over the sample the speed moves towards the command, so ``|i|`` only decreases.
 
 Standstill: with the setpoint exactly zero and the measured speed below ``standstill_rad_s`` (one encoder count
 per sample, the resolution of the measurement), the wheel rests, held by stiction; the loop holds its last output
@@ -48,7 +48,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.actuator import Actuator
-from agvctl.config import build, check_fields, dump_toml, load_toml, number
+from agvctl.config import build, check_fields, document_fields, dump_toml, load_toml, number
 from agvctl.errors import ConfigError, expect_instance
 from agvctl.params import SIDES, MotorParams, Side, VehicleParams
 
@@ -67,6 +67,7 @@ FEEDFORWARD_RAMP_RAD_S = 2.0
 """ω_ε: the Coulomb feed-forward ramps in linearly up to this motor speed (≈ 5.6 mm/s at the wheel)."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class PIGains:
     """Gains of the discrete PI ``C(z) = kp + ki·dt_s·z/(z − 1)``, motor-speed error (rad/s) → motor
@@ -77,7 +78,7 @@ class PIGains:
     ki: float = number(ge=0)
     """Integral gain k_i, V/rad (per second of integrated error in rad/s)."""
     dt_s: float = number(gt=0)
-    """Sample period T_s."""
+    """Sample period T_s, s."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -101,11 +102,36 @@ class PIGains:
 
 class PISpeedLoop:
     """The PI loop of one motor, with current-limit and DA-range anti-windup and optional friction
-    feed-forward.
+    feed-forward (see the module notes).
 
-    ``voltage_min_v``/``voltage_max_v`` is the motor-voltage range the DA converter and amplifier can deliver;
-    ``quantum_v`` is one DA step in motor volts (k_pow·α), used to keep the rounded command inside the
-    current window.
+    Parameters
+    ----------
+    gains : PIGains
+        k_p, k_i and the sample period.
+    motor : MotorParams
+        The motor: k_e, k_t and R predict the armature current, τ_c sizes the feed-forward.
+    current_limit_a : float
+        I_max, the armature current the output keeps within, A.
+    voltage_min_v, voltage_max_v : float
+        The motor-voltage range the DA converter and amplifier can deliver, V.
+    quantum_v : float
+        One DA step in motor volts (k_pow·α), to keep the rounded command inside the current window, V.
+    coulomb_feedforward : bool
+        Add the Coulomb-friction feed-forward τ_c R/k_t.
+    anti_windup : bool
+        Clamp the output to the current window and the DA range, and stop the integrator there.
+    braking_current_limit_a : float or None
+        The largest current opposing the motion (None: ``current_limit_a``), A.
+    braking_limit_below_rad_s : float
+        The braking limit applies only while ``|ω|`` is below this motor speed (inf: always), rad/s.
+    standstill_rad_s : float
+        Below this measured motor speed, with a zero setpoint, the wheel rests and the output is held (0:
+        never), rad/s.
+
+    Raises
+    ------
+    ValueError
+        ``voltage_min_v`` not below ``voltage_max_v``.
     """
 
     def __init__(
@@ -134,7 +160,7 @@ class PISpeedLoop:
         self.braking_current_limit_a = current_limit_a if braking_current_limit_a is None else braking_current_limit_a
         """Largest current opposing the motion (braking); see :func:`symmetric_braking_current_a`."""
         self.braking_limit_below_rad_s = braking_limit_below_rad_s
-        """The braking limit applies only while |ω| is below this speed (inf: always)."""
+        """The braking limit applies only while ``|ω|`` is below this speed (inf: always)."""
         self.voltage_min_v = voltage_min_v
         self.voltage_max_v = voltage_max_v
         self.quantum_v = quantum_v
@@ -180,7 +206,7 @@ class PISpeedLoop:
     def feedforward_v(self, setpoint_rad_s: float) -> float:
         """Coulomb-friction feed-forward τ_c R/k_t · sat(ω_ref / ω_ε) if enabled, else 0.
 
-        The sign function is ramped over |ω_ref| ≤ ω_ε = :data:`FEEDFORWARD_RAMP_RAD_S`: a pose controller
+        The sign function is ramped over ``|ω_ref|`` ≤ ω_ε = :data:`FEEDFORWARD_RAMP_RAD_S`: a pose controller
         holding the vehicle still commands setpoints of ±1e-5 rad/s, and a full ±τ_c R/k_t flipping on those
         would break the motors away and chatter at standstill.
         """
@@ -221,7 +247,7 @@ class PISpeedLoop:
 
 
 def symmetric_braking_current_a(vehicle: VehicleParams, side: Side) -> float:
-    """The braking current that decelerates a wheel no harder than a_lim (eq 5): (a_lim J̃ N/r − τ_c)/k_t.
+    """The braking current that decelerates a wheel no harder than a_lim (eq 5): (a_lim J̃ N/r − τ_c)/k_t, A.
 
     Accelerating, the motor torque fights the Coulomb friction and I_max gives at most a_lim. Braking, friction
     helps: k_t I_b + τ_c decelerates the wheel's equivalent inertia J̃ (eq 60) at a_lim for the I_b above
@@ -251,21 +277,31 @@ class PIWheelController:
 
     Parameters
     ----------
-    vehicle
+    vehicle : VehicleParams
         The controller's model: per-side motor constants, the DA converter's range and the amplifier's gain and
         voltage and current limits.
-    gains
+    gains : PIGains
         k_p (V s/rad), k_i (V/rad) and the sample period (s) of both loops, from
         :func:`~agvctl.controllers.pi.tuning.design_pi`.
-    coulomb_feedforward
+    coulomb_feedforward : bool
         Add τ_c R/k_t to the PI output, ramped in over the last 2 rad/s to zero speed.
-    anti_windup
+    anti_windup : bool
         Clamp the output to the window of predicted current ((u − k_e ω)/R within ±I_max) and the DA range, and
         stop the integrator there.
-    symmetric_braking
+    symmetric_braking : bool
         Limit the braking current so that friction-assisted braking decelerates no harder than a_lim (eq 5).
-    gentle_stop
+    gentle_stop : bool
         The same braking limit, only at low speed, when a wheel is brought to a stop.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from agvctl.params import load_vehicle
+    >>> from agvctl.controllers.pi import default_pi_gains
+    >>> vehicle = load_vehicle()
+    >>> loops = PIWheelController(vehicle, default_pi_gains(vehicle).gains)
+    >>> loops.update(np.array([10.0, 10.0]), np.array([0.0, 0.0])).round(3)  # DA volts for a 10 rad/s step
+    array([0.442, 0.442])
     """
 
     def __init__(
@@ -333,14 +369,16 @@ class PIWheelController:
 # Gains files
 
 
+@document_fields
 @dataclass(frozen=True)
 class PISettings:
     """The ``[pi]`` table of a gains file."""
 
-    kp_v_s_rad: float = number(ge=0, doc="k_p, V per rad/s")
-    ki_v_rad: float = number(ge=0, doc="k_i, V per rad")
-    dt_s: float = number(gt=0, doc="the sample period the gains were designed for")
+    kp_v_s_rad: float = number(ge=0, doc="k_p, V s/rad.")
+    ki_v_rad: float = number(ge=0, doc="k_i, V/rad.")
+    dt_s: float = number(gt=0, doc="The sample period the gains were designed for, s.")
     coulomb_feedforward: bool = False
+    """Whether the loops add the Coulomb-friction feed-forward."""
 
     def validate(self, *, source: str, prefix: str) -> None:
         if self.kp_v_s_rad == 0 and self.ki_v_rad == 0:
@@ -355,21 +393,53 @@ class PISettings:
         return PIGains(kp=self.kp_v_s_rad, ki=self.ki_v_rad, dt_s=self.dt_s)
 
 
+@document_fields
 @dataclass(frozen=True)
 class GainsFile:
-    """A gains TOML file as written by ``agvctl tune --out`` (one table, ``[pi]``)."""
+    """A gains TOML file as written by ``agvctl tune --out``."""
 
     pi: PISettings
+    """Its one table, ``[pi]``."""
 
 
 def load_gains(path: str | Path) -> PISettings:
-    """Read a gains TOML file strictly (unknown keys, wrong types, bad values: one-line
-    :class:`ConfigError`)."""
+    """Read a gains TOML file strictly.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file, as :func:`gains_toml` writes it.
+
+    Returns
+    -------
+    PISettings
+        Its ``[pi]`` table.
+
+    Raises
+    ------
+    ConfigError
+        Unknown keys, wrong types, bad values, in one line naming the file and key.
+    """
     return build(GainsFile, load_toml(path), source=str(path)).pi
 
 
 def gains_toml(gains: PIGains, *, coulomb_feedforward: bool = False, header: str = "") -> str:
-    """The text of a gains file for ``gains`` (read back by :func:`load_gains`)."""
+    """The text of a gains file, read back by :func:`load_gains`.
+
+    Parameters
+    ----------
+    gains : PIGains
+        The gains.
+    coulomb_feedforward : bool
+        Whether the loops add the Coulomb-friction feed-forward.
+    header : str
+        Comment lines above the table (how the gains were found).
+
+    Returns
+    -------
+    str
+        The TOML text.
+    """
     settings = PISettings(
         kp_v_s_rad=gains.kp, ki_v_rad=gains.ki, dt_s=gains.dt_s, coulomb_feedforward=coulomb_feedforward
     )
