@@ -45,14 +45,6 @@ BEING_CHANGED_ELSEWHERE = ("agvctl.controllers.mpc.", "agvctl.feasibility", "agv
 NOT_DOCUMENTED_YET: frozenset[str] = frozenset(
     {
         "agvctl.controllers.mpc.common.MpcStepper",
-        "agvctl.controllers.mpc.config.MpcConfig",
-        "agvctl.controllers.mpc.config.lead_factor_s",
-        "agvctl.controllers.mpc.config.resolved_config",
-        "agvctl.controllers.mpc.config.resolved_limits",
-        "agvctl.controllers.mpc.config.wheel_loop_time_constant_s",
-        "agvctl.controllers.mpc.docking.Docking",
-        "agvctl.controllers.mpc.docking.DockingConfig",
-        "agvctl.controllers.mpc.docking.EndOfPath",
         "agvctl.controllers.mpc.fallback.SetpointFallback",
         "agvctl.controllers.mpc.fallback.limit_command",
         "agvctl.controllers.mpc.governor.ReferenceGovernor",
@@ -65,7 +57,6 @@ NOT_DOCUMENTED_YET: frozenset[str] = frozenset(
         "agvctl.controllers.mpc.matrix_exponential.expm_batch",
         "agvctl.controllers.mpc.nonlinear.NonlinearMpcController",
         "agvctl.controllers.mpc.nonlinear.prediction_step",
-        "agvctl.controllers.mpc.rest.RestConfig",
         "agvctl.controllers.mpc.shaping.CommandShaper",
         "agvctl.controllers.mpc.shaping.HorizonStep",
         "agvctl.controllers.mpc.shaping.NoBackingAtStart",
