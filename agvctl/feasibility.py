@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvctl.actuator import full_scale_voltage_v
+from agvctl.config import document_fields
 from agvctl.params import SIDES, VehicleParams
 
 __all__ = [
@@ -73,9 +74,18 @@ def _sides(vehicle: VehicleParams) -> tuple[_Side, _Side]:
 
 
 class WheelReach:
-    """The largest rim accelerations each wheel can reach at its rim speed, from eq 33 with the current limit and
-    the full-scale voltage: i = min(I_max, (u_fs − k_e ω)/R), J_tot ω̇ = k_t i − f_m ω − τ_c sign(ω) (τ_s from
-    rest), J_tot of eq 5 (both wheels alike). Constants are gathered once; a call is a few array operations."""
+    """The largest rim accelerations each wheel can reach at its rim speed.
+
+    From eq 33 with the current limit and the full-scale voltage: i = min(I_max, (u_fs − k_e ω)/R) (not below 0),
+    J_tot ω̇ = k_t i − f_m ω − τ_c sign(ω) (τ_s from rest), J_tot of eq 5 (both wheels alike). Constants are gathered
+    once; a call is a few array operations.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle: each side's motor constants, gear ratio and wheel radius, its mass, the amplifier's current limit
+        I_max and the full-scale motor voltage u_fs.
+    """
 
     def __init__(self, vehicle: VehicleParams) -> None:
         sides = _sides(vehicle)
@@ -123,28 +133,66 @@ class WheelReach:
 def wheel_accel_reach_m_s2(
     vehicle: VehicleParams, wheel_speed_m_s: ArrayLike
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(up, down) of :meth:`WheelReach.accel_m_s2` for ``vehicle``."""
+    """The largest rim accelerations the wheels of ``vehicle`` can reach at the given rim speeds.
+
+    :meth:`WheelReach.accel_m_s2` for a vehicle whose reach is asked once.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle.
+    wheel_speed_m_s : array_like
+        Rim speeds, shape (…, 2): left, right, m/s.
+
+    Returns
+    -------
+    up_m_s2 : ndarray
+        The largest acceleration towards +v, at least 0, shaped like ``wheel_speed_m_s``, m/s².
+    down_m_s2 : ndarray
+        The largest acceleration towards −v, at least 0: the mirror image, down(v) = up(−v), m/s².
+    """
     return WheelReach(vehicle).accel_m_s2(wheel_speed_m_s)
 
 
+@document_fields
 @dataclass(frozen=True)
 class FeasibleLimits:
     """Wheel limits a path can be planned at with headroom left for feedback (nominal vehicle)."""
 
     wheel_speed_m_s: float
-    """The speed at which accelerating at ``wheel_accel_m_s2`` still leaves ``voltage_headroom`` of u_fs."""
+    """The speed at which accelerating at ``wheel_accel_m_s2`` still leaves ``voltage_headroom`` of u_fs, m/s."""
     wheel_accel_m_s2: float
-    """The acceleration that leaves ``current_headroom`` of I_max (eq 5 with (1 − headroom) I_max)."""
+    """The acceleration that leaves ``current_headroom`` of I_max (eq 5 with (1 − headroom) I_max), m/s²."""
     current_headroom: float
+    """The fraction of the current limit I_max left to the feedback."""
     voltage_headroom: float
+    """The fraction of the full-scale motor voltage u_fs left to the feedback."""
 
 
 def feasible_wheel_limits(
     vehicle: VehicleParams, current_headroom: float = CURRENT_HEADROOM, voltage_headroom: float = VOLTAGE_HEADROOM
 ) -> FeasibleLimits:
-    """The default path limits: eq 5 with (1 − ``current_headroom``)·I_max, and the wheel speed at which that
-    acceleration needs (1 − ``voltage_headroom``)·u_fs: u = R i + k_e ω with k_t i = J_tot a N/r + τ_c + f_m ω
-    (eq 33 at the current limit's share). The smaller of the two sides."""
+    """The default path limits: the wheel speed and acceleration a plan may use, leaving headroom for feedback.
+
+    The acceleration is eq 5's with (1 − ``current_headroom``)·I_max; the speed is the one at which that acceleration
+    needs (1 − ``voltage_headroom``)·u_fs: u = R i + k_e ω with k_t i = J_tot a N/r + τ_c + f_m ω (eq 33 at the current
+    limit's share). Each is the smaller of the two sides'.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The nominal vehicle.
+    current_headroom : float
+        The fraction of the current limit I_max to leave to the feedback.
+    voltage_headroom : float
+        The fraction of the full-scale motor voltage u_fs to leave to the feedback.
+
+    Returns
+    -------
+    FeasibleLimits
+        The limits, zero where the vehicle cannot meet them (:func:`no_default_limit_reasons` says why), and the
+        headrooms.
+    """
     u_fs, i_max = full_scale_voltage_v(vehicle), vehicle.amplifier.current_limit_a
     accels, speeds = [], []
     for s in _sides(vehicle):
@@ -168,9 +216,21 @@ def _full_scale_source(vehicle: VehicleParams) -> str:
 
 
 def no_default_limit_reasons(vehicle: VehicleParams, limits: FeasibleLimits) -> dict[str, str]:
-    """Why a limit of :func:`feasible_wheel_limits` is zero — the vehicle cannot move, or not with the headroom —
-    by the path-file key it is the default of (``wheel_speed_m_s``, ``wheel_accel_m_s2``), naming the vehicle keys
-    behind it; empty when both are positive."""
+    """Why a limit of :func:`feasible_wheel_limits` is zero: the vehicle cannot move, or not with the headroom.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle the limits are for.
+    limits : FeasibleLimits
+        Its limits, from :func:`feasible_wheel_limits`.
+
+    Returns
+    -------
+    dict of str to str
+        A sentence for each zero limit, naming the vehicle keys behind it, by the path-file key the limit is the
+        default of (``wheel_speed_m_s``, ``wheel_accel_m_s2``); empty when both are positive.
+    """
     reasons: dict[str, str] = {}
     u_fs, i_max = full_scale_voltage_v(vehicle), vehicle.amplifier.current_limit_a
     sides = _sides(vehicle)
@@ -203,9 +263,28 @@ def no_default_limit_reasons(vehicle: VehicleParams, limits: FeasibleLimits) -> 
 def actuator_headroom(
     vehicle: VehicleParams, wheel_speed_m_s: ArrayLike, wheel_accel_m_s2: ArrayLike
 ) -> tuple[float, float]:
-    """(current, voltage): the smallest fractions of I_max and of u_fs left unused when the nominal vehicle drives
-    the given wheel speeds and accelerations (arrays …×2, left/right) on the straight-line model of eq 5 (negative:
-    the actuator cannot deliver them)."""
+    """The smallest fractions of the current limit and of the full-scale voltage that driving a plan leaves unused.
+
+    The nominal vehicle on the straight-line model of eq 5 (both wheels alike): the current from
+    k_t i = J_tot a N/r + τ_c sign(ω) + f_m ω and the voltage u = R i + k_e ω (eq 33), at every sample and on either
+    side.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The nominal vehicle.
+    wheel_speed_m_s : array_like
+        The plan's rim speeds, shape (…, 2): left, right, m/s.
+    wheel_accel_m_s2 : array_like
+        The rim accelerations at those speeds, the same shape, m/s².
+
+    Returns
+    -------
+    current : float
+        1 − max ``|i|``/I_max (negative: the amplifier cannot deliver the current).
+    voltage : float
+        1 − max ``|u|``/u_fs (negative: the amplifier cannot deliver the voltage).
+    """
     v = np.asarray(wheel_speed_m_s, dtype=np.float64)
     a = np.asarray(wheel_accel_m_s2, dtype=np.float64)
     u_fs, i_max = full_scale_voltage_v(vehicle), vehicle.amplifier.current_limit_a
@@ -222,14 +301,25 @@ def actuator_headroom(
 
 def torque_accel_limit_m_s2(vehicle: VehicleParams) -> float:
     """The largest rim acceleration the motors' torque at the current limit gives either wheel in any manoeuvre,
-    friction aside (m/s²).
+    friction aside.
 
     The coupled dynamics of eqs 58-59 at rest, M ω̇ = k_t i with M = [[J_l + k_ll, k_lr], [k_lr, J_r + k_rr]]
-    (eqs 47-49), are linear in the currents, so the largest |r/N · ω̇| over |i| ≤ I_max lies at a corner: both wheels
-    alike (eq 5's drive, less friction), one wheel alone, or the wheels opposed, which is the largest, since turning
-    in place moves less inertia than driving straight. Only friction helping a wheel brake takes it further (by
-    τ_c r/(J̃ N), eqs 60-61); a wheel past this bound over a whole sample is one slammed against the current limit
-    in reverse, which tracking a planned path never needs.
+    (eqs 47-49), are linear in the currents, so the largest rim acceleration r/N·ω̇ in magnitude over the currents
+    within ±I_max lies at a corner: both wheels alike (eq 5's drive, less friction), one wheel alone, or the wheels
+    opposed, which is the largest, since turning in place moves less inertia than driving straight. Only friction
+    helping a wheel brake takes it further (by τ_c r/(J̃ N), eqs 60-61); a wheel past this bound over a whole sample is
+    one slammed against the current limit in reverse, which tracking a planned path never needs.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle: its motors' inertias and torque constants, the coupling constants, the gear ratios and wheel
+        radii, and the amplifier's current limit I_max.
+
+    Returns
+    -------
+    float
+        The bound, m/s².
     """
     d, m = vehicle.derived, vehicle.motor
     mass = np.array([[m.left.inertia_kg_m2 + d.k_ll, d.k_lr], [d.k_lr, m.right.inertia_kg_m2 + d.k_rr]])

@@ -39,46 +39,11 @@ API_REFERENCE = Path(__file__).resolve().parent.parent / "docs" / "api.rst"
 COMMAND_LINE = "agvctl.cli"
 COMMAND_LINE_ENTRY_POINT = "agvctl.cli.main"
 
-BEING_CHANGED_ELSEWHERE = ("agvctl.controllers.mpc.", "agvctl.feasibility", "agvctl.htmlreport.", "agvctl.plots")
+BEING_CHANGED_ELSEWHERE = ("agvctl.htmlreport.", "agvctl.plots")
 """Temporary: the modules whose docstrings are finished after the work that is changing them lands."""
 
 NOT_DOCUMENTED_YET: frozenset[str] = frozenset(
     {
-        "agvctl.controllers.mpc.common.MpcStepper",
-        "agvctl.controllers.mpc.config.MpcConfig",
-        "agvctl.controllers.mpc.config.lead_factor_s",
-        "agvctl.controllers.mpc.config.resolved_config",
-        "agvctl.controllers.mpc.config.resolved_limits",
-        "agvctl.controllers.mpc.config.wheel_loop_time_constant_s",
-        "agvctl.controllers.mpc.docking.Docking",
-        "agvctl.controllers.mpc.docking.DockingConfig",
-        "agvctl.controllers.mpc.docking.EndOfPath",
-        "agvctl.controllers.mpc.fallback.SetpointFallback",
-        "agvctl.controllers.mpc.fallback.limit_command",
-        "agvctl.controllers.mpc.governor.ReferenceGovernor",
-        "agvctl.controllers.mpc.horizon.HorizonReference",
-        "agvctl.controllers.mpc.horizon.turning_in_place",
-        "agvctl.controllers.mpc.ltv_qp.QpLayout",
-        "agvctl.controllers.mpc.ltv_qp.constraint_pattern",
-        "agvctl.controllers.mpc.ltv_qp.cost_matrix",
-        "agvctl.controllers.mpc.ltv_qp.window_versions",
-        "agvctl.controllers.mpc.matrix_exponential.expm_batch",
-        "agvctl.controllers.mpc.nonlinear.NonlinearMpcController",
-        "agvctl.controllers.mpc.nonlinear.prediction_step",
-        "agvctl.controllers.mpc.rest.RestConfig",
-        "agvctl.controllers.mpc.shaping.CommandShaper",
-        "agvctl.controllers.mpc.shaping.HorizonStep",
-        "agvctl.controllers.mpc.shaping.NoBackingAtStart",
-        "agvctl.controllers.mpc.shaping.ReachWindow",
-        "agvctl.controllers.mpc.shaping.SetpointWindow",
-        "agvctl.controllers.mpc.shaping.TowardTurningPoint",
-        "agvctl.feasibility.FeasibleLimits",
-        "agvctl.feasibility.WheelReach",
-        "agvctl.feasibility.actuator_headroom",
-        "agvctl.feasibility.feasible_wheel_limits",
-        "agvctl.feasibility.no_default_limit_reasons",
-        "agvctl.feasibility.torque_accel_limit_m_s2",
-        "agvctl.feasibility.wheel_accel_reach_m_s2",
         "agvctl.htmlreport.figures.run_panel",
         "agvctl.htmlreport.figures.worst_mark",
         "agvctl.htmlreport.render.data_uri",

@@ -71,6 +71,16 @@ class MpcStepper:
     A subclass builds its solver in its constructor (after this one's) and implements :meth:`_retarget` (the grid
     of a new reference, and whatever the solver precomputes for it), :meth:`_solve` and, if a failed solve can spoil
     its state, :meth:`_on_failure`.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The controller's model: the wheel separation b (m), the sample period T_s (s), the default wheel-speed and
+        acceleration limits (m/s, m/s²) and what each wheel can reach (its motor's current limit, back-EMF and
+        friction).
+    config : MpcConfig or None
+        The settings (None: the defaults); an unset wheel-loop time constant becomes
+        :data:`~agvctl.controllers.mpc.config.DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S`.
     """
 
     def __init__(self, vehicle: VehicleParams, config: MpcConfig | None) -> None:

@@ -9,7 +9,7 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from agvctl.config import check_fields, number
+from agvctl.config import check_fields, document_fields, number
 from agvctl.controllers.mpc.docking import DockingConfig
 from agvctl.controllers.mpc.rest import RestConfig
 from agvctl.params import VehicleParams
@@ -29,6 +29,7 @@ PredictionModel = Literal["kinematic", "kinematic+wheel_loop"]
 ErrorFrame = Literal["path", "world"]
 
 
+@document_fields
 @dataclass(frozen=True)
 class MpcConfig:
     """Settings of the MPC pose controllers, as in an experiment file's ``[controller]`` table (SI units).
@@ -38,34 +39,52 @@ class MpcConfig:
     """
 
     horizon: int = number(
-        ge=1, le=500, default=20, doc="N, prediction and control horizon in samples (at most 500: 20 s at 40 ms)"
+        ge=1, le=500, default=20, doc="N, the prediction and control horizon in samples (at most 500: 20 s at 40 ms)."
     )
-    weight_position: float = number(ge=0, default=1.0e3, doc="on each predicted position error, 1/m²")
-    along_track_share: float = number(ge=0, le=1, default=0.7, doc="along-path share of weight_position")
-    """In the path frame, the along-path error is weighted ``along_track_share`` × ``weight_position`` and the
-    cross-path error ``weight_position``: below 1, being on the path counts more than keeping time (the
-    reference governor bounds the lag). The world frame weighs both axes alike."""
-    turn_in_place_position_scale: float = number(ge=0, default=3.0, doc="position weight scale in turns in place")
-    """Where the reference turns in place the path is the turning point, and any translation is off it: the LTV MPC
-    weighs the position error this much more there, alike in every direction, so that a wheel at its current limit
-    cannot slide the vehicle off the point (``docs/decisions/0004-path-frame-weights.md``)."""
-    weight_heading: float = number(ge=0, default=30.0, doc="on each predicted heading error, 1/rad²")
-    weight_terminal_scale: float = number(ge=0, default=1.0, doc="multiplies the pose weights at k = N")
-    weight_input: float = number(ge=0, default=0.1, doc="on setpoint minus feed-forward, 1/(m/s)²")
-    weight_input_rate: float = number(ge=0, default=10.0, doc="on setpoint change per sample, 1/(m/s)²")
+    weight_position: float = number(ge=0, default=1.0e3, doc="The weight on each predicted position error, 1/m².")
+    along_track_share: float = number(ge=0, le=1, default=0.7)
+    """The along-path share of ``weight_position``: in the path frame, the along-path error is weighted
+    ``along_track_share`` × ``weight_position`` and the cross-path error ``weight_position``; below 1, being on the
+    path counts more than keeping time (the reference governor bounds the lag). The world frame weighs both axes
+    alike."""
+    turn_in_place_position_scale: float = number(ge=0, default=3.0)
+    """The scale of the position weight where the reference turns in place. There the path is the turning point,
+    and any translation is off it: the LTV MPC weighs the position error this much more there, alike in every
+    direction, so that a wheel at its current limit cannot slide the vehicle off the point
+    (``docs/decisions/0004-path-frame-weights.md``)."""
+    weight_heading: float = number(ge=0, default=30.0, doc="The weight on each predicted heading error, 1/rad².")
+    weight_terminal_scale: float = number(
+        ge=0, default=1.0, doc="The factor on the position and heading weights at k = N (the terminal cost)."
+    )
+    weight_input: float = number(
+        ge=0, default=0.1, doc="w_u, the weight on each setpoint minus its feed-forward, 1/(m/s)²."
+    )
+    weight_input_rate: float = number(
+        ge=0, default=10.0, doc="w_Δ, the weight on each setpoint's change from the sample before, 1/(m/s)²."
+    )
     prediction_model: PredictionModel = "kinematic+wheel_loop"
-    wheel_loop_time_constant_s: float | None = number(gt=0, default=None, doc="τ of the closed wheel loop's lag")
-    """None (default): in an experiment, the best first-order fit to its own PI wheel loops; for a controller
-    built directly, :data:`DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S`."""
+    """The prediction model: the kinematics of eqs 39-43 driven by the setpoints directly (``"kinematic"``), or
+    through the first-order lag v̇ = (s − v)/τ that stands for the closed wheel loops (``"kinematic+wheel_loop"``)."""
+    wheel_loop_time_constant_s: float | None = number(gt=0, default=None)
+    """τ of the closed wheel loop's lag in the ``"kinematic+wheel_loop"`` model, s. None (default): in an experiment,
+    the best first-order fit to its own PI wheel loops; for a controller built directly,
+    :data:`DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S`."""
     error_frame: ErrorFrame = "path"
     """The LTV MPC's error coordinates: along/across the reference heading (``path``) or x/y (``world``)."""
-    max_wheel_speed_m_s: float | None = number(gt=0, default=None, doc="default: the vehicle's max speed")
-    max_wheel_accel_m_s2: float | None = number(gt=0, default=None, doc="default: the vehicle's eq-5 limit")
-    max_solve_time_s: float | None = number(gt=0, default=None, doc="solver wall-time limit per step")
-    """None (default): no wall-clock limit, so a simulation gives the same result on any machine and under any
-    load; the solve time is still measured and checked (``solve_time_p99_ms``, ``deadline_misses``). Set it to
-    emulate a real-time budget: then a solve that runs out of time falls back, as it would on the vehicle."""
-    reach_lead: float = number(gt=0, le=5, default=2.5, doc="setpoint lead, in one-sample reachable leads")
+    max_wheel_speed_m_s: float | None = number(
+        gt=0, default=None, doc="v_max, the largest setpoint of either wheel (None: the vehicle's max speed), m/s."
+    )
+    max_wheel_accel_m_s2: float | None = number(
+        gt=0,
+        default=None,
+        doc="a_lim, the largest change of a setpoint per sample over T_s (None: the vehicle's eq-5 limit), m/s².",
+    )
+    max_solve_time_s: float | None = number(gt=0, default=None)
+    """The solver's wall-time limit per step, s. None (default): no wall-clock limit, so a simulation gives the
+    same result on any machine and under any load; the solve time is still measured and checked
+    (``solve_time_p99_ms``, ``deadline_misses``). Set it to emulate a real-time budget: then a solve that runs out
+    of time falls back, as it would on the vehicle."""
+    reach_lead: float = number(gt=0, le=5, default=2.5)
     """How far a setpoint may lead its wheel, in multiples of what the wheel can follow in one sample
     (:func:`lead_factor_s`). Bounded, so the setpoints never run away from a saturated wheel; above 1, so that the PI
     loop's proportional action can still push a wheel that is heavier or stiffer than the controller's model
@@ -79,15 +98,22 @@ class MpcConfig:
     reference_governor: bool = True
     """Slow the reference's clock down while the vehicle lags behind it (graceful lag:
     :mod:`~agvctl.controllers.mpc.governor`)."""
-    governor_lag_start_m: float = number(gt=0, default=0.04, doc="lag at which the governor starts to slow, m")
-    governor_lag_stop_m: float = number(gt=0, default=0.10, doc="lag at which the governor holds the reference, m")
-    governor_catch_up: float = number(ge=1, le=2, default=1.5, doc="largest clock rate while catching up")
-    """Behind the loop's clock and within ``governor_lag_start_m`` of the reference, the governed clock runs up to
-    this much faster than time (the reference's speed along the path scaled alike), so a delay is made up."""
-    max_iterations: int = number(ge=1, default=1000, doc="solver iteration limit per step")
-    """Enough for the first steps from a far-off start (several hundred OSQP iterations with the heading coupling of
-    the LTV MPC); a tracking step needs tens."""
-    tolerance: float = number(gt=0, default=1.0e-3, doc="solver tolerance (OSQP eps_abs/eps_rel, IPOPT tol)")
+    governor_lag_start_m: float = number(
+        gt=0, default=0.04, doc="The lag behind the reference at which the governor starts to slow its clock, m."
+    )
+    governor_lag_stop_m: float = number(
+        gt=0, default=0.10, doc="The lag behind the reference at which the governor holds its clock, m."
+    )
+    governor_catch_up: float = number(ge=1, le=2, default=1.5)
+    """The largest rate of the governed clock while it catches up: behind the loop's clock and within
+    ``governor_lag_start_m`` of the reference, the governed clock runs up to this much faster than time (the
+    reference's speed along the path scaled alike), so a delay is made up."""
+    max_iterations: int = number(ge=1, default=1000)
+    """The solver's iteration limit per step: enough for the first steps from a far-off start (several hundred OSQP
+    iterations with the heading coupling of the LTV MPC); a tracking step needs tens."""
+    tolerance: float = number(
+        gt=0, default=1.0e-3, doc="The solver's tolerance (OSQP's eps_abs and eps_rel, IPOPT's tol)."
+    )
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -98,23 +124,65 @@ DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S = 0.1
 
 
 def resolved_config(config: MpcConfig) -> MpcConfig:
-    """``config`` with the wheel-loop time constant set (:data:`DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S` if unset)."""
+    """The settings ``config`` with the wheel-loop time constant set.
+
+    Parameters
+    ----------
+    config : MpcConfig
+        The settings; an unset ``wheel_loop_time_constant_s`` becomes :data:`DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S`.
+
+    Returns
+    -------
+    MpcConfig
+        ``config`` itself when its time constant is set, else a copy with the default.
+    """
     if config.wheel_loop_time_constant_s is not None:
         return config
     return dataclasses.replace(config, wheel_loop_time_constant_s=DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S)
 
 
 def wheel_loop_time_constant_s(config: MpcConfig) -> float:
-    """τ (s) of a :func:`resolved_config`."""
+    """τ of the wheel loops' lag that resolved settings assume.
+
+    Parameters
+    ----------
+    config : MpcConfig
+        Settings from :func:`resolved_config`.
+
+    Returns
+    -------
+    float
+        ``config.wheel_loop_time_constant_s``, s.
+
+    Raises
+    ------
+    ValueError
+        The settings are not resolved (their time constant is None).
+    """
     if config.wheel_loop_time_constant_s is None:
         raise ValueError("MpcConfig.wheel_loop_time_constant_s: resolve the config first (resolved_config)")
     return config.wheel_loop_time_constant_s
 
 
 def lead_factor_s(config: MpcConfig, sample_period_s: float) -> float:
-    """D/a (s): how far a setpoint may lead its wheel per m/s² the wheel can reach — T_s/(1 − e^(−T_s/τ)) for the
-    wheel-loop lag (its exact discretisation moves v by (1 − e^(−T_s/τ))(s − v) in one sample), T_s for the
-    kinematic model (the setpoint is the next sample's speed)."""
+    """D/a: how far a setpoint may lead its wheel per m/s² of acceleration the wheel can reach.
+
+    The wheel-loop lag's exact discretisation moves the wheel speed v by (1 − e^(−T_s/τ))(s − v) in one sample, so a
+    wheel that can change its speed by a·T_s in a sample follows a lead D = a·T_s/(1 − e^(−T_s/τ)); in the kinematic
+    model the setpoint is the next sample's speed, and D = a·T_s. Both are scaled by ``config.reach_lead``.
+
+    Parameters
+    ----------
+    config : MpcConfig
+        Resolved settings (:func:`resolved_config`): the prediction model, τ and ``reach_lead``.
+    sample_period_s : float
+        The control sample period T_s, s.
+
+    Returns
+    -------
+    float
+        reach_lead·T_s/(1 − e^(−T_s/τ)), or reach_lead·T_s for the kinematic model, s.
+    """
     if config.prediction_model == "kinematic":
         return config.reach_lead * sample_period_s
     tau = wheel_loop_time_constant_s(config)
@@ -122,7 +190,22 @@ def lead_factor_s(config: MpcConfig, sample_period_s: float) -> float:
 
 
 def resolved_limits(config: MpcConfig, vehicle: VehicleParams) -> tuple[float, float]:
-    """(v_max in m/s, a_lim in m/s²): the config's, or the vehicle's derived max speed and eq-5 limit."""
+    """The hard limits on the setpoints, v_max and a_lim: the settings', or the vehicle's.
+
+    Parameters
+    ----------
+    config : MpcConfig
+        The settings; their ``max_wheel_speed_m_s`` and ``max_wheel_accel_m_s2`` replace the vehicle's.
+    vehicle : VehicleParams
+        The controller's vehicle: its derived max speed and the acceleration limit of eq 5.
+
+    Returns
+    -------
+    max_wheel_speed_m_s : float
+        v_max, the largest setpoint of either wheel, m/s.
+    max_wheel_accel_m_s2 : float
+        a_lim, the largest change of a setpoint per sample over T_s, m/s².
+    """
     d = vehicle.derived
     v_max = config.max_wheel_speed_m_s if config.max_wheel_speed_m_s is not None else d.max_speed_m_s
     a_lim = config.max_wheel_accel_m_s2 if config.max_wheel_accel_m_s2 is not None else d.accel_limit_m_s2

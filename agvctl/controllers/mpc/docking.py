@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
-from agvctl.config import check_fields, number
+from agvctl.config import check_fields, document_fields, number
 from agvctl.params import VehicleParams
 from agvctl.planning import PathLimits, PathSpec, StartPose, plan
 from agvctl.planning.reference import Reference
@@ -31,28 +31,50 @@ from agvctl.planning.spec import LineSegment, Segment, TurnSegment
 __all__ = ["Docking", "DockingConfig", "EndOfPath"]
 
 
+@document_fields
 @dataclass(frozen=True)
 class DockingConfig:
     """When and how to dock (SI units): an experiment file's ``[controller.docking]`` table."""
 
     enabled: bool = True
     """Stopped beside the end of the path, back up and come in again."""
-    tolerance_m: float = number(gt=0, default=0.008, doc="lateral error at rest beyond which to dock, m")
-    speed_m_s: float = number(gt=0, default=0.15, doc="speed of the manoeuvre, m/s")
-    accel_m_s2: float = number(gt=0, default=0.3, doc="acceleration of the manoeuvre, m/s²")
-    max_deviation_m: float = number(gt=0, default=0.01, doc="largest departure from a curved final segment, m")
-    attempts: int = number(ge=0, default=2, doc="manoeuvres at most per run")
-    uncertainty_sigmas: float = number(ge=0, default=2.0, doc="estimate σ counted against the tolerance")
-    """On an estimated pose, the error that decides is the estimated one plus this many standard deviations of the
-    estimate along the same direction: a vehicle docks when it may be beyond ``tolerance_m``, not only when its
-    estimate says so (an estimate 2σ off is one run in 40). With a perfect estimate (σ = 0) it changes nothing."""
+    tolerance_m: float = number(
+        gt=0,
+        default=0.008,
+        doc="The error at rest across the path's last drive (or along it, where the path ends with turns in place) "
+        "beyond which to dock, m.",
+    )
+    speed_m_s: float = number(gt=0, default=0.15, doc="The wheel-speed limit the manoeuvre is planned at, m/s.")
+    accel_m_s2: float = number(gt=0, default=0.3, doc="The wheel-acceleration limit the manoeuvre is planned at, m/s².")
+    max_deviation_m: float = number(
+        gt=0,
+        default=0.01,
+        doc="δ, the largest distance from the arc of a curved final segment that backing up straight may reach, m.",
+    )
+    attempts: int = number(ge=0, default=2, doc="The most manoeuvres in one run (0: never dock).")
+    uncertainty_sigmas: float = number(ge=0, default=2.0)
+    """The standard deviations of the pose estimate counted against the tolerance. On an estimated pose, the error
+    that decides is the estimated one plus this many standard deviations of the estimate along the same direction: a
+    vehicle docks when it may be beyond ``tolerance_m``, not only when its estimate says so (an estimate 2σ off is
+    one run in 40). With a perfect estimate (σ = 0) it changes nothing."""
 
     def __post_init__(self) -> None:
         check_fields(self)
 
 
 class Docking:
-    """Decides on and plans the docking manoeuvre for one reference (see the module notes)."""
+    """Decides on and plans the docking manoeuvre for one reference (see the module notes).
+
+    The controller tells it the reference (:meth:`reset`) and, on an estimated pose, the estimate's covariance each
+    sample (:meth:`observe`); :meth:`needed` and :meth:`plan` then decide for a vehicle at rest.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The controller's vehicle, which the manoeuvre is planned for.
+    config : DockingConfig or None
+        When and how to dock (None: the defaults).
+    """
 
     def __init__(self, vehicle: VehicleParams, config: DockingConfig | None = None) -> None:
         self.vehicle = vehicle
@@ -155,6 +177,13 @@ class EndOfPath:
     The path's clock runs from 0; a manoeuvre's clock from the sample after it was planned. At the end of the
     current reference, a vehicle at rest beside the path's end starts a manoeuvre (while attempts last; also after
     being done, if it is pushed off), one still moving is decided on once it rests, and one within tolerance is done.
+
+    Parameters
+    ----------
+    docking : Docking
+        Decides on and plans the manoeuvres.
+    sample_period_s : float
+        The control sample period T_s, s: a manoeuvre starts one sample after the step that plans it.
     """
 
     def __init__(self, docking: Docking, sample_period_s: float) -> None:

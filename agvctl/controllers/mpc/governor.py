@@ -29,6 +29,14 @@ class ReferenceGovernor:
     """The governed clock over a :class:`~agvctl.controllers.mpc.horizon.HorizonReference` (see the module notes).
 
     With ``config.reference_governor`` off the clock is the loop's, t/T_s rounded to the grid.
+
+    Parameters
+    ----------
+    config : MpcConfig
+        Whether to govern, and the lags at which the clock slows and stops (``governor_lag_start_m``,
+        ``governor_lag_stop_m``) and its rate while catching up (``governor_catch_up``).
+    separation_m : float
+        The wheel separation b, m: in a turn in place the lag is the heading lag times b/2.
     """
 
     def __init__(self, config: MpcConfig, separation_m: float) -> None:

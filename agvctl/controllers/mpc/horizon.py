@@ -27,6 +27,16 @@ class HorizonReference:
     that makes the prediction model follow the reference: the midpoint wheel speeds for the kinematic model,
     and for the wheel loop the inverse of its exact discretisation, s_j = (v_j+1 − a v_j)/(1 − a) with
     a = exp(−T_s/τ).
+
+    Parameters
+    ----------
+    reference : Reference
+        The reference to track.
+    config : MpcConfig
+        Resolved settings (:func:`~agvctl.controllers.mpc.config.resolved_config`): the horizon N, the prediction
+        model and its τ, which set the padding and the feed-forward.
+    sample_period_s : float
+        The control sample period T_s, s.
     """
 
     def __init__(self, reference: Reference, config: MpcConfig, sample_period_s: float) -> None:
@@ -71,7 +81,25 @@ def turning_in_place(yaw_rate_rad_s: FloatArray, speed_m_s: FloatArray, separati
 
 
 def turning_in_place(yaw_rate_rad_s: Any, speed_m_s: Any, separation_m: float) -> Any:
-    """Whether the reference turns (almost) in place: its wheels' turning speed |ω|·b/2 above four times its speed
-    (elementwise for arrays). There the path is a point, "along" it is only where a spinning frame points, and the
-    governor measures the heading lag."""
+    """Whether the reference turns (almost) in place: its wheels' turning speed ω·b/2 above four times its speed U,
+    both in magnitude.
+
+    There the path is a point and "along" it is only where a spinning frame points: the governor measures the
+    heading lag instead of the along-path lag, the LTV MPC weighs the position error alike in every direction, and
+    :class:`~agvctl.controllers.mpc.shaping.TowardTurningPoint` applies.
+
+    Parameters
+    ----------
+    yaw_rate_rad_s : float or ndarray
+        The reference's yaw rate ω, rad/s.
+    speed_m_s : float or ndarray
+        The reference's speed U (shaped like ``yaw_rate_rad_s``), m/s.
+    separation_m : float
+        The wheel separation b, m.
+
+    Returns
+    -------
+    bool or ndarray of bool
+        Whether ``|ω|·b/2 > 4 |U| + 1e-6`` (speeds in m/s), elementwise for arrays.
+    """
     return abs(yaw_rate_rad_s) * 0.5 * separation_m > 4.0 * abs(speed_m_s) + 1e-6

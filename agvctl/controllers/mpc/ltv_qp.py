@@ -15,17 +15,21 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from agvctl.config import document_fields
 from agvctl.controllers.mpc.config import MpcConfig
 
 __all__ = ["QpLayout", "constraint_pattern", "cost_matrix", "window_versions"]
 
 
+@document_fields
 @dataclass(frozen=True)
 class QpLayout:
-    """Where the QP's variables and constraint rows lie, for horizon N and nx error states."""
+    """Where the QP's variables and constraint rows lie (see the module notes)."""
 
     horizon: int
+    """N, the horizon in samples."""
     n_states: int
+    """nx, the error states per sample: 3 (the pose) or, with the wheel-loop model, 5."""
     wheel_loop: bool
     """Whether the states include the wheel-loop lag (then the reachable-lead rows exist)."""
 
@@ -36,6 +40,7 @@ class QpLayout:
 
     @property
     def n_variables(self) -> int:
+        """The number of variables: N·nx error states and 2N setpoints."""
         return self.i_setpoints + 2 * self.horizon
 
     @property
@@ -45,25 +50,44 @@ class QpLayout:
 
     @property
     def r_rate(self) -> int:
+        """First row of the setpoints' rate δs_k − δs_{k−1}, k = 1 … N − 1."""
         return self.r_box + 2 * self.horizon
 
     @property
     def r_first(self) -> int:
+        """First of the two rows of the first move from the previous command."""
         return self.r_rate + 2 * (self.horizon - 1)
 
     @property
     def r_reach(self) -> int:
+        """First row of the setpoints' reachable lead over the predicted wheel speeds."""
         return self.r_first + 2
 
     @property
     def n_rows(self) -> int:
+        """The number of constraint rows (the reachable-lead rows with the wheel-loop model only)."""
         return self.r_reach + (2 * (self.horizon - 1) if self.wheel_loop else 0)
 
 
 def cost_matrix(config: MpcConfig, layout: QpLayout) -> sp.csc_matrix:
-    """P of the cost ½ zᵀPz + qᵀz (upper triangle): the state weights (terminal scale at k = N), the input and
-    input-rate weights. The position weights are placeholders, kept in the pattern: each step sets them from the
-    reference (the LTV MPC's ``_precompute``)."""
+    """P of the QP's cost ½ zᵀPz + qᵀz, its upper triangle: the state weights (terminal scale at k = N), the input
+    and input-rate weights.
+
+    The position weights are placeholders, kept in the sparsity pattern: the LTV MPC sets them for each reference (the
+    path frame's along-track share, the turns in place) and loads each step's window of them.
+
+    Parameters
+    ----------
+    config : MpcConfig
+        The weights: heading, terminal scale, input and input rate.
+    layout : QpLayout
+        Where the variables lie.
+
+    Returns
+    -------
+    scipy.sparse.csc_matrix
+        The upper triangle of P, ``n_variables`` square.
+    """
     c, N, nx = config, layout.horizon, layout.n_states
     q_diag = np.zeros(nx)
     q_diag[2] = c.weight_heading
@@ -77,8 +101,26 @@ def cost_matrix(config: MpcConfig, layout: QpLayout) -> sp.csc_matrix:
 
 
 def constraint_pattern(layout: QpLayout) -> tuple[sp.csc_matrix, NDArray[np.int64], NDArray[np.int64]]:
-    """The constraint matrix with every entry that can ever be nonzero (its time-varying ones zero or one), and
-    the positions in its CSC data of A_1 … A_{N−1} (by k, row, column) and of B_0 … B_{N−1}."""
+    """The QP's constraint matrix with every entry that can ever be nonzero, and where its time-varying entries lie.
+
+    The time-varying entries, the dynamics' A_k and B_k, are zero or one here; each step writes its window's values
+    (negated) at the returned positions of the CSC data array, so the sparsity pattern OSQP is set up with never
+    changes.
+
+    Parameters
+    ----------
+    layout : QpLayout
+        Where the variables and the rows lie.
+
+    Returns
+    -------
+    matrix : scipy.sparse.csc_matrix
+        The constraint matrix, ``n_rows`` × ``n_variables``, its indices sorted.
+    positions_a : ndarray of int
+        The positions in ``matrix.data`` of the entries of A_1 … A_{N−1}, ordered by k, row, column.
+    positions_b : ndarray of int
+        The positions in ``matrix.data`` of the entries of B_0 … B_{N−1}, ordered by k, row, column.
+    """
     N, nx, iU, n_z, n_rows = layout.horizon, layout.n_states, layout.i_setpoints, layout.n_variables, layout.n_rows
     r_box, r_rate, r_first, r_reach = layout.r_box, layout.r_rate, layout.r_first, layout.r_reach
     rows: list[int] = []
@@ -131,12 +173,24 @@ def constraint_pattern(layout: QpLayout) -> tuple[sp.csc_matrix, NDArray[np.int6
 
 
 def window_versions(sources: list[tuple[NDArray[np.float64], int, int]], n_windows: int) -> NDArray[np.int64]:
-    """A version number for each window start k = 0 … ``n_windows`` − 1 that changes exactly where the window's data
-    does: windows k − 1 and k have the same number if and only if their data are equal, so a solver holding the data
-    of one window needs no update for the next while the number stays.
+    """A version number for each window start that changes exactly where the window's data does.
 
-    Each source is an array indexed along its first axis by grid point or interval j, with the offsets (first, last)
-    of the entries window k takes: j = k + first … k + last (none when first > last)."""
+    Windows k − 1 and k have the same number if and only if their data are equal (NaN counts as a change), so a
+    solver holding the data of one window needs no update for the next while the number stays.
+
+    Parameters
+    ----------
+    sources : list of (ndarray, int, int)
+        The window's data: each an array indexed along its first axis by grid point or interval j, with the offsets
+        (first, last) of the entries window k takes, j = k + first … k + last (none when first > last).
+    n_windows : int
+        The number of window starts, k = 0 … ``n_windows`` − 1.
+
+    Returns
+    -------
+    ndarray of int
+        The version of each window start, 0 for the first, rising by one at each change.
+    """
     changes = np.zeros(n_windows, dtype=np.int64)
     k = np.arange(1, n_windows)
     for values, first, last in sources:

@@ -1,10 +1,11 @@
 """Nonlinear MPC pose controller with CasADi and IPOPT (``pose = "nmpc"``), for comparison with the LTV MPC.
 
-The same problem as :mod:`agvctl.controllers.mpc.ltv` (see :mod:`agvctl.controllers.mpc.common`), on the
+The problem of :mod:`agvctl.controllers.mpc.common`, like :mod:`agvctl.controllers.mpc.ltv`, but on the
 nonlinear kinematics instead of their linearisation: multiple shooting over the horizon, each sample
 integrated with 4 RK4 steps of the report's eqs 39-43 (plus the wheel-loop lag for
-``"kinematic+wheel_loop"``). The cost on world-frame position errors equals the LTV MPC's path-frame one (a
-rotation), so both solve the same problem.
+``"kinematic+wheel_loop"``). Its cost weighs the world-frame position error alike in every direction, which is
+the LTV MPC's path-frame cost (a rotation of it) when that weighs both axes alike (``along_track_share`` = 1,
+``turn_in_place_position_scale`` = 1); then both solve the same problem.
 
 The NLP is built once, in the constructor; each step passes the current pose, the reference window and the
 previous command as parameters, warm-started from the previous solution shifted by one sample.
@@ -37,9 +38,26 @@ _ACCEPTED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 def prediction_step(
     sample_period_s: float, separation_m: float, wheel_loop_time_constant_s: float | None = None
 ) -> ca.Function:
-    """The prediction model over one sample, ``step(x, s) -> x_next``, with s the held setpoints (m/s):
-    eqs 39-43 on x = (x_m, y_m, theta_rad), driven by s directly, or, given the wheel loop's time constant τ,
-    through v̇ = (s − v)/τ on x = (x_m, y_m, theta_rad, v_left_m_s, v_right_m_s). RK4, 4 steps per sample."""
+    """The prediction model over one sample, as a CasADi function ``step(x, s) -> x_next``.
+
+    The kinematics of eqs 39-43 on x = (x_m, y_m, theta_rad), driven by the held setpoints s directly or, given the
+    wheel loop's time constant τ, through v̇ = (s − v)/τ on x = (x_m, y_m, theta_rad, v_left_m_s, v_right_m_s);
+    integrated with 4 RK4 steps per sample.
+
+    Parameters
+    ----------
+    sample_period_s : float
+        T_s, the time the setpoints are held, s.
+    separation_m : float
+        The wheel separation b of eq 40, m.
+    wheel_loop_time_constant_s : float or None
+        τ of the wheel loops' lag, s (None: the setpoints drive the kinematics directly).
+
+    Returns
+    -------
+    casadi.Function
+        ``step(x, s) -> x_next``, with s the setpoints (left, right) in m/s.
+    """
     lag = wheel_loop_time_constant_s is not None
     nx = 5 if lag else 3
     b = separation_m
@@ -69,7 +87,20 @@ class NonlinearMpcController(MpcStepper):
     """Nonlinear MPC with IPOPT; satisfies :class:`~agvctl.controllers.base.PoseController`.
 
     Same configuration, fallbacks and failure count as :class:`~agvctl.controllers.mpc.ltv.LtvMpcController`
-    (``config.error_frame`` does not apply). ``ipopt_options`` adds or overrides IPOPT options.
+    (``config.error_frame``, ``along_track_share`` and ``turn_in_place_position_scale`` do not apply: its cost weighs
+    the position error alike in every direction).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The controller's model: the wheel separation b (m), the sample period T_s (s) and the default wheel-speed
+        and acceleration limits (m/s, m/s²).
+    config : MpcConfig or None
+        Horizon, weights, limits, the prediction model and the governor, docking and solver settings (None: the
+        defaults).
+    ipopt_options : dict or None
+        IPOPT options that add to or replace the controller's (its iteration limit, tolerance and wall-time limit come
+        from ``config``).
     """
 
     def __init__(

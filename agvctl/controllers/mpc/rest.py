@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from scipy.special import chdtri
 
 from agvctl.angles import wrap_angle
-from agvctl.config import check_fields, number
+from agvctl.config import check_fields, document_fields, number
 from agvctl.planning.reference import Reference
 
 __all__ = ["Rest", "RestConfig"]
@@ -34,18 +34,35 @@ __all__ = ["Rest", "RestConfig"]
 FloatArray = NDArray[np.float64]
 
 
+@document_fields
 @dataclass(frozen=True)
 class RestConfig:
-    """When to hold at the end of the path (SI units): an experiment file's ``[controller.rest]`` table."""
+    """When to hold at the end of the path (SI units): an experiment file's ``[controller.rest]`` table.
+
+    With P the estimate's pose covariance and T = diag(t², t², t_θ²) of the tolerances t = ``tolerance_m`` and
+    t_θ = ``heading_tolerance_rad``, the error e from the end pose is within the estimate's uncertainty when
+    eᵀ(P + T)⁻¹e is below the chi-square quantile (3 degrees of freedom) of a probability (see the module notes).
+    """
 
     enabled: bool = True
     """Hold the wheels at the end when the error is within the estimate's uncertainty."""
-    tolerance_m: float = number(gt=0, default=0.001, doc="position tolerance of a perfect estimate, m")
-    heading_tolerance_rad: float = number(gt=0, default=0.003, doc="heading tolerance of a perfect estimate, rad")
-    enter_probability: float = number(gt=0, le=0.999999, default=0.5, doc="chi-square quantile to start holding")
-    release_probability: float = number(gt=0, le=0.999999, default=0.9999, doc="chi-square quantile to let go")
-    stopped_m_s: float = number(gt=0, default=0.01, doc="wheel speed below which the wheels count as stopped, m/s")
-    max_error_m: float = number(gt=0, default=0.005, doc="largest estimated position error to hold at, m")
+    tolerance_m: float = number(gt=0, default=0.001, doc="The position tolerance of a perfect estimate, m.")
+    heading_tolerance_rad: float = number(gt=0, default=0.003, doc="The heading tolerance of a perfect estimate, rad.")
+    enter_probability: float = number(
+        gt=0, le=0.999999, default=0.5, doc="The probability whose quantile the error must be within to start holding."
+    )
+    release_probability: float = number(
+        gt=0,
+        le=0.999999,
+        default=0.9999,
+        doc="The probability whose quantile the error must leave to let go (at least ``enter_probability``).",
+    )
+    stopped_m_s: float = number(
+        gt=0, default=0.01, doc="The wheel speed below which both wheels count as stopped, to start holding, m/s."
+    )
+    max_error_m: float = number(
+        gt=0, default=0.005, doc="The largest estimated position error from the end to hold at, whatever P, m."
+    )
 
     def __post_init__(self) -> None:
         check_fields(self)

@@ -25,6 +25,7 @@ from typing import NamedTuple, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from agvctl.config import document_fields
 from agvctl.controllers.mpc.fallback import limit_command
 from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
 from agvctl.feasibility import WheelReach
@@ -43,38 +44,64 @@ FloatArray = NDArray[np.float64]
 
 
 class SetpointWindow(NamedTuple):
-    """The setpoints (left, right; m/s) each wheel can follow from its measured speed, and the leads that make it."""
+    """The setpoints each wheel can follow from its measured speed, and the leads that make it.
+
+    Each field holds a (left, right) pair.
+
+    Parameters
+    ----------
+    lower_m_s : ndarray
+        The lowest setpoint of each wheel, v − D↓ (at most v_max), m/s.
+    upper_m_s : ndarray
+        The highest setpoint of each wheel, v + D↑ (at least −v_max), m/s.
+    lead_down_m_s : ndarray
+        D↓: how far a setpoint may lie below its wheel's speed, m/s.
+    lead_up_m_s : ndarray
+        D↑: how far a setpoint may lie above its wheel's speed, m/s.
+    """
 
     lower_m_s: FloatArray
     upper_m_s: FloatArray
     lead_down_m_s: FloatArray
-    """D↓ (left, right): how far a setpoint may lie below its wheel's speed."""
     lead_up_m_s: FloatArray
-    """D↑ (left, right): how far a setpoint may lie above its wheel's speed."""
 
 
+@document_fields
 @dataclass(frozen=True, slots=True)
 class HorizonStep:
     """What a solver and the rules see of one MPC step."""
 
     grid: HorizonReference
+    """The reference on the control grid."""
     k: int
     """The window's first grid point (the governed clock, rounded down)."""
     fraction: float
     """The governed clock's position between grid points k and k + 1, in [0, 1)."""
     pose: FloatArray
+    """The pose the controller sees (x in m, y in m, θ in rad)."""
     wheel_speed_m_s: FloatArray
-    """The measured wheel rim speeds (left, right)."""
+    """The measured wheel rim speeds (left, right), m/s."""
     window: SetpointWindow | None
     """The reachable setpoints; None when a wheel speed is not finite (a broken measurement)."""
     previous_m_s: FloatArray
-    """The previous command (left, right), brought into the window."""
+    """The previous command (left, right), brought into the window, m/s."""
     on_main_path: bool
     """Whether the step tracks the path itself (not a docking manoeuvre)."""
 
 
 class ReachWindow:
-    """The reachable-setpoint window of a vehicle (see the module notes): ``lead_factor_s`` is D/a_reach."""
+    """The reachable-setpoint window of a vehicle (see the module notes).
+
+    Parameters
+    ----------
+    reach : WheelReach
+        The rim accelerations each wheel can reach at its speed (the controller's model of the vehicle).
+    lead_factor_s : float
+        D/a_reach, the lead per m/s² of reachable acceleration
+        (:func:`~agvctl.controllers.mpc.config.lead_factor_s`), s.
+    max_wheel_speed_m_s : float
+        v_max, m/s: the window always meets the speed box ±v_max.
+    """
 
     def __init__(self, reach: WheelReach, lead_factor_s: float, max_wheel_speed_m_s: float) -> None:
         self.reach = reach
@@ -111,11 +138,19 @@ class CommandRule(Protocol):
 
 
 class NoBackingAtStart:
-    """At the start of a forward path (the reference has moved less than 5 cm, and no backward but some forward
-    speed over the horizon), never back up to a start point the vehicle is already past: the reference comes to it
-    (the turn is kept, the backward mean speed dropped). It handles starts ahead of the path's first point, where a
-    time-indexed tracker would otherwise reverse a few centimetres before driving off: a jolt and a change of
-    direction no user asks for, whatever its (sub-millimetre) effect on the cross-track error."""
+    """At the start of a forward path, never back up to a start point the vehicle is already past.
+
+    The start of a forward path: the reference has moved less than 5 cm, and it has no backward but some forward
+    speed over the horizon. There the reference comes to the vehicle (the turn is kept, the backward mean speed
+    dropped). It handles starts ahead of the path's first point, where a time-indexed tracker would otherwise reverse
+    a few centimetres before driving off: a jolt and a change of direction no user asks for, whatever its
+    (sub-millimetre) effect on the cross-track error.
+
+    Parameters
+    ----------
+    horizon : int
+        N, the samples ahead whose reference speeds tell a forward start.
+    """
 
     def __init__(self, horizon: int) -> None:
         self.horizon = horizon
@@ -141,11 +176,19 @@ class NoBackingAtStart:
 
 class TowardTurningPoint:
     """Where the reference turns in place, the setpoints without their mean speed if it would carry the vehicle away
-    from the turning point (the turn kept): the path there is the point, so moving away from it moves off the path.
-    Driving along the heading with speed U changes the squared distance to the point at −2U·(distance ahead along
-    the heading), so only a mean speed towards the point is kept. It handles starts beside a turn in place and
-    turns reached with a lateral error, where a wheel breaking away from stiction before the other would otherwise
-    carry the vehicle 1-6 mm further off."""
+    from the turning point (the turn kept).
+
+    The path there is the point, so moving away from it moves off the path. Driving along the heading with speed U
+    changes the squared distance to the point at −2U·(distance ahead along the heading), so only a mean speed
+    towards the point is kept. It handles starts beside a turn in place and turns reached with a lateral error,
+    where a wheel breaking away from stiction before the other would otherwise carry the vehicle 1-6 mm further off.
+
+    Parameters
+    ----------
+    separation_m : float
+        The wheel separation b, m, which tells a turn in place
+        (:func:`~agvctl.controllers.mpc.horizon.turning_in_place`).
+    """
 
     def __init__(self, separation_m: float) -> None:
         self.separation_m = separation_m
@@ -167,7 +210,18 @@ class TowardTurningPoint:
 
 class CommandShaper:
     """The previous command and everything a command passes after the solver: the rules, the reachable window and
-    the hard limits |s| ≤ v_max, |s − s_prev| ≤ a_lim·T_s (:func:`~agvctl.controllers.mpc.fallback.limit_command`)."""
+    the hard limits ``|s|`` ≤ v_max, ``|s − s_prev|`` ≤ a_lim·T_s
+    (:func:`~agvctl.controllers.mpc.fallback.limit_command`).
+
+    Parameters
+    ----------
+    rules : tuple of CommandRule
+        The rules of motion, applied in order.
+    max_wheel_speed_m_s : float
+        v_max, the largest setpoint either way, m/s.
+    max_step_m_s : float
+        a_lim·T_s, the largest change of a setpoint from the previous command, m/s.
+    """
 
     def __init__(self, rules: tuple[CommandRule, ...], max_wheel_speed_m_s: float, max_step_m_s: float) -> None:
         self.rules = rules
