@@ -1,7 +1,7 @@
 """What the two MPC pose controllers share: their configuration, the reference on the horizon grid, fallbacks.
 
 Both controllers (:mod:`agvctl.controllers.mpc.ltv` on OSQP, :mod:`agvctl.controllers.mpc.nonlinear` on
-CasADi) solve the same problem every sample period T_s:
+CasADi) solve the same problem every sample period T_s::
 
     minimise  Σ_{k=1..N} ‖e_k‖²_Q (Q·terminal scale at k = N) + w_u Σ ‖s_k − s_ff,k‖²
               + w_Δ Σ_{k=0..N−1} ‖s_k − s_{k−1}‖²
@@ -17,10 +17,10 @@ s_{−1} is the previous command (the measured wheel speeds at the first step af
 ramps at most at a_lim, and the wheel loop follows the ramp. Measured against the *measured* wheel speed
 instead, the constraint would be violated through every acceleration (the loop lags its setpoint by about
 τ·a > a_lim·T_s), so it would have to be soft all the time. The only case where the hard constraints are
-infeasible is |s_{−1}| > v_max + a_lim·T_s (e.g. a measured speed over the limit at reset); there s_{−1} is
+infeasible is ``|s_{−1}| > v_max + a_lim·T_s`` (e.g. a measured speed over the limit at reset); there s_{−1} is
 first clipped to ±v_max, which relaxes the first move just enough — the limit of an infinitely heavy slack
-penalty, without the slack's poor conditioning (a slack weighted 10⁶ made OSQP need 400+ iterations in the
-acceleration phases, where the reference sits exactly at a_lim and the rate constraints are degenerate).
+penalty, without the slack's poor conditioning where the reference sits exactly at a_lim and the rate constraints
+are degenerate (``docs/decisions/0012-osqp.md``).
 """
 
 from __future__ import annotations

@@ -9,8 +9,8 @@ heading and the same line forwards again, slowly (``speed_m_s``, ``accel_m_s2``)
 the path ends with turns in place, the heading they leave is undone first, the short way round, and turned again after);
 the controller tracks it like any reference and removes the error while moving. The distance grows with the error (a
 heading change of about 2·e/L suffices) and shrinks where the path ends on a curve, so that backing straight up stays
-within ``max_deviation_m`` of the path's arc (L ≤ √(2δ/|κ|)), and never reaches back beyond the path's last motion. It
-is tried at most ``attempts`` times, and never on a path that only turns in place.
+within ``max_deviation_m`` of the path's arc (``L ≤ √(2δ/|κ|)``), and never reaches back beyond the path's last
+motion. It is tried at most ``attempts`` times, and never on a path that only turns in place.
 """
 
 from __future__ import annotations
