@@ -2,11 +2,13 @@
 panel kept between runs draws what a new figure draws."""
 
 import sys
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import matplotlib
 import numpy as np
+import pytest
 
 from agvctl.controllers.pi.tuning import design_pi
 from agvctl.log import SimLog
@@ -38,7 +40,9 @@ def test_plots_leave_the_users_matplotlib_backend_alone(vehicle, tmp_path):
         assert sys.modules["matplotlib.pyplot"].get_fignums() == []
 
 
-def test_a_run_panel_on_the_figure_kept_from_other_runs_is_the_png_of_a_new_figure(vehicle):
+@pytest.fixture(scope="module")
+def two_panels(vehicle) -> Callable[[int], bytes]:
+    """``draw(i)``: the run panel of one of two runs of ``line.toml``, the second with other lines and bounds."""
     log = run_experiment(load_experiment(ROOT / "experiments" / "line.toml")).log
     worse = {k: log[k] * 10 for k in ("cross_track_error_m", "position_error_m", "current_left_a")}
     apart = SimLog({**log.columns, **worse, "est_x_m": log["est_x_m"] + 0.01})
@@ -56,9 +60,28 @@ def test_a_run_panel_on_the_figure_kept_from_other_runs_is_the_png_of_a_new_figu
             run_log, vehicle, title=f"run {i}", bounds=bounds, mark_time_s=mark_time_s, mark_label=mark_label
         )
 
+    return draw
+
+
+def _on_new_figures(draw: Callable[[int], bytes]) -> list[bytes]:
+    """Each of the two panels drawn in a thread of its own: on a new figure."""
     new = []
-    for i in range(len(runs)):
-        with ThreadPoolExecutor(max_workers=1) as thread:  # a thread of its own: a new figure
+    for i in range(2):
+        with ThreadPoolExecutor(max_workers=1) as thread:
             new.append(thread.submit(draw, i).result())
     assert new[0] != new[1]
-    assert [draw(i) for i in (0, 1, 0, 1)] == new * 2  # this thread's figure, kept from run to run
+    return new
+
+
+def test_a_run_panel_on_the_figure_kept_from_other_runs_is_the_png_of_a_new_figure(two_panels):
+    new = _on_new_figures(two_panels)
+    assert [two_panels(i) for i in (0, 1, 0, 1)] == new * 2  # this thread's figure, kept from run to run
+
+
+def test_run_panels_drawn_in_threads_at_once_are_those_drawn_one_by_one_and_leave_rcparams_alone(two_panels):
+    new = _on_new_figures(two_panels)
+    hinting = matplotlib.rcParams["text.hinting"]
+    with ThreadPoolExecutor(max_workers=4) as threads:
+        drawn = list(threads.map(two_panels, [0, 1] * 6))
+    assert drawn == new * 6
+    assert matplotlib.rcParams["text.hinting"] == hinting

@@ -19,8 +19,9 @@ PANEL_DPI = 64
 """Dots per inch of the panel: the figure is 704 × 576 pixels, legible on a screen and some 100 kB as PNG."""
 
 _KEPT = threading.local()
-"""Each thread's panel figure between two runs, cleared of the last run's artists (``_KEPT.panel``): a worker
-draws one run after another, and making the figure, its axes and their ticks again would cost a third of each."""
+"""Each thread's panel figure between two runs, cleared of the last run's artists (``_KEPT.panel``), for the life of
+the thread: a worker draws one run after another, and making the figure, its axes and their ticks again would
+cost a third of each panel."""
 
 
 def render_run_panel(
