@@ -127,9 +127,9 @@ def _clear(axes: Any) -> None:
 
 
 def _tidy(axes: tuple[Any, ...], log_axis: Any) -> None:
-    """A few ticks on each axis (making a tick and its label is most of the time a figure takes), plain numbers on
-    the log axis (no mathtext to lay out), and each legend in a fixed place in small type (the search for the best
-    place costs more than the rest of the figure)."""
+    """A few ticks on each axis (each a label to lay out and draw, a tick mark and a grid line), plain numbers on the
+    log axis (no mathtext to lay out), and each legend in a fixed place in small type (the search for the best place
+    costs more than the rest of the figure)."""
     from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter, NullLocator
 
     log_axis.yaxis.set_major_locator(LogLocator(numticks=6))
