@@ -4,6 +4,7 @@ speeds, the currents and the wheel acceleration, each against the gate's bounds 
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping
 from typing import Any
 
@@ -16,6 +17,11 @@ __all__ = ["PANEL_DPI", "render_run_panel"]
 
 PANEL_DPI = 64
 """Dots per inch of the panel: the figure is 704 × 576 pixels, legible on a screen and some 100 kB as PNG."""
+
+_KEPT = threading.local()
+"""Each thread's panel figure between two runs, cleared of the last run's artists (``_KEPT.panel``), for the life of
+the thread: a worker draws one run after another, and making the figure, its axes and their ticks again would
+cost a third of each panel."""
 
 
 def render_run_panel(
@@ -54,7 +60,26 @@ def render_run_panel(
     bytes
         The PNG.
     """
-    fig, axes = subplots(3, 2, figsize=(11, 9))
+    fig, axes = getattr(_KEPT, "panel", None) or subplots(3, 2, figsize=(11, 9))
+    _KEPT.panel = None  # taken: a failed drawing leaves no half-drawn figure behind
+    _draw(fig, axes, log, vehicle, title, bounds, mark_time_s, mark_label)
+    png = png_bytes(fig, dpi)
+    _clear(axes)
+    _KEPT.panel = fig, axes
+    return png
+
+
+def _draw(
+    fig: Any,
+    axes: Any,
+    log: SimLog,
+    vehicle: VehicleParams,
+    title: str,
+    bounds: Mapping[str, float],
+    mark_time_s: float | None,
+    mark_label: str,
+) -> None:
+    """The six panels of :func:`render_run_panel` on ``fig``'s 3 × 2 ``axes``."""
     (a_path, a_err), (a_left, a_right), (a_cur, a_acc) = axes
     draw_path(a_path, log, mark_time_s=mark_time_s, mark_label=mark_label)
     a_path.set_aspect("equal", adjustable="datalim")  # the panel's full size, the scale kept
@@ -85,13 +110,26 @@ def render_run_panel(
     fig.suptitle(title)
     # a fixed layout: the tight layout's measuring pass costs as much as drawing the figure again
     fig.subplots_adjust(left=0.07, right=0.98, top=0.93, bottom=0.06, hspace=0.35, wspace=0.22)
-    return png_bytes(fig, dpi)
+
+
+def _clear(axes: Any) -> None:
+    """Each of ``axes`` as :func:`_draw` found it, but for the ticks it made (kept for the next run) and what it sets
+    again (labels, aspect, locators): no artist of the run, a linear scale, limits from the data."""
+    for ax in axes.flat:
+        for artist in (*ax.lines, *ax.collections, *ax.patches, *ax.texts):
+            artist.remove()
+        legend = ax.get_legend()
+        if legend is not None:
+            legend.remove()
+        ax.set_yscale("linear")  # as new: where a bound line falls outside the limits depends on the scale
+        ax.relim()
+        ax.set_autoscale_on(True)
 
 
 def _tidy(axes: tuple[Any, ...], log_axis: Any) -> None:
-    """A few ticks on each axis (making a tick and its label is most of the time a figure takes), plain numbers on
-    the log axis (no mathtext to lay out), and each legend in a fixed place in small type (the search for the best
-    place costs more than the rest of the figure)."""
+    """A few ticks on each axis (each a label to lay out and draw, a tick mark and a grid line), plain numbers on the
+    log axis (no mathtext to lay out), and each legend in a fixed place in small type (the search for the best place
+    costs more than the rest of the figure)."""
     from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter, NullLocator
 
     log_axis.yaxis.set_major_locator(LogLocator(numticks=6))
