@@ -89,11 +89,11 @@ def check_run_figures(
 
     Parameters
     ----------
-    experiment
+    experiment : Experiment
         The experiment as run.
-    result
+    result : ClosedLoopResult
         Its closed-loop result.
-    limits
+    limits : sequence of LimitResult
         Its limit verdicts.
 
     Returns

@@ -52,15 +52,15 @@ def save_closed_loop_plots(
 
     Parameters
     ----------
-    log
+    log : SimLog
         The run's log.
-    vehicle
+    vehicle : VehicleParams
         The controller's vehicle (the limits drawn: the DA range, the current limit, eq 5's a_lim).
-    out_dir
+    out_dir : str or Path
         The folder to write into (it exists).
-    title
+    title : str
         Each figure's title (the experiment's name).
-    wheel_accel_bound_m_s2
+    wheel_accel_bound_m_s2 : float or None
         The gate's bound on the per-sample wheel acceleration, drawn in ``wheel_accel.png`` (m/s²); by default the
         default gate's, :func:`~agvctl.feasibility.torque_accel_limit_m_s2`.
 
