@@ -104,11 +104,11 @@ def check_html(report: CheckReport, *, title: str = "agvctl check") -> str:
 
     Parameters
     ----------
-    report
+    report : CheckReport
         From :func:`~agvctl.checks.runner.check_experiments`; with ``render=check_run_figures`` its runs' figures
         were drawn where they ran. Otherwise (and for the Monte Carlo sample shown, which is never drawn where it
         ran) the run shown is run again here to draw it.
-    title
+    title : str
         The page's title.
 
     Returns
@@ -138,11 +138,11 @@ def write_check_html(report: CheckReport, path: str | Path, *, title: str = "agv
 
     Parameters
     ----------
-    report
+    report : CheckReport
         The check's report.
-    path
+    path : str or Path
         The HTML file to write.
-    title
+    title : str
         The page's title.
 
     Returns

@@ -20,8 +20,23 @@ PANEL = "panel.png"
 
 
 def worst_mark(limits: Sequence[LimitResult]) -> tuple[float | None, str]:
-    """The instant the page marks on a run's plots and its label: where the first violated limit was worst, or
-    else where the limit closest to its bound was (value over bound); ``(None, "")`` when no limit has a time."""
+    """The instant the page marks on a run's figure, and its label: where the limit that matters most was worst.
+
+    That limit is the first violated one with a time, or else, when every limit passed, the one closest to its
+    bound (the largest value over bound, of those with a positive bound and a time).
+
+    Parameters
+    ----------
+    limits : sequence of LimitResult
+        The run's limit verdicts, in the order they were checked.
+
+    Returns
+    -------
+    mark_time_s : float or None
+        When that limit's signal was worst, s; None when there is no such limit.
+    mark_label : str
+        ``"<limit>: worst at t = 3.21 s"``, the mark's legend entry; empty when there is no mark.
+    """
     timed = [r for r in limits if r.worst_time_s is not None]
     failed = [r for r in timed if not r.passed]
     if failed:
@@ -35,7 +50,26 @@ def worst_mark(limits: Sequence[LimitResult]) -> tuple[float | None, str]:
 
 
 def run_panel(log: SimLog, vehicle: VehicleParams, title: str, limits: Sequence[LimitResult]) -> bytes:
-    """The run's six-panel figure (PNG) with every limit's bound drawn and its worst point marked."""
+    """The figure of a run on the page: its six panels, every limit's bound drawn and the worst point marked.
+
+    :func:`~agvctl.plots.render_run_panel` with the bounds of ``limits`` and the instant of :func:`worst_mark`.
+
+    Parameters
+    ----------
+    log : SimLog
+        The run's log.
+    vehicle : VehicleParams
+        The controller's vehicle (the current limit and eq 5's a_lim drawn).
+    title : str
+        The figure's title (the experiment's or scenario's name).
+    limits : sequence of LimitResult
+        The run's limit verdicts: their bounds are drawn where their signals are.
+
+    Returns
+    -------
+    bytes
+        The PNG file's content.
+    """
     mark_time_s, mark_label = worst_mark(limits)
     return render_run_panel(
         log,
@@ -55,11 +89,11 @@ def check_run_figures(
 
     Parameters
     ----------
-    experiment
+    experiment : Experiment
         The experiment as run.
-    result
+    result : ClosedLoopResult
         Its closed-loop result.
-    limits
+    limits : sequence of LimitResult
         Its limit verdicts.
 
     Returns

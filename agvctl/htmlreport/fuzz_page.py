@@ -90,14 +90,14 @@ def fuzz_html(
 
     Parameters
     ----------
-    report
+    report : FuzzReport
         From :func:`~agvctl.fuzz.run.fuzz`.
-    failures_dir
+    failures_dir : str or Path
         Where the failing scenarios' files are (``agvctl fuzz``: ``<out>/failures``), for the command that
         reproduces each.
-    worst
+    worst : int
         How many of each controller's worst scenarios to show; each is run again here to draw its figure.
-    title
+    title : str
         The page's title (default: ``agvctl fuzz <name>``).
 
     Returns
@@ -147,15 +147,15 @@ def write_fuzz_html(
 
     Parameters
     ----------
-    report
+    report : FuzzReport
         The fuzz run's report.
-    path
+    path : str or Path
         The HTML file to write.
-    failures_dir
+    failures_dir : str or Path
         Where the failing scenarios' files are, for the reproducing commands.
-    worst
+    worst : int
         How many of each controller's worst scenarios to show.
-    title
+    title : str
         The page's title.
 
     Returns

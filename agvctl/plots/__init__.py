@@ -41,7 +41,26 @@ __all__ = [
 
 
 def save_metric_histograms(report: CheckReport, out_dir: str | Path) -> list[Path]:
-    """For each Monte Carlo experiment, ``<name>_<metric>.png``: the metric over the samples, its limit if any."""
+    """Write a histogram of each metric over the Monte Carlo samples of each experiment of a check.
+
+    One figure per experiment run as Monte Carlo samples and per metric of
+    :func:`~agvctl.evaluation.metrics.closed_loop_metrics`: how many completed samples had each value of the
+    metric (non-finite values left out), with the experiment's bound on it as a red dashed line where it has a
+    limit on that metric. The x axis is in the unit of the metric's name. An experiment without samples writes
+    nothing, and neither does a metric with no finite value.
+
+    Parameters
+    ----------
+    report : CheckReport
+        The check's report (:func:`~agvctl.checks.runner.check_experiments`).
+    out_dir : str or Path
+        The folder to write into (it exists); each file is ``<experiment>_<metric>.png``, written atomically.
+
+    Returns
+    -------
+    list of Path
+        The files written, by experiment and then by metric.
+    """
     out = Path(out_dir)
     written: list[Path] = []
     for exp in report.experiments:
@@ -74,7 +93,20 @@ def save_metric_histograms(report: CheckReport, out_dir: str | Path) -> list[Pat
 
 
 def save_fuzz_plot(report: FuzzReport, path: str | Path) -> Path:
-    """One PNG of a fuzz run (:func:`fuzz_figure`)."""
+    """Write the figure of a fuzz run (:func:`fuzz_figure`) to a PNG file, atomically.
+
+    Parameters
+    ----------
+    report : FuzzReport
+        The fuzz run's report (:func:`~agvctl.fuzz.run.fuzz`).
+    path : str or Path
+        The PNG file to write.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     out = Path(path)
     _save(fuzz_figure(report), out)
     return out
@@ -87,9 +119,25 @@ def _minor_label(ax: Any, value: float, _pos: int | None) -> str:
 
 
 def fuzz_figure(report: FuzzReport) -> Any:
-    """The figure of a fuzz run: per metric of :data:`~agvctl.fuzz.report.FUZZ_METRICS`, the cumulative
-    distribution over the scenarios for each controller (log scale), with the configured limit; crashed runs
-    count as beyond the right edge."""
+    """The figure of a fuzz run: how each controller's errors are distributed over the random scenarios.
+
+    Four panels, one per metric of the first four of :data:`~agvctl.fuzz.report.FUZZ_METRICS` (largest and RMS
+    cross-track error, final position error, RMS tracking error, all in m): for each controller, the share of its
+    runs whose value is at most x, against x on a log scale (a zero drawn at the smallest positive value), with the
+    fuzz configuration's bound on the metric as a red dashed line. A run that crashed counts as beyond the right
+    edge: it is in every share's denominator, so the curve ends below 1 by the share of crashed runs. The title
+    names the fuzz configuration, its seed and its number of runs.
+
+    Parameters
+    ----------
+    report : FuzzReport
+        The fuzz run's report (:func:`~agvctl.fuzz.run.fuzz`).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure, 11 × 7.5 inches, on an Agg canvas.
+    """
     from matplotlib.ticker import FuncFormatter
 
     metrics = FUZZ_METRICS[:4]
@@ -121,20 +169,53 @@ def fuzz_figure(report: FuzzReport) -> Any:
 def render_tuning_plots(
     design: TuningResult, step: WheelStepResult, vehicle: VehicleParams, step_m_s: float
 ) -> dict[str, bytes]:
-    """Bode, Nyquist and step-response figures as PNG bytes, keyed by file name (matplotlib imported here)."""
+    """The figures of a wheel-loop design, as PNG bytes keyed by file name (what ``agvctl tune --plot`` writes).
+
+    ``bode.png``: the left wheel's sampled open loop L(z) = C(z)·k_chain·G_zoh(z), its gain (dB) and phase (°) against
+    the frequency ω (rad/s) up to the Nyquist frequency π/T_s, with the gain margin at Nyquist and the crossover with
+    its phase margin. ``nyquist.png``: the same loop's Nyquist curve, L(e^{jωT_s}) for 0 < ω ≤ π/T_s (dashed: its mirror
+    image), with the unit circle and the critical point −1. ``step.png``: the wheel-speed step on the nonlinear plant,
+    both wheels' motor speeds (rad/s) against the setpoint, the motor voltages (V), and the peak armature current of
+    each sample (A) against the amplifier's limit, titled with the step's rise time, overshoot and settling time.
+
+    Parameters
+    ----------
+    design : TuningResult
+        The PI design and its margins (:func:`~agvctl.controllers.pi.tuning.design_pi`).
+    step : WheelStepResult
+        The step response of the designed loops on the full plant
+        (:func:`~agvctl.sim.wheel_step_response`).
+    vehicle : VehicleParams
+        The vehicle the step ran on (its amplifier's current limit is drawn).
+    step_m_s : float
+        The step's size as a rim speed, m/s, named in the step figure's title.
+
+    Returns
+    -------
+    dict of str to bytes
+        ``bode.png``, ``nyquist.png`` and ``step.png``, each a PNG file's content at 110 dots per inch.
+    """
     ts = design.gains.dt_s
+    num, den = loop_polynomials(design.gains, design.plant_left, design.chain_gain)
+    return {
+        "bode.png": _png(_bode_figure(design, num, den, ts)),
+        "nyquist.png": _png(_nyquist_figure(num, den, ts)),
+        "step.png": _png(_step_figure(step, vehicle, step_m_s)),
+    }
+
+
+def _png(fig: Any) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    return buf.getvalue()
+
+
+def _bode_figure(design: TuningResult, num: Any, den: Any, ts: float) -> Any:
+    """Gain and phase of the left wheel's open loop up to the Nyquist frequency, with its margins."""
     w_nyq = math.pi / ts
     w = np.geomspace(w_nyq * 1e-4, w_nyq, 2000)
-    num, den = loop_polynomials(design.gains, design.plant_left, design.chain_gain)
     resp = frequency_response(num, den, ts, w)
     m = design.margins_left
-    out: dict[str, bytes] = {}
-
-    def png(fig: Any) -> bytes:
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=110)
-        return buf.getvalue()
-
     fig, (ax_m, ax_p) = _subplots(2, 1, sharex=True, figsize=(7, 6))
     ax_m.semilogx(w, 20 * np.log10(np.abs(resp)))
     ax_m.axhline(0, color="k", lw=0.6)
@@ -156,8 +237,12 @@ def render_tuning_plots(
         ax.axvline(w_nyq, color="0.5", lw=0.8)
         ax.grid(True, which="both", alpha=0.3)
     fig.suptitle("Wheel loop L(z) = C(z)·k_chain·G_zoh(z), left wheel")
-    out["bode.png"] = png(fig)
+    return fig
 
+
+def _nyquist_figure(num: Any, den: Any, ts: float) -> Any:
+    """The left wheel's open loop in the complex plane against −1 and the unit circle."""
+    w_nyq = math.pi / ts
     fig, ax = _subplots(figsize=(6, 6))
     wl = np.linspace(w_nyq * 1e-3, w_nyq, 4000)
     r = frequency_response(num, den, ts, wl)
@@ -174,8 +259,11 @@ def render_tuning_plots(
     ax.grid(True, alpha=0.3)
     ax.legend(loc="lower left")
     ax.set_title("Nyquist, left wheel loop")
-    out["nyquist.png"] = png(fig)
+    return fig
 
+
+def _step_figure(step: WheelStepResult, vehicle: VehicleParams, step_m_s: float) -> Any:
+    """Both wheels' step on the nonlinear plant: motor speeds, voltages and peak currents."""
     fig, (ax_w, ax_u, ax_i) = _subplots(3, 1, sharex=True, figsize=(7, 8))
     for i, side in enumerate(("left", "right")):
         ax_w.plot(step.t_s, step.omega_motor_rad_s[:, i], marker=".", label=f"ω {side}")
@@ -195,12 +283,32 @@ def render_tuning_plots(
         f"{step_m_s:g} m/s wheel-speed step on the nonlinear plant\nrise {s.rise_time_s:.3f} s, "
         f"overshoot {s.overshoot_pct:.2f} %, settling {s.settling_time_s:.3f} s"
     )
-    out["step.png"] = png(fig)
-    return out
+    return fig
 
 
 def save_open_loop_plot(log: SimLog, vehicle: VehicleParams, path: str | Path, title: str = "") -> Path:
-    """One PNG of an open-loop run: path, motor speeds, DA commands, currents against the limit."""
+    """Write the figure of an open-loop run to a PNG file (what ``agvctl simulate --plot`` writes).
+
+    On the left the vehicle's path in the plane (x, y in m, equal scale) from its start; on the right, against time
+    (s), both motors' speeds (rad/s), the DA converter's output voltages (V) and the armature currents (A) between
+    the amplifier's current limits.
+
+    Parameters
+    ----------
+    log : SimLog
+        The run's log (the ``log`` of :class:`~agvctl.sim.OpenLoopResult`).
+    vehicle : VehicleParams
+        The vehicle simulated (its amplifier's current limit is drawn).
+    path : str or Path
+        The PNG file to write, atomically.
+    title : str
+        The figure's title (empty: none).
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     t = log["t_s"]
     fig = _figure(figsize=(11, 7))
     grid = fig.add_gridspec(3, 2, width_ratios=(1.0, 1.6))

@@ -52,15 +52,15 @@ def save_closed_loop_plots(
 
     Parameters
     ----------
-    log
+    log : SimLog
         The run's log.
-    vehicle
+    vehicle : VehicleParams
         The controller's vehicle (the limits drawn: the DA range, the current limit, eq 5's a_lim).
-    out_dir
+    out_dir : str or Path
         The folder to write into (it exists).
-    title
+    title : str
         Each figure's title (the experiment's name).
-    wheel_accel_bound_m_s2
+    wheel_accel_bound_m_s2 : float or None
         The gate's bound on the per-sample wheel acceleration, drawn in ``wheel_accel.png`` (m/s²); by default the
         default gate's, :func:`~agvctl.feasibility.torque_accel_limit_m_s2`.
 
@@ -106,8 +106,23 @@ def _path_figure(log: SimLog) -> Any:
 
 
 def draw_path(ax: Any, log: SimLog, *, mark_time_s: float | None = None, mark_label: str = "") -> None:
-    """On ``ax``: the vehicle's path (and its estimate, where it differs) against the reference; with
-    ``mark_time_s``, the vehicle's position then marked (a red cross labelled ``mark_label``)."""
+    """Draw on an axes the vehicle's path against the reference: the ``path.png`` figure and the page's path panel.
+
+    The reference (dashed), the true path with its start, and the estimated path where it differs from the true
+    one, in the plane: x and y in m, equal scale, with a legend and a grid.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes to draw on.
+    log : SimLog
+        The run's log (columns ``ref_x_m``, ``ref_y_m``, ``x_m``, ``y_m``, ``est_x_m``, ``est_y_m``, ``t_s``).
+    mark_time_s : float or None
+        An instant to mark, s: the vehicle's position at the sample nearest it is drawn as a red cross (None: no
+        mark).
+    mark_label : str
+        The mark's legend entry (empty: none).
+    """
     ax.plot(log["ref_x_m"], log["ref_y_m"], "k--", lw=1, label="reference")
     ax.plot(log["x_m"], log["y_m"], "C0", lw=1.5, label="vehicle (true)")
     if not np.allclose(log["est_x_m"], log["x_m"]):
@@ -145,7 +160,22 @@ def _wheel_speed_figure(log: SimLog) -> Any:
 
 
 def draw_wheel_speed(ax: Any, log: SimLog, side: str) -> None:
-    """On ``ax``: one wheel's reference, setpoint and measured speed (``side``: ``"left"`` or ``"right"``)."""
+    """Draw on an axes one wheel's rim speed against time: the reference, the setpoint and the speed driven.
+
+    The reference's wheel speed (dashed) is what the plan asks; the setpoint is what the pose controller sent to the
+    wheel loop; the line labelled "measured" is the plant's true rim speed ω_mot·r/N. Speeds in m/s, time in s, with
+    a grid and no legend (the caller places one, for both wheels).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes to draw on.
+    log : SimLog
+        The run's log (columns ``t_s``, ``ref_wheel_speed_<side>_m_s``, ``setpoint_wheel_speed_<side>_m_s``,
+        ``wheel_speed_<side>_m_s``).
+    side : {'left', 'right'}
+        The wheel.
+    """
     t = log["t_s"]
     ax.plot(t, log[f"ref_wheel_speed_{side}_m_s"], "k--", lw=1, label="reference")
     ax.plot(t, log[f"setpoint_wheel_speed_{side}_m_s"], "C1", lw=1, label="setpoint")
@@ -183,7 +213,25 @@ def _both_sides_figure(log: SimLog, column: str, bound: float, bound_label: str,
 
 
 def draw_both_sides(ax: Any, log: SimLog, column: str, bound: float, bound_label: str, ylabel: str) -> None:
-    """On ``ax``: ``column`` (a log column name with ``{side}``) for both wheels against ±``bound``."""
+    """Draw on an axes a signal of both wheels against time, between two bound lines at plus and minus ``bound``.
+
+    Used for the armature currents against the amplifier's limit (``currents.png`` and the page's current panel).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes to draw on.
+    log : SimLog
+        The run's log (``t_s`` and the two columns of ``column``).
+    column : str
+        The log column's name with ``{side}`` where the wheel goes (``"current_{side}_a"``).
+    bound : float
+        Where the bound lines are drawn, in the column's unit (a current limit: A).
+    bound_label : str
+        The bound lines' legend entry.
+    ylabel : str
+        The y axis's label, with the unit (``"armature current [A]"``).
+    """
     t = log["t_s"]
     for side, c in (("left", "C0"), ("right", "C1")):
         ax.plot(t, log[column.format(side=side)], color=c, lw=1, label=side)
@@ -202,9 +250,24 @@ def _wheel_accel_figure(log: SimLog, vehicle: VehicleParams, bound_m_s2: float |
 
 
 def draw_wheel_accel(ax: Any, log: SimLog, vehicle: VehicleParams, bound_m_s2: float | None) -> None:
-    """On ``ax``: each wheel's mean rim acceleration over each sample, as the gate judges it, against the gate's
-    bound ``bound_m_s2`` (m/s²; None: the default gate's), with the instantaneous acceleration faint behind it and
-    eq 5's a_lim for reference."""
+    """Draw on an axes each wheel's rim acceleration against time and the gate's bound on it.
+
+    The acceleration drawn is the mean over each sample, the speed's change over the sample period, as the gate's
+    ``wheel_accel_m_s2`` limit judges it; the instantaneous acceleration is faint behind it, and eq 5's a_lim (the
+    straight-line acceleration at the current limit) is drawn for reference. Acceleration in m/s², time in s.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes to draw on.
+    log : SimLog
+        The run's log (columns ``t_s``, ``wheel_speed_<side>_m_s``, ``wheel_accel_<side>_m_s2``).
+    vehicle : VehicleParams
+        The controller's vehicle, for eq 5's a_lim and the default bound.
+    bound_m_s2 : float or None
+        The gate's bound on the per-sample wheel acceleration, m/s² (None: the default gate's,
+        :func:`~agvctl.feasibility.torque_accel_limit_m_s2`).
+    """
     t = log["t_s"]
     bound = torque_accel_limit_m_s2(vehicle) if bound_m_s2 is None else bound_m_s2
     for side, c in (("left", "C0"), ("right", "C1")):
@@ -249,9 +312,21 @@ def _path_error_figure(log: SimLog) -> Any:
 
 
 def draw_errors(ax: Any, log: SimLog, bounds: Mapping[str, float] | None = None) -> None:
-    """On ``ax``: the cross-track error (distance to the path) and the position error (to the time-indexed
-    reference point) in cm, each with its bound from ``bounds`` (limit name → bound in m:
-    ``cross_track_error_max_m``, ``tracking_error_max_m``) where given."""
+    """Draw on an axes the run's cross-track and position errors against time, with their bounds where given.
+
+    The cross-track error is the distance to the path, how far off the path the vehicle is; the position error is
+    the distance to the reference's point at that time, which lateness adds to. Both are drawn in cm.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes to draw on.
+    log : SimLog
+        The run's log (columns ``t_s``, ``cross_track_error_m``, ``position_error_m``).
+    bounds : mapping of str to float or None
+        The gate's bounds by limit name; ``cross_track_error_max_m`` and ``tracking_error_max_m`` (m), where
+        present, are drawn as dashed lines (None: no bounds).
+    """
     t = log["t_s"]
     ax.plot(t, log["cross_track_error_m"] * 100, "C3", label="cross-track (distance to the path)")
     ax.plot(t, log["position_error_m"] * 100, "0.6", lw=0.8, label="position error (to the reference point)")

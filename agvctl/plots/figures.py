@@ -18,7 +18,17 @@ threads drawing at once would otherwise set and restore over each other."""
 
 
 def new_figure(**kwargs: Any) -> Any:
-    """A new ``Figure`` on an Agg canvas (``kwargs`` as for ``Figure``)."""
+    """A new matplotlib ``Figure`` on its own Agg canvas, drawn without pyplot and the user's backend.
+
+    ``**kwargs`` go to ``matplotlib.figure.Figure`` (``figsize`` in inches, ``layout``, ...). The figure belongs to
+    no global figure manager: nothing keeps it alive once the caller drops it, and drawing it changes no backend the
+    user chose (a notebook keeps its own).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The empty figure, its canvas attached.
+    """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -28,21 +38,62 @@ def new_figure(**kwargs: Any) -> Any:
 
 
 def subplots(*grid: int, figsize: tuple[float, float], **kwargs: Any) -> tuple[Any, Any]:
-    """``(figure, axes)`` like ``pyplot.subplots``, without pyplot."""
+    """A figure and a grid of axes on it, as ``pyplot.subplots`` makes them, without pyplot (:func:`new_figure`).
+
+    ``*grid`` is the grid's rows and columns (none: one axes); ``**kwargs`` go to ``Figure.subplots``
+    (``sharex``, ``height_ratios``, ...).
+
+    Parameters
+    ----------
+    figsize : tuple of float
+        The figure's width and height, inches.
+
+    Returns
+    -------
+    figure : matplotlib.figure.Figure
+        The figure.
+    axes : matplotlib.axes.Axes or ndarray of Axes
+        One axes for a single cell, else an array of them shaped like the grid (squeezed as ``pyplot`` does).
+    """
     fig = new_figure(figsize=figsize)
     return fig, fig.subplots(*grid, **kwargs)
 
 
 def save_png(fig: Any, path: Path) -> None:
-    """Write ``fig`` to ``path`` as a PNG, atomically."""
+    """Write a figure to a PNG file at 90 dots per inch, atomically (a temporary file moved into place).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure, drawn on an Agg canvas (:func:`new_figure`).
+    path : Path
+        The PNG file to write; its folder is made if missing, and a failed write leaves no half-written file.
+    """
     with atomic_open(path, "wb") as fh:
         fig.savefig(fh, format="png", dpi=90)
 
 
 def png_bytes(fig: Any, dpi: int) -> bytes:
-    """``fig`` as PNG bytes at ``dpi`` dots per inch, for a page: its text unhinted (FreeType's autohinter takes a
-    third of the time text takes to draw), the image opaque RGB at compression level 1 (half the time of
-    matplotlib's RGBA at level 6, and smaller); the pixels are those ``savefig`` gives with unhinted text."""
+    """A figure as PNG bytes for a page, drawn and encoded cheaply.
+
+    The text is drawn unhinted (FreeType's autohinter takes a third of the time text takes to draw) and the image
+    encoded as opaque RGB at compression level 1 (half the time of matplotlib's RGBA at level 6, and smaller); the
+    pixels are those ``savefig`` gives with unhinted text. Unhinted text is set in matplotlib's global ``rcParams``,
+    so a lock lets one figure at a time be drawn in a process: threads drawing their own figures may call this at
+    once.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure, on an Agg canvas (:func:`new_figure`); its dpi is set to ``dpi``.
+    dpi : int
+        Dots per inch: the image is the figure's size in inches times this, in pixels.
+
+    Returns
+    -------
+    bytes
+        The PNG file's content.
+    """
     import matplotlib
     from PIL import Image
 

@@ -38,21 +38,21 @@ def render_run_panel(
 
     Parameters
     ----------
-    log
+    log : SimLog
         The run's log.
-    vehicle
+    vehicle : VehicleParams
         The controller's vehicle (the current limit and eq 5's a_lim drawn).
-    title
+    title : str
         The figure's title.
-    bounds
+    bounds : mapping of str to float
         The gate's bounds by limit name (:data:`~agvctl.evaluation.limits.LIMITS`): ``tracking_error_max_m`` and
         ``cross_track_error_max_m`` are drawn on the errors, ``wheel_speed_m_s`` on the wheel speeds,
         ``motor_current_a`` on the currents, ``wheel_accel_m_s2`` on the acceleration.
-    mark_time_s
+    mark_time_s : float or None
         The instant to mark (s): the vehicle's position then on the path, a vertical line on the other panels.
-    mark_label
+    mark_label : str
         The mark's legend entry (the limit it belongs to).
-    dpi
+    dpi : int
         Dots per inch of the PNG.
 
     Returns

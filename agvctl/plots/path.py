@@ -19,7 +19,25 @@ __all__ = ["plot_reference", "render_reference_png", "save_reference_plot"]
 
 
 def plot_reference(ref: Reference, *, dense_period_s: float = 0.005) -> Any:
-    """A matplotlib ``Figure`` with four panels: path (x, y), curvature κ(s), wheel speeds, wheel accelerations."""
+    """The figure of a reference: its path, its curvature, and its wheel speeds and accelerations against the limits.
+
+    Four panels, top to bottom: the path in the plane (x, y in m, equal scale) with its start, its end and the stops
+    between its motions, titled with its length and duration; the curvature κ (1/m) against arc length s (m), titled
+    with the largest deviation from the requested path (mm); each wheel's rim speed (m/s) and rim acceleration
+    (m/s²) against time (s), with the plan's wheel limits as ± lines.
+
+    Parameters
+    ----------
+    ref : Reference
+        The planned reference (:func:`~agvctl.planning.plan`).
+    dense_period_s : float
+        The spacing of the samples drawn, s: finer than the control period, so that the curves are smooth.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure, 6.4 × 10 inches, made without pyplot; :func:`render_reference_png` draws it.
+    """
     from matplotlib.figure import Figure
 
     n = max(2, int(np.ceil(ref.duration_s / dense_period_s)) + 1)
@@ -66,7 +84,20 @@ def plot_reference(ref: Reference, *, dense_period_s: float = 0.005) -> Any:
 
 
 def render_reference_png(ref: Reference, *, dpi: int = 80) -> bytes:
-    """:func:`plot_reference` as PNG bytes."""
+    """The figure of :func:`plot_reference` as PNG bytes (what ``agvctl plan --plot`` writes).
+
+    Parameters
+    ----------
+    ref : Reference
+        The planned reference.
+    dpi : int
+        Dots per inch of the image.
+
+    Returns
+    -------
+    bytes
+        The PNG file's content.
+    """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     fig = plot_reference(ref)
@@ -77,7 +108,17 @@ def render_reference_png(ref: Reference, *, dpi: int = 80) -> bytes:
 
 
 def save_reference_plot(ref: Reference, path: str | Path, *, dpi: int = 80) -> None:
-    """Draw :func:`plot_reference` and write it as PNG, atomically (no half-written file)."""
+    """Write the figure of :func:`plot_reference` to a PNG file, atomically (no half-written file).
+
+    Parameters
+    ----------
+    ref : Reference
+        The planned reference.
+    path : str or Path
+        The PNG file to write; its folder is made if missing.
+    dpi : int
+        Dots per inch of the image.
+    """
     png = render_reference_png(ref, dpi=dpi)
     with atomic_open(path, "wb") as fh:
         fh.write(png)
