@@ -163,8 +163,8 @@ def draw_wheel_speed(ax: Any, log: SimLog, side: str) -> None:
     """Draw on an axes one wheel's rim speed against time: the reference, the setpoint and the speed driven.
 
     The reference's wheel speed (dashed) is what the plan asks; the setpoint is what the pose controller sent to the
-    wheel loop; the line labelled "measured" is the plant's true rim speed ω_mot·r/N. Speeds in m/s, time in s, with
-    a grid and no legend (the caller places one, for both wheels).
+    wheel loop; the line labelled "actual" is the plant's true rim speed ω_mot·r/N (not what the encoders report).
+    Speeds in m/s, time in s, with a grid and no legend (the caller places one, for both wheels).
 
     Parameters
     ----------
@@ -179,7 +179,7 @@ def draw_wheel_speed(ax: Any, log: SimLog, side: str) -> None:
     t = log["t_s"]
     ax.plot(t, log[f"ref_wheel_speed_{side}_m_s"], "k--", lw=1, label="reference")
     ax.plot(t, log[f"setpoint_wheel_speed_{side}_m_s"], "C1", lw=1, label="setpoint")
-    ax.plot(t, log[f"wheel_speed_{side}_m_s"], "C0", lw=1.2, label="measured")
+    ax.plot(t, log[f"wheel_speed_{side}_m_s"], "C0", lw=1.2, label="actual")
     ax.set(ylabel=f"{side} wheel [m/s]")
     ax.grid(alpha=0.3)
 

@@ -1,6 +1,7 @@
 """One run on one figure, for a report a person reads: the path with its worst point, the errors, the wheel
 speeds, the currents and the wheel acceleration, each against the gate's bounds (the panels of
-:mod:`agvctl.plots.closed_loop`)."""
+:mod:`agvctl.plots.closed_loop`). The five time panels span the run's whole time, so the time axis is labelled
+once, under each column's bottom panel."""
 
 from __future__ import annotations
 
@@ -102,14 +103,18 @@ def _draw(
         a_cur.axhline(-current_bound, color="r", ls="--", lw=1)
         a_cur.legend(loc="best", fontsize=8)
     draw_wheel_accel(a_acc, log, vehicle, bounds.get("wheel_accel_m_s2"))
-    for ax in (a_err, a_left, a_right, a_cur, a_acc):
+    for ax in (a_err, a_left, a_right):  # the same time range as the bottom row's: read there
+        ax.tick_params(labelbottom=False)
+        ax.set(xlabel="")
+    for ax in (a_cur, a_acc):
         ax.set(xlabel="t [s]")
+    for ax in (a_err, a_left, a_right, a_cur, a_acc):
         if mark_time_s is not None:
             ax.axvline(mark_time_s, color="r", lw=0.8, alpha=0.6)
     _tidy((a_path, a_err, a_left, a_right, a_cur, a_acc), log_axis=a_err)
     fig.suptitle(title)
     # a fixed layout: the tight layout's measuring pass costs as much as drawing the figure again
-    fig.subplots_adjust(left=0.07, right=0.98, top=0.93, bottom=0.06, hspace=0.35, wspace=0.22)
+    fig.subplots_adjust(left=0.07, right=0.98, top=0.93, bottom=0.06, hspace=0.2, wspace=0.22)
 
 
 def _clear(axes: Any) -> None:
