@@ -39,3 +39,15 @@ def test_readme_picture_and_links_exist():
     for target in re.findall(r"\]\(([^)#]+)\)", text):
         if not target.startswith("http"):
             assert (ROOT / target).exists(), target
+
+
+def test_the_experiment_file_reference_names_every_mpc_setting():
+    import dataclasses
+
+    from agvctl.controllers.mpc.config import MpcConfig
+
+    text = (ROOT / "docs" / "guide" / "experiments.md").read_text(encoding="utf-8")
+    start = text.index("horizon = 20")
+    listed = set(re.findall(r"\b[a-z][a-z0-9_]+\b", text[start : text.index("[limits]", start)]))
+    settings = {f.name for f in dataclasses.fields(MpcConfig)}
+    assert settings <= listed, sorted(settings - listed)

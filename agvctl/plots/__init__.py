@@ -66,13 +66,7 @@ def save_metric_histograms(report: CheckReport, out_dir: str | Path) -> list[Pat
     for exp in report.experiments:
         if not exp.monte_carlo:
             continue
-        bounds = {v.limit: v.bound for v in exp.verdicts}
-        alias = {
-            "wheel_speed_m_s": "peak_wheel_speed_m_s",
-            "wheel_accel_m_s2": "peak_wheel_accel_m_s2",
-            "motor_current_a": "peak_motor_current_a",
-        }
-        limit_of = {alias.get(k, k): b for k, b in bounds.items()}
+        limit_of = {LIMITS[v.limit].metric: v.bound for v in exp.verdicts if v.limit in LIMITS}
         completed = [o for o in exp.outcomes if o.error is None]
         for metric in completed[0].metrics if completed else ():
             values = np.array([o.metrics[metric] for o in completed], dtype=float)
