@@ -32,7 +32,7 @@ from hypothesis import strategies as st
 from agvctl.calibration import read_friction_log, read_umbmark_log
 from agvctl.cli import main
 from agvctl.config import parse_override
-from agvctl.controllers.pi.wheel_loop import load_gains
+from agvctl.controllers.pi.gains_file import load_gains
 from agvctl.fuzz.run import fuzz_tasks
 from agvctl.fuzz.spec import load_fuzz_config
 from agvctl.params import default_vehicle_path, load_vehicle

@@ -171,3 +171,34 @@ def test_step_metrics_on_a_known_curve():
     assert m.settling_time_s == pytest.approx(tau * math.log(50), rel=1e-4)
     assert m.overshoot_pct == 0.0
     assert m.steady_state_error_pct < 0.01
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0], ids=["accelerating", "braking"])
+def test_when_both_wheels_ask_past_the_current_limit_their_difference_is_kept(vehicle, sign):
+    """Both loops asking more current than I_max the same way: the wheel asking more gets I_max, the other I_max
+    less the difference they asked for (eq 1's predicted currents), so the torque difference that steers the vehicle
+    survives the saturation; each wheel alone past the limit is clamped as before."""
+    setpoint, measured = sign * np.array([40.0, 38.0]), np.array([0.0, 0.0])
+
+    def currents(steering_priority: bool) -> tuple[np.ndarray, np.ndarray]:
+        ctrl = PIWheelController(vehicle, GAINS, steering_priority=steering_priority)
+        loops = zip(ctrl.loops, setpoint, measured, strict=True)
+        asked = np.array([loop.demand(s, m).voltage_v for loop, s, m in loops])
+        volts = ctrl.motor_voltages_v(setpoint, measured)
+        return (asked - K_E * measured) / R, (volts - K_E * measured) / R
+
+    asked, kept = currents(True)
+    assert np.all(sign * asked > I_MAX)  # both past the limit, the left further
+    assert sign * kept[0] == pytest.approx(I_MAX, abs=0.01)
+    assert kept[0] - kept[1] == pytest.approx(asked[0] - asked[1], rel=1e-9)
+    _, clamped = currents(False)
+    np.testing.assert_allclose(sign * clamped, [I_MAX, I_MAX], atol=0.01)
+
+
+def test_a_loop_held_below_its_limit_for_the_other_wheel_does_not_wind_up(vehicle):
+    """While the steering priority holds a wheel below its own current limit, its integrator stops as at its own
+    limit: it never alone asks for more than the output it was given."""
+    ctrl = PIWheelController(vehicle, GAINS)
+    for _ in range(50):
+        volts = ctrl.motor_voltages_v(np.array([40.0, 38.0]), np.array([0.0, 0.0]))
+    assert ctrl.loops[1].integrator_v <= volts[1] + 1e-12

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from agvctl.cli import main
+from agvctl.controllers.pi.gains_file import load_gains
 from agvctl.controllers.pi.tuning import TuningSpec, design_pi
-from agvctl.controllers.pi.wheel_loop import load_gains
 from agvctl.errors import ConfigError
 
 # the report's constants (appendix A; k_t from ERRATA), and the decoupled model of eqs 1, 47, 49, 60

@@ -22,8 +22,9 @@ from agvctl.controllers.baselines.ramsete import RamseteConfig, RamseteControlle
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.nonlinear import NonlinearMpcController
+from agvctl.controllers.pi.gains_file import load_gains
 from agvctl.controllers.pi.tuning import WheelLoopDesign, closed_loop_time_constant_s, default_pi_gains
-from agvctl.controllers.pi.wheel_loop import PIWheelController, load_gains
+from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 
@@ -85,6 +86,8 @@ class WheelLoops:
     """Whether the braking current is always limited to decelerate no harder than a_lim."""
     gentle_stop: bool
     """Whether it is limited so only when a wheel is brought to a stop."""
+    steering_priority: bool = True
+    """Whether, when both loops ask past the current limit the same way, the difference they ask is kept."""
 
     def controller(self, vehicle: VehicleParams) -> PIWheelController:
         """The wheel-speed controller on ``vehicle`` (the controller's model)."""
@@ -94,6 +97,7 @@ class WheelLoops:
             coulomb_feedforward=self.coulomb_feedforward,
             symmetric_braking=self.symmetric_braking,
             gentle_stop=self.gentle_stop,
+            steering_priority=self.steering_priority,
         )
 
 
@@ -104,6 +108,7 @@ def design_wheel_loops(
     coulomb_feedforward: bool,
     symmetric_braking: bool,
     gentle_stop: bool,
+    steering_priority: bool = True,
     source: str,
 ) -> WheelLoops:
     """An experiment's wheel loops: from a gains file, or designed for the default spec.
@@ -120,6 +125,8 @@ def design_wheel_loops(
         Always limit the braking current so as to decelerate no harder than a_lim.
     gentle_stop : bool
         Limit it so only when a wheel is brought to a stop.
+    steering_priority : bool
+        When both loops ask past the current limit the same way, keep the difference they ask.
     source : str
         The experiment file, as errors name it.
 
@@ -134,7 +141,9 @@ def design_wheel_loops(
         A gains file that is missing, malformed, or designed for another sample period.
     """
     if gains_path is None:
-        return WheelLoops(default_pi_gains(vehicle), coulomb_feedforward, symmetric_braking, gentle_stop)
+        return WheelLoops(
+            default_pi_gains(vehicle), coulomb_feedforward, symmetric_braking, gentle_stop, steering_priority
+        )
     if not gains_path.exists():
         raise ConfigError(source, "controller.pi_gains", f"file not found: {gains_path}")
     settings = load_gains(gains_path)
@@ -145,4 +154,6 @@ def design_wheel_loops(
             f"gains designed for {settings.dt_s:g} s, the vehicle samples every {vehicle.control.sample_period_s:g} s",
         )
     design = WheelLoopDesign(settings.gains, closed_loop_time_constant_s(vehicle, settings.gains))
-    return WheelLoops(design, settings.coulomb_feedforward or coulomb_feedforward, symmetric_braking, gentle_stop)
+    return WheelLoops(
+        design, settings.coulomb_feedforward or coulomb_feedforward, symmetric_braking, gentle_stop, steering_priority
+    )

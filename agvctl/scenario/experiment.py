@@ -148,6 +148,7 @@ def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
         coulomb_feedforward=c.coulomb_feedforward,
         symmetric_braking=c.symmetric_braking,
         gentle_stop=c.gentle_stop,
+        steering_priority=c.steering_priority,
         source=src,
     )
     fit = POSE_CONTROLLERS[c.pose].fit_wheel_loop

@@ -124,6 +124,10 @@ class ControllerSpec:
     """Limit the braking current so that friction-assisted braking decelerates no harder than a_lim."""
     gentle_stop: bool = False
     """Limit the braking current only in the last sample before a wheel stops."""
+    steering_priority: bool = True
+    """When both wheel loops ask for more current than the amplifier gives, the same way, keep the difference of
+    the currents they ask (the torque that steers) and give up speed instead
+    (``docs/decisions/0026-steering-priority.md``)."""
     pose_settings: Any = dataclasses.field(default=None, metadata={"derived": True})
     """The pose controller's settings (an instance of its registry entry's ``settings``), validated once."""
 

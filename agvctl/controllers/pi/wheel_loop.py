@@ -1,4 +1,5 @@
-"""Discrete PI wheel-speed loops with anti-windup for the DA range and the amplifier's current limit.
+"""Discrete PI wheel-speed loops with anti-windup for the DA range and the amplifier's current limit, and steering
+priority when both saturate.
 
 One loop per motor, run every sample period T_s. Input: the motor-speed error e = ω_ref − ω (rad/s);
 output: the motor voltage u (V) the amplifier should apply, which :class:`PIWheelController` divides by the
@@ -32,34 +33,39 @@ per sample, the resolution of the measurement), the wheel rests, held by stictio
 and integrator, so that the speed estimate's sub-count wander cannot make the DA converter's last bit chatter (a
 pose controller that holds at the end of its path commands exactly zero).
 
+Steering priority (:class:`PIWheelController`). Each loop alone clamps its own output; when both ask past their
+windows the same way (both accelerating, or both braking, beyond what the amplifier gives), clamping each alone
+gives both wheels the limit current, and their speed difference, the turn, is then left to the plant's asymmetries
+(unequal radii, friction, a head start from a heading correction): the vehicle drifts off the path's heading while
+the pose controller, whose setpoints both wheels lag, cannot steer. Instead the common current gives way: the wheel
+asking more gets its limit, the other the current it asked less the same excess, so the difference the two loops ask
+for (proportional to the difference of their speed errors, the steering error) survives the saturation. The wheel
+held below its own limit stops integrating as it would at that limit.
+
 Optional Coulomb-friction feed-forward: ``u_ff = τ_c R / k_t · sign(ω_ref)`` (the voltage that balances the
 Coulomb torque τ_c at standstill, eq 1 with the friction of eqs 2-4), off by default.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
-from pathlib import Path
+from typing import NamedTuple
 
 import control
 import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.actuator import Actuator
-from agvctl.config import build, check_fields, document_fields, dump_toml, load_toml, number
-from agvctl.errors import ConfigError, expect_instance
+from agvctl.config import check_fields, document_fields, number
+from agvctl.errors import expect_instance
 from agvctl.params import SIDES, MotorParams, Side, VehicleParams
 
 __all__ = [
-    "GainsFile",
+    "LoopDemand",
     "PIGains",
-    "PISettings",
     "PISpeedLoop",
     "PIWheelController",
-    "gains_toml",
-    "load_gains",
 ]
 
 
@@ -98,6 +104,30 @@ class PIGains:
         return control.tf(
             list(self.num), list(self.den), self.dt_s, inputs="speed_error_rad_s", outputs="motor_voltage_v"
         )
+
+
+class LoopDemand(NamedTuple):
+    """What a :class:`PISpeedLoop` asks for one sample, before its output is clamped.
+
+    Parameters
+    ----------
+    voltage_v : float
+        The unclamped output k_p·e + I + u_ff (the held output at rest), V.
+    integrator_v : float
+        The integrator if this sample's error is integrated, V.
+    feedforward_v : float
+        The Coulomb feed-forward in it, V.
+    window_v : tuple of float
+        The usable motor-voltage window (:meth:`PISpeedLoop.usable_voltage_v`; unbounded without anti-windup), V.
+    resting : bool
+        Whether the loop rests (holds its last output).
+    """
+
+    voltage_v: float
+    integrator_v: float
+    feedforward_v: float
+    window_v: tuple[float, float]
+    resting: bool
 
 
 class PISpeedLoop:
@@ -217,32 +247,36 @@ class PISpeedLoop:
 
     def update(self, setpoint_rad_s: float, measured_rad_s: float) -> float:
         """The motor voltage (V) for this sample (the last one, held, at standstill)."""
-        if setpoint_rad_s == 0.0 and abs(measured_rad_s) < self.standstill_rad_s and self._last_v is not None:
-            self.limited = False
-            return self._last_v
-        self._last_v = u = self._pi(setpoint_rad_s, measured_rad_s)
-        return u
+        demand = self.demand(setpoint_rad_s, measured_rad_s)
+        return self.commit(demand, *demand.window_v)
 
-    def _pi(self, setpoint_rad_s: float, measured_rad_s: float) -> float:
+    def demand(self, setpoint_rad_s: float, measured_rad_s: float) -> LoopDemand:
+        """What the loop asks for this sample, before its output is clamped (advances nothing)."""
+        if setpoint_rad_s == 0.0 and abs(measured_rad_s) < self.standstill_rad_s and self._last_v is not None:
+            return LoopDemand(self._last_v, self.integrator_v, 0.0, (self._last_v, self._last_v), True)
         g = self.gains
         e = setpoint_rad_s - measured_rad_s
         ff = self.feedforward_v(setpoint_rad_s)
-        step_v = g.ki * g.dt_s * e
-        integrator = self.integrator_v + step_v
-        u_raw = g.kp * e + integrator + ff
-        if not self.anti_windup:
-            self.integrator_v = integrator
+        integrator = self.integrator_v + g.ki * g.dt_s * e
+        window = self.usable_voltage_v(measured_rad_s) if self.anti_windup else (-math.inf, math.inf)
+        return LoopDemand(g.kp * e + integrator + ff, integrator, ff, window, False)
+
+    def commit(self, demand: LoopDemand, lo_v: float, hi_v: float) -> float:
+        """Apply ``demand`` with its output clamped to ``[lo_v, hi_v]`` (within its own window): the integrator
+        stops where the clamp acts in its direction, and never alone asks for more than the clamped edge."""
+        if demand.resting:
             self.limited = False
-            return u_raw
-        lo, hi = self.usable_voltage_v(measured_rad_s)
-        u = min(max(u_raw, lo), hi)
+            return demand.voltage_v
+        u_raw, integrator, ff = demand.voltage_v, demand.integrator_v, demand.feedforward_v
+        u = min(max(u_raw, lo_v), hi_v)
         self.limited = u != u_raw
-        if u_raw > hi:
+        if u_raw > hi_v:
             # stop integrating upwards; the integrator alone never asks for more than the window's top
-            integrator = min(self.integrator_v, integrator, hi - ff)
-        elif u_raw < lo:
-            integrator = max(self.integrator_v, integrator, lo - ff)
+            integrator = min(self.integrator_v, integrator, hi_v - ff)
+        elif u_raw < lo_v:
+            integrator = max(self.integrator_v, integrator, lo_v - ff)
         self.integrator_v = integrator
+        self._last_v = u
         return u
 
 
@@ -292,6 +326,10 @@ class PIWheelController:
         Limit the braking current so that friction-assisted braking decelerates no harder than a_lim (eq 5).
     gentle_stop : bool
         The same braking limit, only at low speed, when a wheel is brought to a stop.
+    steering_priority : bool
+        When both loops ask for more than their usable voltage the same way (past the current limit, or the DA
+        range), the one asking more gets its limit and the other the same current less: the difference of the
+        currents they ask, the torque that turns the vehicle, is kept and the speed gives way (see the module notes).
 
     Examples
     --------
@@ -313,6 +351,7 @@ class PIWheelController:
         anti_windup: bool = True,
         symmetric_braking: bool = False,
         gentle_stop: bool = False,
+        steering_priority: bool = True,
     ) -> None:
         expect_instance(vehicle, VehicleParams, "PIWheelController", "vehicle")
         expect_instance(gains, PIGains, "PIWheelController", "gains")
@@ -346,6 +385,7 @@ class PIWheelController:
             for side in SIDES
         )
         self.gains = gains
+        self.steering_priority = steering_priority
 
     def reset(self) -> None:
         """Zero both integrators."""
@@ -358,89 +398,29 @@ class PIWheelController:
         """The motor voltages (left, right) in V for one sample (advances the integrators)."""
         sp = np.asarray(setpoint_rad_s, dtype=float).tolist()
         meas = np.asarray(measured_rad_s, dtype=float).tolist()
-        return np.array([loop.update(sp[i], meas[i]) for i, loop in enumerate(self.loops)])
+        left, right = self.loops
+        asked = (left.demand(sp[0], meas[0]), right.demand(sp[1], meas[1]))
+        windows = self._windows(asked) if self.steering_priority else (asked[0].window_v, asked[1].window_v)
+        return np.array([loop.commit(d, *w) for loop, d, w in zip(self.loops, asked, windows, strict=True)])
+
+    def _windows(self, asked: tuple[LoopDemand, LoopDemand]) -> tuple[tuple[float, float], tuple[float, float]]:
+        """Each loop's output window with the steering priority: where both ask past their windows the same way,
+        the common current gives way by the larger excess (see the module notes)."""
+        (lo_l, hi_l), (lo_r, hi_r) = asked[0].window_v, asked[1].window_v
+        if asked[0].resting or asked[1].resting:
+            return (lo_l, hi_l), (lo_r, hi_r)
+        u_l, u_r = asked[0].voltage_v, asked[1].voltage_v
+        r_l, r_r = self.loops[0].R, self.loops[1].R
+        above_l, above_r = (u_l - hi_l) / r_l, (u_r - hi_r) / r_r  # A past the top
+        below_l, below_r = (lo_l - u_l) / r_l, (lo_r - u_r) / r_r  # A past the bottom
+        if above_l > 0.0 and above_r > 0.0:
+            excess = max(above_l, above_r)
+            hi_l, hi_r = max(lo_l, min(hi_l, u_l - r_l * excess)), max(lo_r, min(hi_r, u_r - r_r * excess))
+        elif below_l > 0.0 and below_r > 0.0:
+            excess = max(below_l, below_r)
+            lo_l, lo_r = min(hi_l, max(lo_l, u_l + r_l * excess)), min(hi_r, max(lo_r, u_r + r_r * excess))
+        return (lo_l, hi_l), (lo_r, hi_r)
 
     def update(self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]) -> NDArray[np.float64]:
         """DA voltage commands (left, right) in V for one sample: motor voltage / k_pow."""
         return self.motor_voltages_v(setpoint_rad_s, measured_rad_s) / self.amplifier_gain
-
-
-# ----------------------------------------------------------------------------------------------------
-# Gains files
-
-
-@document_fields
-@dataclass(frozen=True)
-class PISettings:
-    """The ``[pi]`` table of a gains file."""
-
-    kp_v_s_rad: float = number(ge=0, doc="k_p, V s/rad.")
-    ki_v_rad: float = number(ge=0, doc="k_i, V/rad.")
-    dt_s: float = number(gt=0, doc="The sample period the gains were designed for, s.")
-    coulomb_feedforward: bool = False
-    """Whether the loops add the Coulomb-friction feed-forward."""
-
-    def validate(self, *, source: str, prefix: str) -> None:
-        if self.kp_v_s_rad == 0 and self.ki_v_rad == 0:
-            raise ConfigError(
-                source,
-                f"{prefix}.kp_v_s_rad" if prefix else "kp_v_s_rad",
-                "kp_v_s_rad and ki_v_rad are both zero",
-            )
-
-    @property
-    def gains(self) -> PIGains:
-        return PIGains(kp=self.kp_v_s_rad, ki=self.ki_v_rad, dt_s=self.dt_s)
-
-
-@document_fields
-@dataclass(frozen=True)
-class GainsFile:
-    """A gains TOML file as written by ``agvctl tune --out``."""
-
-    pi: PISettings
-    """Its one table, ``[pi]``."""
-
-
-def load_gains(path: str | Path) -> PISettings:
-    """Read a gains TOML file strictly.
-
-    Parameters
-    ----------
-    path : str or Path
-        The file, as :func:`gains_toml` writes it.
-
-    Returns
-    -------
-    PISettings
-        Its ``[pi]`` table.
-
-    Raises
-    ------
-    ConfigError
-        Unknown keys, wrong types, bad values, in one line naming the file and key.
-    """
-    return build(GainsFile, load_toml(path), source=str(path)).pi
-
-
-def gains_toml(gains: PIGains, *, coulomb_feedforward: bool = False, header: str = "") -> str:
-    """The text of a gains file, read back by :func:`load_gains`.
-
-    Parameters
-    ----------
-    gains : PIGains
-        The gains.
-    coulomb_feedforward : bool
-        Whether the loops add the Coulomb-friction feed-forward.
-    header : str
-        Comment lines above the table (how the gains were found).
-
-    Returns
-    -------
-    str
-        The TOML text.
-    """
-    settings = PISettings(
-        kp_v_s_rad=gains.kp, ki_v_rad=gains.ki, dt_s=gains.dt_s, coulomb_feedforward=coulomb_feedforward
-    )
-    return dump_toml({"pi": dataclasses.asdict(settings)}, header=header)
