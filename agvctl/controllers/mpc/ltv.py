@@ -53,10 +53,6 @@ _RELINEARISE_RAD = 0.01
 it: a stale point mispredicts a lateral motion of at most 0.01·δU·t (under 0.1 mm over the horizon for a 1 cm/s
 correction), and an unchanged matrix spares OSQP its refactorisation, about a third of a step."""
 _ACCEPTED = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
-_STOPPED_EARLY = (osqp.SolverStatus.OSQP_MAX_ITER_REACHED, osqp.SolverStatus.OSQP_TIME_LIMIT_REACHED)
-"""Statuses whose last iterate is used when it keeps every constraint within the solver's tolerance (its primal
-residual, m/s): a feasible command that is not yet optimal, rather than the last plan shifted, which was made for
-the state a sample ago (``docs/decisions/0012-osqp.md``)."""
 OSQP_SETTINGS: dict[str, Any] = {
     "polishing": False,
     "warm_starting": True,
@@ -398,11 +394,7 @@ class LtvMpcController(MpcStepper):
         solver.update(q=self._q, l=lo, u=hi, **self._load_matrices(k, heading_rad, coupling))
         result = solver.solve(raise_error=False)
         z = result.x
-        info = result.info
-        usable = info.status_val in _ACCEPTED or (
-            info.status_val in _STOPPED_EARLY and info.prim_res <= self.config.tolerance
-        )
-        if not usable or not math.isfinite(float(z.sum())):
+        if result.info.status_val not in _ACCEPTED or not math.isfinite(float(z.sum())):
             solver.warm_start(x=self._zeros_z, y=self._zeros_y)  # do not start the next solve from garbage
             return None
         seq = g.feedforward_m_s[k : k + N] + z[iU:iS].reshape(N, 2)
