@@ -108,9 +108,10 @@ class MpcConfig:
     """The largest rate of the governed clock while it catches up: behind the loop's clock and within
     ``governor_lag_start_m`` of the reference, the governed clock runs up to this much faster than time (the
     reference's speed along the path scaled alike), so a delay is made up."""
-    max_iterations: int = number(ge=1, default=1000)
-    """The solver's iteration limit per step: enough for the first steps from a far-off start (several hundred OSQP
-    iterations with the heading coupling of the LTV MPC); a tracking step needs tens."""
+    max_iterations: int = number(ge=1, default=4000)
+    """The solver's iteration limit per step (OSQP's own default): a tracking step needs tens, the first steps from
+    a far-off start several hundred, and a step with both wheels at their limits on a path planned with little
+    headroom over a thousand; a step that reaches the limit falls back and counts as a solver failure."""
     tolerance: float = number(
         gt=0, default=1.0e-3, doc="The solver's tolerance (OSQP's eps_abs and eps_rel, IPOPT's tol)."
     )
