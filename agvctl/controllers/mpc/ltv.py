@@ -163,8 +163,10 @@ class LtvMpcController(MpcStepper):
         self._A_held: tuple[int, float] | None = None
         self._P_held: int | None = None
         self._q = np.zeros(n_z)
-        self._l = np.zeros(n_rows)
-        self._u = np.zeros(n_rows)
+        self._q_setpoints = self._q[self._iU : self._iS].reshape(N, 2)
+        # the lower and upper bounds as the rows of one array, so that a step writes both with one copy
+        self._bounds = np.zeros((2, n_rows))
+        self._l, self._u = self._bounds[0], self._bounds[1]
         self._x0 = np.zeros(nx)
         reach = slice(self._r_reach, self._r_reach + 2 * (N - 1))
         self._l_reach, self._u_reach = self._l[reach].reshape(-1, 2), self._u[reach].reshape(-1, 2)  # wheel-loop model
@@ -233,13 +235,11 @@ class LtvMpcController(MpcStepper):
 
         ff = g.feedforward_m_s
         v_max, a_step = self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 * T
-        self._box_lo = (-v_max - ff).ravel()
-        self._box_hi = (v_max - ff).ravel()
+        self._box = np.stack([(-v_max - ff).ravel(), (v_max - ff).ravel()])  # (lower, upper) × flat samples
         d = np.zeros_like(ff)
         d[1:] = ff[1:] - ff[:-1]  # d_j = s_ff,j − s_ff,j−1: the rate of the feed-forward itself
         self._d = d
-        self._rate_lo = (-a_step - d).ravel()
-        self._rate_hi = (a_step - d).ravel()
+        self._rate = np.stack([(-a_step - d).ravel(), (a_step - d).ravel()])
         # the rate cost's linear term (see _solve) where it depends on the reference only: 2 w_Δ (d_j − d_j+1)
         # for the inner samples, 2 w_Δ d_j for the last
         w_rate = 2.0 * c.weight_input_rate
@@ -268,18 +268,18 @@ class LtvMpcController(MpcStepper):
     def _initial_error(self, step: HorizonStep) -> FloatArray:
         """x_0: the pose (and wheel-speed) error against the reference at the governed clock, which lies a
         fraction of a sample past grid point k (0 while it keeps time)."""
-        g, k, pose, wheel_speed_m_s = step.grid, step.k, step.pose, step.wheel_speed_m_s
-        x0 = self._x0
-        f = step.fraction
-        x_ref, y_ref, th_ref = g.x_m[k], g.y_m[k], g.theta_rad[k]
-        ct, st = g.cos_theta[k], g.sin_theta[k]
-        wheel_ref = g.wheel_m_s[k]
+        pose, x0, f = step.pose, self._x0, step.fraction
+        ref = step.grid.points[step.k]
+        x_ref, y_ref, th_ref, ct, st = ref.x_m, ref.y_m, ref.theta_rad, ref.cos_theta, ref.sin_theta
+        wheel_l, wheel_r = ref.wheel_left_m_s, ref.wheel_right_m_s
         if f > 0.0:
-            x_ref += f * (g.x_m[k + 1] - x_ref)
-            y_ref += f * (g.y_m[k + 1] - y_ref)
-            th_ref += f * wrap_angle(g.theta_rad[k + 1] - th_ref)
+            ahead = step.grid.points[step.k + 1]
+            x_ref += f * (ahead.x_m - x_ref)
+            y_ref += f * (ahead.y_m - y_ref)
+            th_ref += f * wrap_angle(ahead.theta_rad - th_ref)
             ct, st = math.cos(th_ref), math.sin(th_ref)
-            wheel_ref = wheel_ref + f * (g.wheel_m_s[k + 1] - wheel_ref)
+            wheel_l += f * (ahead.wheel_left_m_s - wheel_l)
+            wheel_r += f * (ahead.wheel_right_m_s - wheel_r)
         dx, dy = float(pose[0]) - x_ref, float(pose[1]) - y_ref
         if self.config.error_frame == "path":
             x0[0], x0[1] = ct * dx + st * dy, -st * dx + ct * dy
@@ -287,8 +287,8 @@ class LtvMpcController(MpcStepper):
             x0[0], x0[1] = dx, dy
         x0[2] = wrap_angle(float(pose[2]) - th_ref)
         if self._lag:
-            x0[3] = float(wheel_speed_m_s[0]) - wheel_ref[0]
-            x0[4] = float(wheel_speed_m_s[1]) - wheel_ref[1]
+            x0[3] = float(step.wheel_speed_m_s[0]) - wheel_l
+            x0[4] = float(step.wheel_speed_m_s[1]) - wheel_r
         return x0
 
     def _heading_coupling(self, g: HorizonReference, k: int, x0: FloatArray) -> tuple[float, FloatArray | None]:
@@ -352,19 +352,16 @@ class LtvMpcController(MpcStepper):
         ):
             return None  # a broken measurement: never let NaN into OSQP's warm start
 
-        lo, hi = self._l, self._u
+        lo, hi, bounds = self._l, self._u, self._bounds
         first = self._Ad[k] @ x0
         heading_rad, coupling = self._heading_coupling(g, k, x0) if self._lag else (0.0, None)
         if coupling is not None:
             first[0] += coupling[0, 0] * (x0[3] + x0[4])
             first[1] += coupling[0, 1] * (x0[3] + x0[4])
-        lo[:nx] = first
-        hi[:nx] = first
+        bounds[:, :nx] = first
         rb, rr, rf = self._r_box, self._r_rate, self._r_first
-        lo[rb:rr] = self._box_lo[2 * k : 2 * (k + N)]
-        hi[rb:rr] = self._box_hi[2 * k : 2 * (k + N)]
-        lo[rr:rf] = self._rate_lo[2 * (k + 1) : 2 * (k + N)]
-        hi[rr:rf] = self._rate_hi[2 * (k + 1) : 2 * (k + N)]
+        bounds[:, rb:rr] = self._box[:, 2 * k : 2 * (k + N)]
+        bounds[:, rr:rf] = self._rate[:, 2 * (k + 1) : 2 * (k + N)]
         ff0 = g.feedforward_m_s[k]
         # s_{−1} − s_ff,0, with s_{−1} brought into the speed box: the only case where the hard first-move
         # constraint could be infeasible is |s_{−1}| > v_max + a_lim·T_s, and there it is relaxed just enough
@@ -380,7 +377,7 @@ class LtvMpcController(MpcStepper):
 
         # rate cost w_Δ‖D δs + r‖², r_0 = −s_{−1} + s_ff,0, r_j = d_{k+j}: linear term 2 w_Δ Dᵀ r, i.e.
         # 2 w_Δ (r_j − r_{j+1}) and 2 w_Δ r_{N−1} for the last
-        qu = self._q[iU:iS].reshape(N, 2)
+        qu = self._q_setpoints
         w_rate = 2.0 * self.config.weight_input_rate
         if N > 1:
             d = self._d[k + 1]

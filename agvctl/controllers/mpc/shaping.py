@@ -67,7 +67,7 @@ class SetpointWindow(NamedTuple):
 
 
 @document_fields
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class HorizonStep:
     """What a solver and the rules see of one MPC step."""
 
@@ -160,7 +160,7 @@ class NoBackingAtStart:
 
     def _starting_forward(self, step: HorizonStep) -> bool:
         g, k = step.grid, step.k
-        if not step.on_main_path or g.travel_m[k] >= 0.05:
+        if not step.on_main_path or g.points[k].travel_m >= 0.05:
             return False
         ahead = g.speed_m_s[k : k + self.horizon + 1]
         return bool(np.min(ahead) >= -1e-9 and np.max(ahead) > 1e-6)
@@ -197,11 +197,11 @@ class TowardTurningPoint:
         """Nothing to precompute."""
 
     def __call__(self, step: HorizonStep, left: float, right: float) -> tuple[float, float]:
-        g, k, pose = step.grid, step.k, step.pose
-        if not turning_in_place(float(g.yaw_rate_rad_s[k]), float(g.speed_m_s[k]), self.separation_m):
+        ref, pose = step.grid.points[step.k], step.pose
+        if not turning_in_place(ref.yaw_rate_rad_s, ref.speed_m_s, self.separation_m):
             return left, right
         th = float(pose[2])
-        ahead = math.cos(th) * (float(g.x_m[k]) - float(pose[0])) + math.sin(th) * (float(g.y_m[k]) - float(pose[1]))
+        ahead = math.cos(th) * (ref.x_m - float(pose[0])) + math.sin(th) * (ref.y_m - float(pose[1]))
         mean = 0.5 * (left + right)
         if mean * ahead < 0.0:
             return left - mean, right - mean
@@ -242,9 +242,10 @@ class CommandShaper:
             self._previous = np.array(wheel_speed_m_s, dtype=np.float64)
         elif window is not None:
             u, a_step = self._previous, self.max_step_m_s
-            lo, hi = window.lower_m_s, window.upper_m_s
-            u[0] = min(max(float(u[0]), float(lo[0]) - a_step), float(hi[0]) + a_step)
-            u[1] = min(max(float(u[1]), float(lo[1]) - a_step), float(hi[1]) + a_step)
+            (lo_l, lo_r), (hi_l, hi_r) = window.lower_m_s.tolist(), window.upper_m_s.tolist()
+            u_l, u_r = u.tolist()
+            u[0] = min(max(u_l, lo_l - a_step), hi_l + a_step)
+            u[1] = min(max(u_r, lo_r - a_step), hi_r + a_step)
         return self._previous
 
     def __call__(self, step: HorizonStep, left: float, right: float) -> tuple[float, float]:
@@ -252,12 +253,14 @@ class CommandShaper:
         the next step's previous command."""
         for rule in self.rules:
             left, right = rule(step, left, right)
-        if step.window is not None:
-            lo, hi = step.window.lower_m_s, step.window.upper_m_s
-            left = min(max(left, float(lo[0])), float(hi[0]))
-            right = min(max(right, float(lo[1])), float(hi[1]))
+        window = step.window
+        if window is not None:
+            (lo_l, lo_r), (hi_l, hi_r) = window.lower_m_s.tolist(), window.upper_m_s.tolist()
+            left = min(max(left, lo_l), hi_l)
+            right = min(max(right, lo_r), hi_r)
         u = step.previous_m_s
-        left = limit_command(left, u[0], self.max_wheel_speed_m_s, self.max_step_m_s)
-        right = limit_command(right, u[1], self.max_wheel_speed_m_s, self.max_step_m_s)
+        u_l, u_r = u.tolist()
+        left = limit_command(left, u_l, self.max_wheel_speed_m_s, self.max_step_m_s)
+        right = limit_command(right, u_r, self.max_wheel_speed_m_s, self.max_step_m_s)
         u[0], u[1] = left, right
         return left, right
