@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["SetpointFallback", "limit_command"]
+__all__ = ["SetpointFallback", "clamp", "limit_command"]
 
 FloatArray = NDArray[np.float64]
 
@@ -37,12 +37,55 @@ class SetpointFallback:
         self.sequence_m_s[:] = sequence_m_s
         self.start = start
 
+    def store_solution(
+        self, start: int, feedforward_m_s: FloatArray, correction_m_s: FloatArray, max_speed_m_s: float
+    ) -> tuple[float, float]:
+        """Remember the setpoints solved for the window that starts at grid index ``start``: the feed-forward plus
+        the solved correction (N×2 each, left/right, m/s), brought within ±``max_speed_m_s``.
+
+        Returns
+        -------
+        tuple of float
+            The first setpoints (left, right), m/s.
+        """
+        sequence = self.sequence_m_s
+        np.add(feedforward_m_s, correction_m_s, out=sequence)
+        np.minimum(sequence, max_speed_m_s, out=sequence)
+        np.maximum(sequence, -max_speed_m_s, out=sequence)
+        self.start = start
+        left, right = sequence[0].tolist()
+        return left, right
+
     def shifted(self, start: int) -> tuple[float, float] | None:
         """The stored setpoint for grid index ``start``, if the stored sequence covers it."""
         j = start - self.start
         if self.start < 0 or j < 0 or j >= len(self.sequence_m_s):
             return None
         return float(self.sequence_m_s[j, 0]), float(self.sequence_m_s[j, 1])
+
+
+def clamp(value: float, low: float, high: float) -> float:
+    """``min(max(value, low), high)``, written as the comparisons those builtins make.
+
+    The same result for any floats (NaN and signed zeros included) without the builtins' per-call cost: an MPC step
+    clamps a dozen values.
+
+    Parameters
+    ----------
+    value : float
+        The value.
+    low : float
+        The lower limit, applied first.
+    high : float
+        The upper limit, applied last (it wins where ``low`` > ``high``).
+
+    Returns
+    -------
+    float
+        ``value`` within the limits.
+    """
+    value = low if low > value else value
+    return high if high < value else value
 
 
 def limit_command(setpoint_m_s: float, previous_m_s: float, max_speed_m_s: float, max_step_m_s: float) -> float:
@@ -68,7 +111,9 @@ def limit_command(setpoint_m_s: float, previous_m_s: float, max_speed_m_s: float
     float
         The setpoint nearest ``setpoint_m_s`` within both limits, m/s.
     """
-    prev = min(max(float(previous_m_s), -max_speed_m_s), max_speed_m_s)
-    lo = max(prev - max_step_m_s, -max_speed_m_s)
-    hi = min(prev + max_step_m_s, max_speed_m_s)
-    return float(min(max(setpoint_m_s, lo), hi))
+    prev = clamp(float(previous_m_s), -max_speed_m_s, max_speed_m_s)
+    lo = prev - max_step_m_s
+    lo = -max_speed_m_s if -max_speed_m_s > lo else lo  # max(lo, −v_max), as clamp writes it
+    hi = prev + max_step_m_s
+    hi = max_speed_m_s if max_speed_m_s < hi else hi  # min(hi, v_max)
+    return float(clamp(setpoint_m_s, lo, hi))

@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
 from agvctl.controllers.mpc.config import MpcConfig
+from agvctl.controllers.mpc.fallback import clamp
 from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
 
 __all__ = ["ReferenceGovernor"]
@@ -71,7 +72,7 @@ class ReferenceGovernor:
             if not math.isfinite(lag):
                 lag = 0.0
             band = max(c.governor_lag_stop_m - c.governor_lag_start_m, 1e-9)
-            sigma = min(max((c.governor_lag_stop_m - lag) / band, 0.0), c.governor_catch_up)
+            sigma = clamp((c.governor_lag_stop_m - lag) / band, 0.0, c.governor_catch_up)
             self.clock = min(self.clock + sigma, float(grid.window_start(t_s)))  # never ahead of t
         k = int(self.clock)
         self.fraction = self.clock - k

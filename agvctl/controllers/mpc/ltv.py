@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 from agvctl.angles import wrap_angle
 from agvctl.controllers.mpc.common import MpcStepper
 from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
+from agvctl.controllers.mpc.fallback import clamp
 from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
 from agvctl.controllers.mpc.ltv_qp import QpLayout, constraint_pattern, cost_matrix, window_versions
 from agvctl.controllers.mpc.matrix_exponential import expm_batch
@@ -168,9 +169,13 @@ class LtvMpcController(MpcStepper):
         self._bounds = np.zeros((2, n_rows))
         self._l, self._u = self._bounds[0], self._bounds[1]
         self._x0 = np.zeros(nx)
+        self._lo_first, self._hi_first = self._l[:nx], self._u[:nx]
+        self._first_box = self._bounds[:, self._r_box : self._r_box + 2]
         reach = slice(self._r_reach, self._r_reach + 2 * (N - 1))
         self._l_reach, self._u_reach = self._l[reach].reshape(-1, 2), self._u[reach].reshape(-1, 2)  # wheel-loop model
         self._coupling = np.zeros((N, 2))
+        self._coupling_heading = math.nan
+        """The heading e_θ,0 the path frame's coupling rows were written for (NaN: none yet)."""
         self._zeros_z = np.zeros(n_z)
         self._zeros_y = np.zeros(n_rows)
 
@@ -299,16 +304,19 @@ class LtvMpcController(MpcStepper):
         horizon. Returns the heading e_θ,0 the coupling is linearised about (0 for none) and the coupling's
         (first, second) position-row entries per unit δU for x_0 … x_{N−1} (N×2; None for none)."""
         N, T = self.config.horizon, self.sample_period_s
-        if abs(float(x0[2]) - self._heading_lin) > _RELINEARISE_RAD:
-            self._heading_lin = float(x0[2])
+        heading = float(x0[2])
+        if abs(heading - self._heading_lin) > _RELINEARISE_RAD:
+            self._heading_lin = heading
         e0 = self._heading_lin
         if abs(e0) < 1e-4:  # below 0.006°: a change under 1e-6 of T_s per m/s, nothing to see
             return 0.0, None
-        along, across = 0.5 * T * (math.cos(e0) - 1.0), 0.5 * T * math.sin(e0)
         coupling = self._coupling
-        if self.config.error_frame == "path":
-            coupling[:, 0], coupling[:, 1] = along, across
+        if self.config.error_frame == "path":  # alike at every k: written again only for a new e_θ,0
+            if e0 != self._coupling_heading:
+                coupling[:, 0], coupling[:, 1] = 0.5 * T * (math.cos(e0) - 1.0), 0.5 * T * math.sin(e0)
+                self._coupling_heading = e0
         else:
+            along, across = 0.5 * T * (math.cos(e0) - 1.0), 0.5 * T * math.sin(e0)
             ct_h, st_h = g.cos_theta[k : k + N], g.sin_theta[k : k + N]
             coupling[:, 0] = ct_h * along - st_h * across
             coupling[:, 1] = st_h * along + ct_h * across
@@ -343,45 +351,44 @@ class LtvMpcController(MpcStepper):
 
     def _solve(self, step: HorizonStep) -> tuple[float, float] | None:
         g, k = step.grid, step.k
-        N, nx = self.config.horizon, self.nx
-        iU, iS = self._iU, self._iS
+        N, iU, iS = self.config.horizon, self._iU, self._iS
         x0 = self._initial_error(step)
-        u_prev = step.previous_m_s
-        if not math.isfinite(
-            x0[0] + x0[1] + x0[2] + float(u_prev[0]) + float(u_prev[1]) + (x0[3] + x0[4] if self._lag else 0.0)
-        ):
+        e = x0.tolist()
+        u_l, u_r = step.previous_m_s.tolist()
+        if not math.isfinite(e[0] + e[1] + e[2] + u_l + u_r + (e[3] + e[4] if self._lag else 0.0)):
             return None  # a broken measurement: never let NaN into OSQP's warm start
 
         lo, hi, bounds = self._l, self._u, self._bounds
-        first = self._Ad[k] @ x0
+        first = np.dot(self._Ad[k], x0, out=self._lo_first)  # A_0 x_0, into the lower bounds' first rows
         heading_rad, coupling = self._heading_coupling(g, k, x0) if self._lag else (0.0, None)
         if coupling is not None:
-            first[0] += coupling[0, 0] * (x0[3] + x0[4])
-            first[1] += coupling[0, 1] * (x0[3] + x0[4])
-        bounds[:, :nx] = first
+            first[0] += coupling[0, 0] * (e[3] + e[4])
+            first[1] += coupling[0, 1] * (e[3] + e[4])
+        self._hi_first[:] = first
         rb, rr, rf = self._r_box, self._r_rate, self._r_first
         bounds[:, rb:rr] = self._box[:, 2 * k : 2 * (k + N)]
         bounds[:, rr:rf] = self._rate[:, 2 * (k + 1) : 2 * (k + N)]
         ff0 = g.feedforward_m_s[k]
+        ff_l, ff_r = ff0.tolist()
         # s_{−1} − s_ff,0, with s_{−1} brought into the speed box: the only case where the hard first-move
         # constraint could be infeasible is |s_{−1}| > v_max + a_lim·T_s, and there it is relaxed just enough
         v_max = self.max_wheel_speed_m_s
-        start_l = min(max(float(u_prev[0]), -v_max), v_max) - float(ff0[0])
-        start_r = min(max(float(u_prev[1]), -v_max), v_max) - float(ff0[1])
+        start_l = clamp(u_l, -v_max, v_max) - ff_l
+        start_r = clamp(u_r, -v_max, v_max) - ff_r
         a_step = self.max_wheel_accel_m_s2 * self.sample_period_s
         lo[rf], lo[rf + 1] = start_l - a_step, start_r - a_step
         hi[rf], hi[rf + 1] = start_l + a_step, start_r + a_step
         if self._lag:
             assert step.window is not None  # finite wheel speeds: x_0 holds them
-            self._reach_bounds(k, ff0, step.wheel_speed_m_s, step.window)
+            self._reach_bounds(k, (ff_l, ff_r), step.wheel_speed_m_s, step.window)
 
         # rate cost w_Δ‖D δs + r‖², r_0 = −s_{−1} + s_ff,0, r_j = d_{k+j}: linear term 2 w_Δ Dᵀ r, i.e.
         # 2 w_Δ (r_j − r_{j+1}) and 2 w_Δ r_{N−1} for the last
         qu = self._q_setpoints
         w_rate = 2.0 * self.config.weight_input_rate
         if N > 1:
-            d = self._d[k + 1]
-            qu[0, 0], qu[0, 1] = (-start_l - d[0]) * w_rate, (-start_r - d[1]) * w_rate
+            d_l, d_r = self._d[k + 1].tolist()
+            qu[0, 0], qu[0, 1] = (-start_l - d_l) * w_rate, (-start_r - d_r) * w_rate
             qu[1 : N - 1] = self._rate_q_inner[k + 1 : k + N - 1]
             qu[N - 1] = self._rate_q_last[k + N - 1]
         else:
@@ -391,27 +398,28 @@ class LtvMpcController(MpcStepper):
         solver.update(q=self._q, l=lo, u=hi, **self._load_matrices(k, heading_rad, coupling))
         result = solver.solve(raise_error=False)
         z = result.x
-        if result.info.status_val not in _ACCEPTED or not math.isfinite(float(z.sum())):
+        if result.info.status_val not in _ACCEPTED or not math.isfinite(np.add.reduce(z)):
             solver.warm_start(x=self._zeros_z, y=self._zeros_y)  # do not start the next solve from garbage
             return None
-        seq = g.feedforward_m_s[k : k + N] + z[iU:iS].reshape(N, 2)
-        np.minimum(seq, v_max, out=seq)
-        np.maximum(seq, -v_max, out=seq)
-        self._fallback.store(k, seq)
-        return float(seq[0, 0]), float(seq[0, 1])
+        return self._fallback.store_solution(k, g.feedforward_m_s[k : k + N], z[iU:iS].reshape(N, 2), v_max)
 
     def _reach_bounds(
-        self, k: int, ff0: FloatArray, wheel_speed_m_s: NDArray[np.float64], window: SetpointWindow
+        self, k: int, ff0: tuple[float, float], wheel_speed_m_s: NDArray[np.float64], window: SetpointWindow
     ) -> None:
         """The setpoints' reachable leads over their wheels (the wheel-loop model's rows): the first sample's from the
         measured speed (within its speed box), later ones from the reference's speeds, never tighter than the first
-        (so that holding the first setpoint stays feasible as the wheel converges)."""
-        N, lo, hi, rb = self.config.horizon, self._l, self._u, self._r_box
-        first_lo, first_hi = lo[rb : rb + 2], hi[rb : rb + 2]
-        np.maximum(first_lo, window.lower_m_s - ff0, out=first_lo)
-        np.minimum(first_hi, window.upper_m_s - ff0, out=first_hi)
+        (so that holding the first setpoint stays feasible as the wheel converges). ``ff0`` is the first sample's
+        feed-forward (left, right; m/s)."""
+        N, (ff_l, ff_r) = self.config.horizon, ff0
+        (box_lo_l, box_lo_r), (box_hi_l, box_hi_r) = self._first_box.tolist()
+        (lower_l, lower_r), (upper_l, upper_r) = window.lower_m_s.tolist(), window.upper_m_s.tolist()
+        self._first_box[:] = (
+            (max(box_lo_l, lower_l - ff_l), max(box_lo_r, lower_r - ff_r)),
+            (min(box_hi_l, upper_l - ff_l), min(box_hi_r, upper_r - ff_r)),
+        )
         lo_reach, hi_reach = self._l_reach, self._u_reach
-        if max(abs(float(wheel_speed_m_s[0])), abs(float(wheel_speed_m_s[1]))) <= self.max_wheel_speed_m_s:
+        v_l, v_r = wheel_speed_m_s.tolist()
+        if max(abs(v_l), abs(v_r)) <= self.max_wheel_speed_m_s:
             base = self._reach_base[k + 1 : k + N]
             np.maximum(self._reach_down[k + 1 : k + N], window.lead_down_m_s, out=lo_reach)
             np.subtract(base, lo_reach, out=lo_reach)

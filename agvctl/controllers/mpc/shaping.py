@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.config import document_fields
-from agvctl.controllers.mpc.fallback import limit_command
+from agvctl.controllers.mpc.fallback import clamp, limit_command
 from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
 from agvctl.feasibility import WheelReach
 
@@ -117,15 +117,19 @@ class ReachWindow:
         up_l, up_r, down_l, down_r = self.reach.accel_pair_m_s2(v_l, v_r)
         f, v_max = self.lead_factor_s, self.max_wheel_speed_m_s
         lead_down_l, lead_down_r, lead_up_l, lead_up_r = down_l * f, down_r * f, up_l * f, up_r * f
-        rows = np.array(  # one array, its rows the window's four pairs
-            [
-                [min(v_l - lead_down_l, v_max), min(v_r - lead_down_r, v_max)],
-                [max(v_l + lead_up_l, -v_max), max(v_r + lead_up_r, -v_max)],
-                [lead_down_l, lead_down_r],
-                [lead_up_l, lead_up_r],
-            ]
+        lower_l, lower_r, upper_l, upper_r = v_l - lead_down_l, v_r - lead_down_r, v_l + lead_up_l, v_r + lead_up_r
+        # min(·, v_max) and max(·, −v_max) as the comparisons the builtins make: the same, cheaper per sample
+        values = (  # one array, its rows the window's four pairs
+            v_max if v_max < lower_l else lower_l,
+            v_max if v_max < lower_r else lower_r,
+            -v_max if -v_max > upper_l else upper_l,
+            -v_max if -v_max > upper_r else upper_r,
+            lead_down_l,
+            lead_down_r,
+            lead_up_l,
+            lead_up_r,
         )
-        return SetpointWindow(rows[0], rows[1], rows[2], rows[3])
+        return SetpointWindow._make(np.array(values).reshape(4, 2))
 
 
 class CommandRule(Protocol):
@@ -244,8 +248,8 @@ class CommandShaper:
             u, a_step = self._previous, self.max_step_m_s
             (lo_l, lo_r), (hi_l, hi_r) = window.lower_m_s.tolist(), window.upper_m_s.tolist()
             u_l, u_r = u.tolist()
-            u[0] = min(max(u_l, lo_l - a_step), hi_l + a_step)
-            u[1] = min(max(u_r, lo_r - a_step), hi_r + a_step)
+            u[0] = clamp(u_l, lo_l - a_step, hi_l + a_step)
+            u[1] = clamp(u_r, lo_r - a_step, hi_r + a_step)
         return self._previous
 
     def __call__(self, step: HorizonStep, left: float, right: float) -> tuple[float, float]:
@@ -256,8 +260,8 @@ class CommandShaper:
         window = step.window
         if window is not None:
             (lo_l, lo_r), (hi_l, hi_r) = window.lower_m_s.tolist(), window.upper_m_s.tolist()
-            left = min(max(left, lo_l), hi_l)
-            right = min(max(right, lo_r), hi_r)
+            left = clamp(left, lo_l, hi_l)
+            right = clamp(right, lo_r, hi_r)
         u = step.previous_m_s
         u_l, u_r = u.tolist()
         left = limit_command(left, u_l, self.max_wheel_speed_m_s, self.max_step_m_s)
