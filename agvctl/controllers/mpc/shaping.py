@@ -46,24 +46,24 @@ FloatArray = NDArray[np.float64]
 class SetpointWindow(NamedTuple):
     """The setpoints each wheel can follow from its measured speed, and the leads that make it.
 
-    Each field holds a (left, right) pair.
+    Each field holds a (left, right) pair of plain floats (per-sample arithmetic; numpy's scalars cost more).
 
     Parameters
     ----------
-    lower_m_s : ndarray
+    lower_m_s : tuple of float
         The lowest setpoint of each wheel, v − D↓ (at most v_max), m/s.
-    upper_m_s : ndarray
+    upper_m_s : tuple of float
         The highest setpoint of each wheel, v + D↑ (at least −v_max), m/s.
-    lead_down_m_s : ndarray
+    lead_down_m_s : tuple of float
         D↓: how far a setpoint may lie below its wheel's speed, m/s.
-    lead_up_m_s : ndarray
+    lead_up_m_s : tuple of float
         D↑: how far a setpoint may lie above its wheel's speed, m/s.
     """
 
-    lower_m_s: FloatArray
-    upper_m_s: FloatArray
-    lead_down_m_s: FloatArray
-    lead_up_m_s: FloatArray
+    lower_m_s: tuple[float, float]
+    upper_m_s: tuple[float, float]
+    lead_down_m_s: tuple[float, float]
+    lead_up_m_s: tuple[float, float]
 
 
 @document_fields
@@ -118,18 +118,13 @@ class ReachWindow:
         f, v_max = self.lead_factor_s, self.max_wheel_speed_m_s
         lead_down_l, lead_down_r, lead_up_l, lead_up_r = down_l * f, down_r * f, up_l * f, up_r * f
         lower_l, lower_r, upper_l, upper_r = v_l - lead_down_l, v_r - lead_down_r, v_l + lead_up_l, v_r + lead_up_r
-        # min(·, v_max) and max(·, −v_max) as the comparisons the builtins make: the same, cheaper per sample
-        values = (  # one array, its rows the window's four pairs
-            v_max if v_max < lower_l else lower_l,
-            v_max if v_max < lower_r else lower_r,
-            -v_max if -v_max > upper_l else upper_l,
-            -v_max if -v_max > upper_r else upper_r,
-            lead_down_l,
-            lead_down_r,
-            lead_up_l,
-            lead_up_r,
+        # min(·, v_max) and max(·, −v_max) as the comparisons the builtins make (clamp): the same, cheaper
+        return SetpointWindow(
+            (v_max if v_max < lower_l else lower_l, v_max if v_max < lower_r else lower_r),
+            (-v_max if -v_max > upper_l else upper_l, -v_max if -v_max > upper_r else upper_r),
+            (lead_down_l, lead_down_r),
+            (lead_up_l, lead_up_r),
         )
-        return SetpointWindow._make(np.array(values).reshape(4, 2))
 
 
 class CommandRule(Protocol):
@@ -246,7 +241,7 @@ class CommandShaper:
             self._previous = np.array(wheel_speed_m_s, dtype=np.float64)
         elif window is not None:
             u, a_step = self._previous, self.max_step_m_s
-            (lo_l, lo_r), (hi_l, hi_r) = window.lower_m_s.tolist(), window.upper_m_s.tolist()
+            (lo_l, lo_r), (hi_l, hi_r) = window.lower_m_s, window.upper_m_s
             u_l, u_r = u.tolist()
             u[0] = clamp(u_l, lo_l - a_step, hi_l + a_step)
             u[1] = clamp(u_r, lo_r - a_step, hi_r + a_step)
@@ -259,7 +254,7 @@ class CommandShaper:
             left, right = rule(step, left, right)
         window = step.window
         if window is not None:
-            (lo_l, lo_r), (hi_l, hi_r) = window.lower_m_s.tolist(), window.upper_m_s.tolist()
+            (lo_l, lo_r), (hi_l, hi_r) = window.lower_m_s, window.upper_m_s
             left = clamp(left, lo_l, hi_l)
             right = clamp(right, lo_r, hi_r)
         u = step.previous_m_s
