@@ -172,9 +172,7 @@ class LtvMpcController(MpcStepper):
         self._lo_first, self._hi_first = self._l[:nx], self._u[:nx]
         self._first_box = self._bounds[:, self._r_box : self._r_box + 2]
         reach = slice(self._r_reach, self._r_reach + 2 * (N - 1))
-        # the wheel-loop model's rows, (lower, upper) × k × wheel: a view (empty for the kinematic model)
-        self._reach_rows = self._bounds[:, reach].reshape(2, -1, 2)
-        assert self._reach_rows.size == 0 or np.shares_memory(self._reach_rows, self._bounds)
+        self._l_reach, self._u_reach = self._l[reach].reshape(-1, 2), self._u[reach].reshape(-1, 2)  # wheel-loop model
         self._coupling = np.zeros((N, 2))
         self._coupling_heading = math.nan
         """The heading e_θ,0 the path frame's coupling rows were written for (NaN: none yet)."""
@@ -256,7 +254,8 @@ class LtvMpcController(MpcStepper):
         # s_k − v_k ∈ [−D↓, D↑] at the reference's wheel speeds: δs_k − δv_k ∈ v_ref − s_ff + [−D↓, D↑]
         up, down = self._reach.accel_m_s2(g.wheel_m_s[:-1])
         self._reach_base = g.wheel_m_s[:-1] - ff
-        self._reach_leads = np.stack([down, up]) * self._lead_factor_s  # (D↓, D↑) × grid point × wheel
+        self._reach_down = down * self._lead_factor_s
+        self._reach_up = up * self._lead_factor_s
 
         # which windows share their matrices: A's entries A_{k+1} … A_{k+N−1}, B_k … B_{k+N−1} (and in world axes
         # the headings θ_k … θ_{k+N−1} of the heading coupling), P's the weights of points k+1 … k+N
@@ -411,21 +410,19 @@ class LtvMpcController(MpcStepper):
         measured speed (within its speed box), later ones from the reference's speeds, never tighter than the first
         (so that holding the first setpoint stays feasible as the wheel converges). ``ff0`` is the first sample's
         feed-forward (left, right; m/s)."""
-        N, (ff_l, ff_r) = self.config.horizon, ff0
+        N, (ff_l, ff_r), lo, hi, rb = self.config.horizon, ff0, self._l, self._u, self._r_box
         (box_lo_l, box_lo_r), (box_hi_l, box_hi_r) = self._first_box.tolist()
         (lower_l, lower_r), (upper_l, upper_r) = window.lower_m_s, window.upper_m_s
-        self._first_box[:] = (
-            (max(box_lo_l, lower_l - ff_l), max(box_lo_r, lower_r - ff_r)),
-            (min(box_hi_l, upper_l - ff_l), min(box_hi_r, upper_r - ff_r)),
-        )
-        rows = self._reach_rows
+        lo[rb], lo[rb + 1] = max(box_lo_l, lower_l - ff_l), max(box_lo_r, lower_r - ff_r)
+        hi[rb], hi[rb + 1] = min(box_hi_l, upper_l - ff_l), min(box_hi_r, upper_r - ff_r)
+        lo_reach, hi_reach = self._l_reach, self._u_reach
         v_l, v_r = wheel_speed_m_s.tolist()
         if max(abs(v_l), abs(v_r)) <= self.max_wheel_speed_m_s:
             base = self._reach_base[k + 1 : k + N]
-            leads = ((window.lead_down_m_s,), (window.lead_up_m_s,))  # the first sample's, for every k
-            np.maximum(self._reach_leads[:, k + 1 : k + N], leads, out=rows)
-            np.subtract(base, rows[0], out=rows[0])
-            np.add(base, rows[1], out=rows[1])
+            np.maximum(self._reach_down[k + 1 : k + N], window.lead_down_m_s, out=lo_reach)
+            np.subtract(base, lo_reach, out=lo_reach)
+            np.maximum(self._reach_up[k + 1 : k + N], window.lead_up_m_s, out=hi_reach)
+            np.add(base, hi_reach, out=hi_reach)
         else:  # a wheel beyond the speed box (a reset at speed): only the first sample is bounded
-            rows[0] = -_INF
-            rows[1] = _INF
+            lo_reach[:] = -_INF
+            hi_reach[:] = _INF
