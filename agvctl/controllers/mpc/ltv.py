@@ -263,8 +263,8 @@ class LtvMpcController(MpcStepper):
         a_sources = [(self._Ad, 1, N - 1), (E[:, :nx, nx:], 0, N - 1)]
         if c.error_frame == "world":
             a_sources.append((np.column_stack([g.cos_theta, g.sin_theta]), 0, N - 1))
-        self._a_version = window_versions(a_sources, windows)
-        self._p_version = window_versions([(self._position_weights, 1, N)], windows)
+        self._a_version: list[int] = window_versions(a_sources, windows).tolist()
+        self._p_version: list[int] = window_versions([(self._position_weights, 1, N)], windows).tolist()
         self._A_held = None
         self._P_held = None
 
@@ -329,13 +329,13 @@ class LtvMpcController(MpcStepper):
         had them: unchanged, OSQP keeps its factorisation, which on a straight or a constant arc is most steps."""
         N, nx = self.config.horizon, self.nx
         update: dict[str, Any] = {}
-        p_key = int(self._p_version[k])
+        p_key = self._p_version[k]
         if p_key != self._P_held:
             p_data = self._P_data
             p_data[self._pos_P_position] = (self._position_weights[k + 1 : k + N + 1] * self._horizon_scale).ravel()
             update.update(Px=p_data[self._pos_P_position], Px_idx=self._pos_P_position)
             self._P_held = p_key
-        a_key = (int(self._a_version[k]), heading_rad)
+        a_key = (self._a_version[k], heading_rad)
         if a_key != self._A_held:
             data, nn = self._A_data, nx * nx
             data[self._pos_A] = self._neg_Ad_flat[(k + 1) * nn : (k + N) * nn]
