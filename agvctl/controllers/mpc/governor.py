@@ -71,9 +71,11 @@ class ReferenceGovernor:
             lag = self.lag_m(grid, self.clock + 1.0, pose)
             if not math.isfinite(lag):
                 lag = 0.0
-            band = max(c.governor_lag_stop_m - c.governor_lag_start_m, 1e-9)
-            sigma = clamp((c.governor_lag_stop_m - lag) / band, 0.0, c.governor_catch_up)
-            self.clock = min(self.clock + sigma, float(grid.window_start(t_s)))  # never ahead of t
+            stop = c.governor_lag_stop_m
+            band = max(stop - c.governor_lag_start_m, 1e-9)
+            sigma = clamp((stop - lag) / band, 0.0, c.governor_catch_up)
+            advanced, now = self.clock + sigma, float(grid.window_start(t_s))
+            self.clock = now if now < advanced else advanced  # min(advanced, now): never ahead of t
         k = int(self.clock)
         self.fraction = self.clock - k
         return k

@@ -292,8 +292,8 @@ class LtvMpcController(MpcStepper):
             x0[0], x0[1] = dx, dy
         x0[2] = wrap_angle(float(pose[2]) - th_ref)
         if self._lag:
-            x0[3] = float(step.wheel_speed_m_s[0]) - wheel_l
-            x0[4] = float(step.wheel_speed_m_s[1]) - wheel_r
+            v_l, v_r = step.wheel_speed_m_s.tolist()
+            x0[3], x0[4] = v_l - wheel_l, v_r - wheel_r
         return x0
 
     def _heading_coupling(self, g: HorizonReference, k: int, x0: FloatArray) -> tuple[float, FloatArray | None]:
