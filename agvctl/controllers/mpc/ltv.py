@@ -243,7 +243,8 @@ class LtvMpcController(MpcStepper):
         self._box = np.stack([(-v_max - ff).ravel(), (v_max - ff).ravel()])  # (lower, upper) × flat samples
         d = np.zeros_like(ff)
         d[1:] = ff[1:] - ff[:-1]  # d_j = s_ff,j − s_ff,j−1: the rate of the feed-forward itself
-        self._d = d
+        self._d_pairs: list[list[float]] = d.tolist()  # per-step reads as plain floats
+        self._ff_pairs: list[list[float]] = ff.tolist()
         self._rate = np.stack([(-a_step - d).ravel(), (a_step - d).ravel()])
         # the rate cost's linear term (see _solve) where it depends on the reference only: 2 w_Δ (d_j − d_j+1)
         # for the inner samples, 2 w_Δ d_j for the last
@@ -368,8 +369,7 @@ class LtvMpcController(MpcStepper):
         rb, rr, rf = self._r_box, self._r_rate, self._r_first
         bounds[:, rb:rr] = self._box[:, 2 * k : 2 * (k + N)]
         bounds[:, rr:rf] = self._rate[:, 2 * (k + 1) : 2 * (k + N)]
-        ff0 = g.feedforward_m_s[k]
-        ff_l, ff_r = ff0.tolist()
+        ff_l, ff_r = self._ff_pairs[k]
         # s_{−1} − s_ff,0, with s_{−1} brought into the speed box: the only case where the hard first-move
         # constraint could be infeasible is |s_{−1}| > v_max + a_lim·T_s, and there it is relaxed just enough
         v_max = self.max_wheel_speed_m_s
@@ -387,7 +387,7 @@ class LtvMpcController(MpcStepper):
         qu = self._q_setpoints
         w_rate = 2.0 * self.config.weight_input_rate
         if N > 1:
-            d_l, d_r = self._d[k + 1].tolist()
+            d_l, d_r = self._d_pairs[k + 1]
             qu[0, 0], qu[0, 1] = (-start_l - d_l) * w_rate, (-start_r - d_r) * w_rate
             qu[1 : N - 1] = self._rate_q_inner[k + 1 : k + N - 1]
             qu[N - 1] = self._rate_q_last[k + N - 1]
