@@ -117,10 +117,10 @@ def _checked_command(cmd: PoseCommand) -> tuple[int, NDArray[np.float64]]:
     """(solver status code, wheel-speed setpoints in m/s) of a pose controller's command: a NaN or infinite
     setpoint is a controller failure (:data:`~agvctl.evaluation.metrics.NON_FINITE_COMMAND_STATUS`) and the wheel
     loops get a stop instead, never a silent 0 V from the DA converter."""
-    setpoint = np.array([cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s], dtype=np.float64)
-    if not np.all(np.isfinite(setpoint)):
+    left, right = cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s
+    if not (math.isfinite(left) and math.isfinite(right)):
         return NON_FINITE_COMMAND_STATUS, np.zeros(2)
-    return _STATUS_CODE.get(cmd.status, 2), setpoint
+    return _STATUS_CODE.get(cmd.status, 2), np.array([left, right], dtype=np.float64)
 
 
 def _control_row(

@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
 from agvctl.controllers.mpc.config import MpcConfig
+from agvctl.controllers.mpc.fallback import clamp
 from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
 
 __all__ = ["ReferenceGovernor"]
@@ -70,9 +71,11 @@ class ReferenceGovernor:
             lag = self.lag_m(grid, self.clock + 1.0, pose)
             if not math.isfinite(lag):
                 lag = 0.0
-            band = max(c.governor_lag_stop_m - c.governor_lag_start_m, 1e-9)
-            sigma = min(max((c.governor_lag_stop_m - lag) / band, 0.0), c.governor_catch_up)
-            self.clock = min(self.clock + sigma, float(grid.window_start(t_s)))  # never ahead of t
+            stop = c.governor_lag_stop_m
+            band = max(stop - c.governor_lag_start_m, 1e-9)
+            sigma = clamp((stop - lag) / band, 0.0, c.governor_catch_up)
+            advanced, now = self.clock + sigma, float(grid.window_start(t_s))
+            self.clock = now if now < advanced else advanced  # min(advanced, now): never ahead of t
         k = int(self.clock)
         self.fraction = self.clock - k
         return k
@@ -86,19 +89,20 @@ class ReferenceGovernor:
         reference comes to it, at no more than its own pace while the vehicle is off the point (never held there:
         the MPC, predicting the reference turning on, would wait for it while it waited for the vehicle).
         """
-        g = grid
-        k = min(int(clock), g.n_points - 2)
+        k = min(int(clock), grid.n_points - 2)
         f = clock - k
-        x = g.x_m[k] + f * (g.x_m[k + 1] - g.x_m[k])
-        y = g.y_m[k] + f * (g.y_m[k + 1] - g.y_m[k])
-        th = g.theta_rad[k] + f * wrap_angle(g.theta_rad[k + 1] - g.theta_rad[k])
-        along = math.cos(th) * (float(pose[0]) - x) + math.sin(th) * (float(pose[1]) - y)
-        yaw = g.yaw_rate_rad_s[k]
-        if not turning_in_place(yaw, g.speed_m_s[k], self.separation_m):
-            return float(max(-along, 0.0))
+        here, ahead = grid.points[k], grid.points[k + 1]
+        x = here.x_m + f * (ahead.x_m - here.x_m)
+        y = here.y_m + f * (ahead.y_m - here.y_m)
+        th = here.theta_rad + f * wrap_angle(ahead.theta_rad - here.theta_rad)
+        px, py = float(pose[0]), float(pose[1])
+        along = math.cos(th) * (px - x) + math.sin(th) * (py - y)
+        yaw = here.yaw_rate_rad_s
+        if not turning_in_place(yaw, here.speed_m_s, self.separation_m):
+            return max(-along, 0.0)
         half_b = 0.5 * self.separation_m
         heading_lag = -math.copysign(1.0, yaw) * wrap_angle(float(pose[2]) - th) * half_b
-        off_point = math.hypot(float(pose[0]) - x, float(pose[1]) - y)
+        off_point = math.hypot(px - x, py - y)
         if heading_lag < 0.0:  # ahead in the turn: the reference comes to it (at its own pace if off the point)
             start = self.config.governor_lag_start_m
             return float(heading_lag if off_point <= start else start)

@@ -4,7 +4,7 @@ whether the reference turns in place there."""
 from __future__ import annotations
 
 import math
-from typing import Any, overload
+from typing import Any, NamedTuple, overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -12,9 +12,38 @@ from numpy.typing import NDArray
 from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
 from agvctl.planning.reference import Reference
 
-__all__ = ["HorizonReference", "turning_in_place"]
+__all__ = ["GridPoint", "HorizonReference", "turning_in_place"]
 
 FloatArray = NDArray[np.float64]
+
+
+class GridPoint(NamedTuple):
+    """The reference at one grid point in plain floats, for the per-step arithmetic on single points.
+
+    Parameters
+    ----------
+    x_m, y_m, theta_rad : float
+        The reference pose (m, m, rad).
+    cos_theta, sin_theta : float
+        cos θ and sin θ of the reference heading.
+    speed_m_s, yaw_rate_rad_s : float
+        The reference's speed U (m/s) and yaw rate ω (rad/s).
+    wheel_left_m_s, wheel_right_m_s : float
+        The reference's wheel rim speeds (m/s).
+    travel_m : float
+        The distance the reference point has moved by this grid point (m).
+    """
+
+    x_m: float
+    y_m: float
+    theta_rad: float
+    cos_theta: float
+    sin_theta: float
+    speed_m_s: float
+    yaw_rate_rad_s: float
+    wheel_left_m_s: float
+    wheel_right_m_s: float
+    travel_m: float
 
 
 class HorizonReference:
@@ -22,7 +51,8 @@ class HorizonReference:
     rest so that any horizon window ``[k, k + N]`` is a slice.
 
     Arrays of length ``n_points`` (grid points, j = 0 … K + N + 1): ``x_m, y_m, theta_rad, speed_m_s,
-    yaw_rate_rad_s, wheel_m_s`` (n×2). Arrays of length ``n_points − 1`` (intervals [t_j, t_j+1]):
+    yaw_rate_rad_s, wheel_m_s`` (n×2), and the same values per grid point in plain floats, ``points``
+    (:class:`GridPoint`). Arrays of length ``n_points − 1`` (intervals [t_j, t_j+1]):
     ``mid_*``, the reference at the midpoint of the interval, and ``feedforward_m_s`` (n×2), the setpoint
     that makes the prediction model follow the reference: the midpoint wheel speeds for the kinematic model,
     and for the wheel loop the inverse of its exact discretisation, s_j = (v_j+1 − a v_j)/(1 − a) with
@@ -65,6 +95,10 @@ class HorizonReference:
             a = math.exp(-T / wheel_loop_time_constant_s(config))
             ff = (self.wheel_m_s[1:] - a * self.wheel_m_s[:-1]) / (1.0 - a)
         self.feedforward_m_s: FloatArray = np.ascontiguousarray(ff)
+        columns: list[FloatArray] = [self.x_m, self.y_m, self.theta_rad, self.cos_theta, self.sin_theta]
+        columns += [self.speed_m_s, self.yaw_rate_rad_s, self.wheel_m_s[:, 0], self.wheel_m_s[:, 1], self.travel_m]
+        self.points: list[GridPoint] = list(map(GridPoint._make, zip(*(c.tolist() for c in columns), strict=True)))
+        """The grid points' values in plain floats (numpy's scalars cost more per operation)."""
 
     def window_start(self, t_s: float) -> int:
         """The grid index of the sample starting at ``t_s`` (rounded), clamped to ``[0, last_start]``."""

@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 from agvctl.angles import wrap_angle
 from agvctl.controllers.mpc.common import MpcStepper
 from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
+from agvctl.controllers.mpc.fallback import clamp
 from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
 from agvctl.controllers.mpc.ltv_qp import QpLayout, constraint_pattern, cost_matrix, window_versions
 from agvctl.controllers.mpc.matrix_exponential import expm_batch
@@ -163,12 +164,18 @@ class LtvMpcController(MpcStepper):
         self._A_held: tuple[int, float] | None = None
         self._P_held: int | None = None
         self._q = np.zeros(n_z)
-        self._l = np.zeros(n_rows)
-        self._u = np.zeros(n_rows)
+        self._q_setpoints = self._q[self._iU : self._iS].reshape(N, 2)
+        # the lower and upper bounds as the rows of one array, so that a step writes both with one copy
+        self._bounds = np.zeros((2, n_rows))
+        self._l, self._u = self._bounds[0], self._bounds[1]
         self._x0 = np.zeros(nx)
+        self._lo_first, self._hi_first = self._l[:nx], self._u[:nx]
+        self._first_box = self._bounds[:, self._r_box : self._r_box + 2]
         reach = slice(self._r_reach, self._r_reach + 2 * (N - 1))
         self._l_reach, self._u_reach = self._l[reach].reshape(-1, 2), self._u[reach].reshape(-1, 2)  # wheel-loop model
         self._coupling = np.zeros((N, 2))
+        self._coupling_heading = math.nan
+        """The heading e_θ,0 the path frame's coupling rows were written for (NaN: none yet)."""
         self._zeros_z = np.zeros(n_z)
         self._zeros_y = np.zeros(n_rows)
 
@@ -233,13 +240,12 @@ class LtvMpcController(MpcStepper):
 
         ff = g.feedforward_m_s
         v_max, a_step = self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 * T
-        self._box_lo = (-v_max - ff).ravel()
-        self._box_hi = (v_max - ff).ravel()
+        self._box = np.stack([(-v_max - ff).ravel(), (v_max - ff).ravel()])  # (lower, upper) × flat samples
         d = np.zeros_like(ff)
         d[1:] = ff[1:] - ff[:-1]  # d_j = s_ff,j − s_ff,j−1: the rate of the feed-forward itself
-        self._d = d
-        self._rate_lo = (-a_step - d).ravel()
-        self._rate_hi = (a_step - d).ravel()
+        self._d_pairs: list[list[float]] = d.tolist()  # per-step reads as plain floats
+        self._ff_pairs: list[list[float]] = ff.tolist()
+        self._rate = np.stack([(-a_step - d).ravel(), (a_step - d).ravel()])
         # the rate cost's linear term (see _solve) where it depends on the reference only: 2 w_Δ (d_j − d_j+1)
         # for the inner samples, 2 w_Δ d_j for the last
         w_rate = 2.0 * c.weight_input_rate
@@ -258,8 +264,8 @@ class LtvMpcController(MpcStepper):
         a_sources = [(self._Ad, 1, N - 1), (E[:, :nx, nx:], 0, N - 1)]
         if c.error_frame == "world":
             a_sources.append((np.column_stack([g.cos_theta, g.sin_theta]), 0, N - 1))
-        self._a_version = window_versions(a_sources, windows)
-        self._p_version = window_versions([(self._position_weights, 1, N)], windows)
+        self._a_version: list[int] = window_versions(a_sources, windows).tolist()
+        self._p_version: list[int] = window_versions([(self._position_weights, 1, N)], windows).tolist()
         self._A_held = None
         self._P_held = None
 
@@ -268,18 +274,18 @@ class LtvMpcController(MpcStepper):
     def _initial_error(self, step: HorizonStep) -> FloatArray:
         """x_0: the pose (and wheel-speed) error against the reference at the governed clock, which lies a
         fraction of a sample past grid point k (0 while it keeps time)."""
-        g, k, pose, wheel_speed_m_s = step.grid, step.k, step.pose, step.wheel_speed_m_s
-        x0 = self._x0
-        f = step.fraction
-        x_ref, y_ref, th_ref = g.x_m[k], g.y_m[k], g.theta_rad[k]
-        ct, st = g.cos_theta[k], g.sin_theta[k]
-        wheel_ref = g.wheel_m_s[k]
+        pose, x0, f = step.pose, self._x0, step.fraction
+        ref = step.grid.points[step.k]
+        x_ref, y_ref, th_ref, ct, st = ref.x_m, ref.y_m, ref.theta_rad, ref.cos_theta, ref.sin_theta
+        wheel_l, wheel_r = ref.wheel_left_m_s, ref.wheel_right_m_s
         if f > 0.0:
-            x_ref += f * (g.x_m[k + 1] - x_ref)
-            y_ref += f * (g.y_m[k + 1] - y_ref)
-            th_ref += f * wrap_angle(g.theta_rad[k + 1] - th_ref)
+            ahead = step.grid.points[step.k + 1]
+            x_ref += f * (ahead.x_m - x_ref)
+            y_ref += f * (ahead.y_m - y_ref)
+            th_ref += f * wrap_angle(ahead.theta_rad - th_ref)
             ct, st = math.cos(th_ref), math.sin(th_ref)
-            wheel_ref = wheel_ref + f * (g.wheel_m_s[k + 1] - wheel_ref)
+            wheel_l += f * (ahead.wheel_left_m_s - wheel_l)
+            wheel_r += f * (ahead.wheel_right_m_s - wheel_r)
         dx, dy = float(pose[0]) - x_ref, float(pose[1]) - y_ref
         if self.config.error_frame == "path":
             x0[0], x0[1] = ct * dx + st * dy, -st * dx + ct * dy
@@ -287,8 +293,8 @@ class LtvMpcController(MpcStepper):
             x0[0], x0[1] = dx, dy
         x0[2] = wrap_angle(float(pose[2]) - th_ref)
         if self._lag:
-            x0[3] = float(wheel_speed_m_s[0]) - wheel_ref[0]
-            x0[4] = float(wheel_speed_m_s[1]) - wheel_ref[1]
+            v_l, v_r = step.wheel_speed_m_s.tolist()
+            x0[3], x0[4] = v_l - wheel_l, v_r - wheel_r
         return x0
 
     def _heading_coupling(self, g: HorizonReference, k: int, x0: FloatArray) -> tuple[float, FloatArray | None]:
@@ -299,16 +305,19 @@ class LtvMpcController(MpcStepper):
         horizon. Returns the heading e_θ,0 the coupling is linearised about (0 for none) and the coupling's
         (first, second) position-row entries per unit δU for x_0 … x_{N−1} (N×2; None for none)."""
         N, T = self.config.horizon, self.sample_period_s
-        if abs(float(x0[2]) - self._heading_lin) > _RELINEARISE_RAD:
-            self._heading_lin = float(x0[2])
+        heading = float(x0[2])
+        if abs(heading - self._heading_lin) > _RELINEARISE_RAD:
+            self._heading_lin = heading
         e0 = self._heading_lin
         if abs(e0) < 1e-4:  # below 0.006°: a change under 1e-6 of T_s per m/s, nothing to see
             return 0.0, None
-        along, across = 0.5 * T * (math.cos(e0) - 1.0), 0.5 * T * math.sin(e0)
         coupling = self._coupling
-        if self.config.error_frame == "path":
-            coupling[:, 0], coupling[:, 1] = along, across
+        if self.config.error_frame == "path":  # alike at every k: written again only for a new e_θ,0
+            if e0 != self._coupling_heading:
+                coupling[:, 0], coupling[:, 1] = 0.5 * T * (math.cos(e0) - 1.0), 0.5 * T * math.sin(e0)
+                self._coupling_heading = e0
         else:
+            along, across = 0.5 * T * (math.cos(e0) - 1.0), 0.5 * T * math.sin(e0)
             ct_h, st_h = g.cos_theta[k : k + N], g.sin_theta[k : k + N]
             coupling[:, 0] = ct_h * along - st_h * across
             coupling[:, 1] = st_h * along + ct_h * across
@@ -321,13 +330,13 @@ class LtvMpcController(MpcStepper):
         had them: unchanged, OSQP keeps its factorisation, which on a straight or a constant arc is most steps."""
         N, nx = self.config.horizon, self.nx
         update: dict[str, Any] = {}
-        p_key = int(self._p_version[k])
+        p_key = self._p_version[k]
         if p_key != self._P_held:
             p_data = self._P_data
             p_data[self._pos_P_position] = (self._position_weights[k + 1 : k + N + 1] * self._horizon_scale).ravel()
             update.update(Px=p_data[self._pos_P_position], Px_idx=self._pos_P_position)
             self._P_held = p_key
-        a_key = (int(self._a_version[k]), heading_rad)
+        a_key = (self._a_version[k], heading_rad)
         if a_key != self._A_held:
             data, nn = self._A_data, nx * nx
             data[self._pos_A] = self._neg_Ad_flat[(k + 1) * nn : (k + N) * nn]
@@ -343,48 +352,43 @@ class LtvMpcController(MpcStepper):
 
     def _solve(self, step: HorizonStep) -> tuple[float, float] | None:
         g, k = step.grid, step.k
-        N, nx = self.config.horizon, self.nx
-        iU, iS = self._iU, self._iS
+        N, iU, iS = self.config.horizon, self._iU, self._iS
         x0 = self._initial_error(step)
-        u_prev = step.previous_m_s
-        if not math.isfinite(
-            x0[0] + x0[1] + x0[2] + float(u_prev[0]) + float(u_prev[1]) + (x0[3] + x0[4] if self._lag else 0.0)
-        ):
+        e = x0.tolist()
+        u_l, u_r = step.previous_m_s.tolist()
+        if not math.isfinite(e[0] + e[1] + e[2] + u_l + u_r + (e[3] + e[4] if self._lag else 0.0)):
             return None  # a broken measurement: never let NaN into OSQP's warm start
 
-        lo, hi = self._l, self._u
-        first = self._Ad[k] @ x0
+        lo, hi, bounds = self._l, self._u, self._bounds
+        first = np.dot(self._Ad[k], x0, out=self._lo_first)  # A_0 x_0, into the lower bounds' first rows
         heading_rad, coupling = self._heading_coupling(g, k, x0) if self._lag else (0.0, None)
         if coupling is not None:
-            first[0] += coupling[0, 0] * (x0[3] + x0[4])
-            first[1] += coupling[0, 1] * (x0[3] + x0[4])
-        lo[:nx] = first
-        hi[:nx] = first
+            first[0] += coupling[0, 0] * (e[3] + e[4])
+            first[1] += coupling[0, 1] * (e[3] + e[4])
+        self._hi_first[:] = first
         rb, rr, rf = self._r_box, self._r_rate, self._r_first
-        lo[rb:rr] = self._box_lo[2 * k : 2 * (k + N)]
-        hi[rb:rr] = self._box_hi[2 * k : 2 * (k + N)]
-        lo[rr:rf] = self._rate_lo[2 * (k + 1) : 2 * (k + N)]
-        hi[rr:rf] = self._rate_hi[2 * (k + 1) : 2 * (k + N)]
-        ff0 = g.feedforward_m_s[k]
+        bounds[:, rb:rr] = self._box[:, 2 * k : 2 * (k + N)]
+        bounds[:, rr:rf] = self._rate[:, 2 * (k + 1) : 2 * (k + N)]
+        ff_l, ff_r = self._ff_pairs[k]
         # s_{−1} − s_ff,0, with s_{−1} brought into the speed box: the only case where the hard first-move
         # constraint could be infeasible is |s_{−1}| > v_max + a_lim·T_s, and there it is relaxed just enough
         v_max = self.max_wheel_speed_m_s
-        start_l = min(max(float(u_prev[0]), -v_max), v_max) - float(ff0[0])
-        start_r = min(max(float(u_prev[1]), -v_max), v_max) - float(ff0[1])
+        start_l = clamp(u_l, -v_max, v_max) - ff_l
+        start_r = clamp(u_r, -v_max, v_max) - ff_r
         a_step = self.max_wheel_accel_m_s2 * self.sample_period_s
         lo[rf], lo[rf + 1] = start_l - a_step, start_r - a_step
         hi[rf], hi[rf + 1] = start_l + a_step, start_r + a_step
         if self._lag:
             assert step.window is not None  # finite wheel speeds: x_0 holds them
-            self._reach_bounds(k, ff0, step.wheel_speed_m_s, step.window)
+            self._reach_bounds(k, (ff_l, ff_r), step.wheel_speed_m_s, step.window)
 
         # rate cost w_Δ‖D δs + r‖², r_0 = −s_{−1} + s_ff,0, r_j = d_{k+j}: linear term 2 w_Δ Dᵀ r, i.e.
         # 2 w_Δ (r_j − r_{j+1}) and 2 w_Δ r_{N−1} for the last
-        qu = self._q[iU:iS].reshape(N, 2)
+        qu = self._q_setpoints
         w_rate = 2.0 * self.config.weight_input_rate
         if N > 1:
-            d = self._d[k + 1]
-            qu[0, 0], qu[0, 1] = (-start_l - d[0]) * w_rate, (-start_r - d[1]) * w_rate
+            d_l, d_r = self._d_pairs[k + 1]
+            qu[0, 0], qu[0, 1] = (-start_l - d_l) * w_rate, (-start_r - d_r) * w_rate
             qu[1 : N - 1] = self._rate_q_inner[k + 1 : k + N - 1]
             qu[N - 1] = self._rate_q_last[k + N - 1]
         else:
@@ -394,27 +398,26 @@ class LtvMpcController(MpcStepper):
         solver.update(q=self._q, l=lo, u=hi, **self._load_matrices(k, heading_rad, coupling))
         result = solver.solve(raise_error=False)
         z = result.x
-        if result.info.status_val not in _ACCEPTED or not math.isfinite(float(z.sum())):
+        if result.info.status_val not in _ACCEPTED or not math.isfinite(np.add.reduce(z)):
             solver.warm_start(x=self._zeros_z, y=self._zeros_y)  # do not start the next solve from garbage
             return None
-        seq = g.feedforward_m_s[k : k + N] + z[iU:iS].reshape(N, 2)
-        np.minimum(seq, v_max, out=seq)
-        np.maximum(seq, -v_max, out=seq)
-        self._fallback.store(k, seq)
-        return float(seq[0, 0]), float(seq[0, 1])
+        return self._fallback.store_solution(k, g.feedforward_m_s[k : k + N], z[iU:iS].reshape(N, 2), v_max)
 
     def _reach_bounds(
-        self, k: int, ff0: FloatArray, wheel_speed_m_s: NDArray[np.float64], window: SetpointWindow
+        self, k: int, ff0: tuple[float, float], wheel_speed_m_s: NDArray[np.float64], window: SetpointWindow
     ) -> None:
         """The setpoints' reachable leads over their wheels (the wheel-loop model's rows): the first sample's from the
         measured speed (within its speed box), later ones from the reference's speeds, never tighter than the first
-        (so that holding the first setpoint stays feasible as the wheel converges)."""
-        N, lo, hi, rb = self.config.horizon, self._l, self._u, self._r_box
-        first_lo, first_hi = lo[rb : rb + 2], hi[rb : rb + 2]
-        np.maximum(first_lo, window.lower_m_s - ff0, out=first_lo)
-        np.minimum(first_hi, window.upper_m_s - ff0, out=first_hi)
+        (so that holding the first setpoint stays feasible as the wheel converges). ``ff0`` is the first sample's
+        feed-forward (left, right; m/s)."""
+        N, (ff_l, ff_r), lo, hi, rb = self.config.horizon, ff0, self._l, self._u, self._r_box
+        (box_lo_l, box_lo_r), (box_hi_l, box_hi_r) = self._first_box.tolist()
+        (lower_l, lower_r), (upper_l, upper_r) = window.lower_m_s, window.upper_m_s
+        lo[rb], lo[rb + 1] = max(box_lo_l, lower_l - ff_l), max(box_lo_r, lower_r - ff_r)
+        hi[rb], hi[rb + 1] = min(box_hi_l, upper_l - ff_l), min(box_hi_r, upper_r - ff_r)
         lo_reach, hi_reach = self._l_reach, self._u_reach
-        if max(abs(float(wheel_speed_m_s[0])), abs(float(wheel_speed_m_s[1]))) <= self.max_wheel_speed_m_s:
+        v_l, v_r = wheel_speed_m_s.tolist()
+        if max(abs(v_l), abs(v_r)) <= self.max_wheel_speed_m_s:
             base = self._reach_base[k + 1 : k + N]
             np.maximum(self._reach_down[k + 1 : k + N], window.lead_down_m_s, out=lo_reach)
             np.subtract(base, lo_reach, out=lo_reach)

@@ -111,11 +111,10 @@ class Rest:
         if not (self.config.enabled and done):
             self.holding = False
             return False
-        d = self.distance(pose)
         near = math.hypot(float(pose[0]) - self._end[0], float(pose[1]) - self._end[1]) <= self.config.max_error_m
         if self.holding:
-            self.holding = near and d <= self._release
+            self.holding = near and self.distance(pose) <= self._release
         else:
             stopped = max(abs(float(v)) for v in wheel_speed_m_s) < self.config.stopped_m_s
-            self.holding = stopped and near and d <= self._enter
+            self.holding = stopped and near and self.distance(pose) <= self._enter
         return self.holding

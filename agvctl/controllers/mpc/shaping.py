@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.config import document_fields
-from agvctl.controllers.mpc.fallback import limit_command
+from agvctl.controllers.mpc.fallback import clamp, limit_command
 from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
 from agvctl.feasibility import WheelReach
 
@@ -46,28 +46,28 @@ FloatArray = NDArray[np.float64]
 class SetpointWindow(NamedTuple):
     """The setpoints each wheel can follow from its measured speed, and the leads that make it.
 
-    Each field holds a (left, right) pair.
+    Each field holds a (left, right) pair of plain floats (per-sample arithmetic; numpy's scalars cost more).
 
     Parameters
     ----------
-    lower_m_s : ndarray
+    lower_m_s : tuple of float
         The lowest setpoint of each wheel, v − D↓ (at most v_max), m/s.
-    upper_m_s : ndarray
+    upper_m_s : tuple of float
         The highest setpoint of each wheel, v + D↑ (at least −v_max), m/s.
-    lead_down_m_s : ndarray
+    lead_down_m_s : tuple of float
         D↓: how far a setpoint may lie below its wheel's speed, m/s.
-    lead_up_m_s : ndarray
+    lead_up_m_s : tuple of float
         D↑: how far a setpoint may lie above its wheel's speed, m/s.
     """
 
-    lower_m_s: FloatArray
-    upper_m_s: FloatArray
-    lead_down_m_s: FloatArray
-    lead_up_m_s: FloatArray
+    lower_m_s: tuple[float, float]
+    upper_m_s: tuple[float, float]
+    lead_down_m_s: tuple[float, float]
+    lead_up_m_s: tuple[float, float]
 
 
 @document_fields
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class HorizonStep:
     """What a solver and the rules see of one MPC step."""
 
@@ -117,15 +117,14 @@ class ReachWindow:
         up_l, up_r, down_l, down_r = self.reach.accel_pair_m_s2(v_l, v_r)
         f, v_max = self.lead_factor_s, self.max_wheel_speed_m_s
         lead_down_l, lead_down_r, lead_up_l, lead_up_r = down_l * f, down_r * f, up_l * f, up_r * f
-        rows = np.array(  # one array, its rows the window's four pairs
-            [
-                [min(v_l - lead_down_l, v_max), min(v_r - lead_down_r, v_max)],
-                [max(v_l + lead_up_l, -v_max), max(v_r + lead_up_r, -v_max)],
-                [lead_down_l, lead_down_r],
-                [lead_up_l, lead_up_r],
-            ]
+        lower_l, lower_r, upper_l, upper_r = v_l - lead_down_l, v_r - lead_down_r, v_l + lead_up_l, v_r + lead_up_r
+        # min(·, v_max) and max(·, −v_max) as the comparisons the builtins make (clamp): the same, cheaper
+        return SetpointWindow(
+            (v_max if v_max < lower_l else lower_l, v_max if v_max < lower_r else lower_r),
+            (-v_max if -v_max > upper_l else upper_l, -v_max if -v_max > upper_r else upper_r),
+            (lead_down_l, lead_down_r),
+            (lead_up_l, lead_up_r),
         )
-        return SetpointWindow(rows[0], rows[1], rows[2], rows[3])
 
 
 class CommandRule(Protocol):
@@ -160,7 +159,7 @@ class NoBackingAtStart:
 
     def _starting_forward(self, step: HorizonStep) -> bool:
         g, k = step.grid, step.k
-        if not step.on_main_path or g.travel_m[k] >= 0.05:
+        if not step.on_main_path or g.points[k].travel_m >= 0.05:
             return False
         ahead = g.speed_m_s[k : k + self.horizon + 1]
         return bool(np.min(ahead) >= -1e-9 and np.max(ahead) > 1e-6)
@@ -197,11 +196,11 @@ class TowardTurningPoint:
         """Nothing to precompute."""
 
     def __call__(self, step: HorizonStep, left: float, right: float) -> tuple[float, float]:
-        g, k, pose = step.grid, step.k, step.pose
-        if not turning_in_place(float(g.yaw_rate_rad_s[k]), float(g.speed_m_s[k]), self.separation_m):
+        ref, pose = step.grid.points[step.k], step.pose
+        if not turning_in_place(ref.yaw_rate_rad_s, ref.speed_m_s, self.separation_m):
             return left, right
         th = float(pose[2])
-        ahead = math.cos(th) * (float(g.x_m[k]) - float(pose[0])) + math.sin(th) * (float(g.y_m[k]) - float(pose[1]))
+        ahead = math.cos(th) * (ref.x_m - float(pose[0])) + math.sin(th) * (ref.y_m - float(pose[1]))
         mean = 0.5 * (left + right)
         if mean * ahead < 0.0:
             return left - mean, right - mean
@@ -242,9 +241,10 @@ class CommandShaper:
             self._previous = np.array(wheel_speed_m_s, dtype=np.float64)
         elif window is not None:
             u, a_step = self._previous, self.max_step_m_s
-            lo, hi = window.lower_m_s, window.upper_m_s
-            u[0] = min(max(float(u[0]), float(lo[0]) - a_step), float(hi[0]) + a_step)
-            u[1] = min(max(float(u[1]), float(lo[1]) - a_step), float(hi[1]) + a_step)
+            (lo_l, lo_r), (hi_l, hi_r) = window.lower_m_s, window.upper_m_s
+            u_l, u_r = u.tolist()
+            u[0] = clamp(u_l, lo_l - a_step, hi_l + a_step)
+            u[1] = clamp(u_r, lo_r - a_step, hi_r + a_step)
         return self._previous
 
     def __call__(self, step: HorizonStep, left: float, right: float) -> tuple[float, float]:
@@ -252,12 +252,14 @@ class CommandShaper:
         the next step's previous command."""
         for rule in self.rules:
             left, right = rule(step, left, right)
-        if step.window is not None:
-            lo, hi = step.window.lower_m_s, step.window.upper_m_s
-            left = min(max(left, float(lo[0])), float(hi[0]))
-            right = min(max(right, float(lo[1])), float(hi[1]))
+        window = step.window
+        if window is not None:
+            (lo_l, lo_r), (hi_l, hi_r) = window.lower_m_s, window.upper_m_s
+            left = clamp(left, lo_l, hi_l)
+            right = clamp(right, lo_r, hi_r)
         u = step.previous_m_s
-        left = limit_command(left, u[0], self.max_wheel_speed_m_s, self.max_step_m_s)
-        right = limit_command(right, u[1], self.max_wheel_speed_m_s, self.max_step_m_s)
+        u_l, u_r = u.tolist()
+        left = limit_command(left, u_l, self.max_wheel_speed_m_s, self.max_step_m_s)
+        right = limit_command(right, u_r, self.max_wheel_speed_m_s, self.max_step_m_s)
         u[0], u[1] = left, right
         return left, right
