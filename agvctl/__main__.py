@@ -11,22 +11,19 @@ import signal
 import sys
 import time
 
+from agvctl.errors import caused_by_interrupt, note_interrupt
+
 __all__ = ["EXIT_INTERRUPTED", "console"]
 
 EXIT_INTERRUPTED = 130
 """The exit code after SIGINT (Ctrl-C), 128 + 2 as shells report it."""
 
 
-def _interrupted(exc: BaseException | None) -> bool:
-    """``exc`` is a KeyboardInterrupt or was caused by one: an interrupt inside an import can surface as another
-    error (say a RuntimeError from a class being created) with the KeyboardInterrupt as its cause."""
-    seen: set[int] = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, KeyboardInterrupt):
-            return True
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
-    return False
+def _on_sigint(signum: int, frame: object) -> None:
+    """SIGINT: noted (so that whatever error it turns into on its way out is known for it), then raised as Python's
+    default handler raises it."""
+    note_interrupt()
+    raise KeyboardInterrupt
 
 
 def _send_interrupt(delay_s: float) -> None:
@@ -38,7 +35,7 @@ def _redeliver(args: sys.UnraisableHookArgs) -> None:
     """An interrupt that lands in a finaliser or a weak-reference callback is "ignored" by Python (printed, and the
     command goes on): deliver it again, so that it interrupts the command where that can be handled. Any other
     unraisable exception is reported as Python does."""
-    if _interrupted(args.exc_value):  # sent again from another thread, once this hook has returned
+    if caused_by_interrupt(args.exc_value):  # sent again from another thread, once this hook has returned
         _thread.start_new_thread(_send_interrupt, (0.01,))
         return
     sys.__unraisablehook__(args)
@@ -50,7 +47,7 @@ def _main() -> int:
 
         return main()
     except BaseException as exc:
-        if not _interrupted(exc):
+        if not caused_by_interrupt(exc):
             raise
         print("agvctl: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -60,6 +57,7 @@ def console() -> None:
     """Run the CLI and exit with its code. Once the command is done (its outputs written and its report printed),
     SIGINT is ignored: the interpreter's shutdown is not an interruption of the command."""
     sys.unraisablehook = _redeliver
+    signal.signal(signal.SIGINT, _on_sigint)
     code = _main()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if code == EXIT_INTERRUPTED:

@@ -9,7 +9,15 @@ from __future__ import annotations
 import traceback
 from pathlib import Path
 
-__all__ = ["AgvctlError", "ConfigError", "PlanningError", "exception_line", "expect_instance"]
+__all__ = [
+    "AgvctlError",
+    "ConfigError",
+    "PlanningError",
+    "caused_by_interrupt",
+    "exception_line",
+    "expect_instance",
+    "note_interrupt",
+]
 
 
 class AgvctlError(Exception):
@@ -105,3 +113,41 @@ def expect_instance(value: object, cls: type | tuple[type, ...], source: str, ar
         raise ConfigError(
             source, argument, f"expected a {names} (got {shown if len(shown) <= 60 else shown[:59] + '…'})"
         )
+
+
+_INTERRUPTS = {"noted": False}
+"""Whether the command line noted an interrupt (SIGINT) in this process (:func:`note_interrupt`)."""
+
+
+def note_interrupt() -> None:
+    """Note that this process was interrupted (SIGINT). The command line's SIGINT handler calls it before raising
+    ``KeyboardInterrupt``, so that an error a library raises instead while the interrupt unwinds it (matplotlib's
+    drawing can turn one into a ``ValueError``) is still known for an interruption (:func:`caused_by_interrupt`)."""
+    _INTERRUPTS["noted"] = True
+
+
+def caused_by_interrupt(exc: BaseException | None) -> bool:
+    """Whether ``exc`` comes from an interrupt: a ``KeyboardInterrupt``, an exception caused by one (an interrupt
+    inside an import can surface as another error with the interrupt as its cause), or any exception after the
+    command line noted an interrupt (:func:`note_interrupt`).
+
+    Parameters
+    ----------
+    exc : BaseException or None
+        The exception caught.
+
+    Returns
+    -------
+    bool
+        True if it is, or follows, an interrupt: the caller lets it stop the command rather than report it as a
+        run's error.
+    """
+    if exc is not None and _INTERRUPTS["noted"]:
+        return True
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False

@@ -128,3 +128,28 @@ def test_an_interrupt_lost_in_a_finaliser_is_delivered_again() -> None:
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert proc.stdout == "interrupted\n" and proc.stderr == "", proc
+
+
+def test_an_error_raised_while_an_interrupt_unwinds_stops_the_command_instead_of_being_a_runs_error(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A library may turn the KeyboardInterrupt passing through it into another error (matplotlib's drawing raises a
+    ValueError): after the command line noted the interrupt, that error stops the command, it is not one run's
+    result."""
+    from agvctl import errors
+    from agvctl.checks.executors import InlineExecutor
+
+    def drawing() -> None:
+        raise ValueError("Invalid bounding box")
+
+    monkeypatch.setitem(errors._INTERRUPTS, "noted", False)
+    assert not errors.caused_by_interrupt(ValueError("a run's own error"))
+    assert InlineExecutor().submit(drawing).exception() is not None  # a run's error, kept in its future
+    try:
+        raise RuntimeError("class creation failed") from KeyboardInterrupt()
+    except RuntimeError as exc:
+        assert errors.caused_by_interrupt(exc)
+    errors.note_interrupt()
+    assert errors.caused_by_interrupt(ValueError("Invalid bounding box"))
+    with pytest.raises(ValueError):
+        InlineExecutor().submit(drawing)

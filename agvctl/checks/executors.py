@@ -18,7 +18,7 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
 from typing import Any, Literal, TypeVar
 
-from agvctl.errors import ConfigError
+from agvctl.errors import ConfigError, caused_by_interrupt
 
 __all__ = ["MAX_JOBS", "ExecutorKind", "InlineExecutor", "execute", "open_executor", "resolved_jobs"]
 
@@ -82,6 +82,8 @@ class InlineExecutor(Executor):
         try:
             future.set_result(fn(*args, **kwargs))
         except Exception as exc:  # as a worker's: the task's error, in its future
+            if caused_by_interrupt(exc):  # an interrupt that surfaced as another error stops the command
+                raise
             future.set_exception(exc)
         return future
 

@@ -33,7 +33,7 @@ from agvctl.checks.executors import (
 )
 from agvctl.checks.report import CheckReport, ExperimentReport, Overrides, RunOutcome, RunTask, worst_run_verdicts
 from agvctl.config import check_key, document_fields, to_dict
-from agvctl.errors import ConfigError, exception_line
+from agvctl.errors import ConfigError, caused_by_interrupt, exception_line
 from agvctl.evaluation.limits import LimitResult, evaluate_limits
 from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.params import SIDES, VehicleParams
@@ -176,6 +176,8 @@ def run_task(task: RunTask, render: RunRender | None = None) -> RunOutcome:
     try:
         return _run(task, t0, render)
     except Exception as exc:  # a run that raised is that run's result, reported with its experiment
+        if caused_by_interrupt(exc):  # an interrupt that surfaced as another error stops the command
+            raise
         return run_error(task, exc, time.perf_counter() - t0)
 
 

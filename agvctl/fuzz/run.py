@@ -35,7 +35,7 @@ import numpy as np
 
 from agvctl.checks.executors import ExecutorKind, execute, open_executor, resolved_jobs
 from agvctl.config import document_fields
-from agvctl.errors import ConfigError, exception_line
+from agvctl.errors import ConfigError, caused_by_interrupt, exception_line
 from agvctl.evaluation.limits import LimitResult, evaluate_limits
 from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.fuzz.generate import generate_scenario, scenario_files
@@ -118,6 +118,8 @@ def run_fuzz_task(task: FuzzTask) -> FuzzOutcome:
             )
             error = _non_finite(result.log, metrics)
         except Exception as exc:  # any crash of a run is a finding, reported with its scenario
+            if caused_by_interrupt(exc):  # an interrupt that surfaced as another error stops the command
+                raise
             error = exception_line(exc)
     notes = tuple(sorted({_one_line(f"{w.category.__name__}: {w.message}") for w in caught}))
     passed = error is None and all(r.passed and not math.isnan(r.value) for r in limits)
