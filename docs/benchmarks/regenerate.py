@@ -5,7 +5,7 @@ command that produced it, the date and the machine. The tables are never edited 
 
     python docs/benchmarks/regenerate.py            # the quick settings below (a few minutes)
     python docs/benchmarks/regenerate.py --full     # each script's own defaults (much longer)
-    python docs/benchmarks/regenerate.py --only plant,mpc
+    python docs/benchmarks/regenerate.py --only plant,mpc   # those sections again, the others kept
 
 The docs build does not run the benchmarks; it shows the committed results file.
 """
@@ -94,16 +94,32 @@ def run_one(name: str, full: bool) -> str:
     )
 
 
+def existing_sections() -> dict[str, str]:
+    """The sections of the results page as it is, by benchmark name (empty if there is no page yet)."""
+    if not OUT.exists():
+        return {}
+    sections: dict[str, str] = {}
+    for chunk in OUT.read_text(encoding="utf-8").split("\n## ")[1:]:
+        name = chunk.split("\n", 1)[0].strip()
+        if name in BENCHMARKS:
+            sections[name] = "## " + chunk.rstrip("\n") + "\n"
+    return sections
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--full", action="store_true", help="each script's own defaults instead of the quick settings")
     ap.add_argument("--only", default=None, help="comma-separated benchmark names (default: all)")
     args = ap.parse_args()
     names = args.only.split(",") if args.only else list(BENCHMARKS)
-    sections = []
+    unknown = sorted(set(names) - set(BENCHMARKS))
+    if unknown:
+        ap.error(f"--only: no benchmark named {', '.join(unknown)} (known: {', '.join(BENCHMARKS)})")
+    kept = existing_sections() if args.only else {}  # --only replaces its sections and keeps the others
     for name in names:
         print(f"running {name} ...", file=sys.stderr, flush=True)
-        sections.append(run_one(name, args.full))
+        kept[name] = run_one(name, args.full)
+    sections = [kept[name] for name in BENCHMARKS if name in kept]
     mode = "each script's own settings" if args.full else "the quick settings of `regenerate.py` (fewer repeats)"
     header = (
         "# Benchmark results\n\n"
