@@ -21,6 +21,7 @@ __all__ = [
     "WheelReach",
     "actuator_headroom",
     "feasible_wheel_limits",
+    "feedback_accel_m_s2",
     "no_default_limit_reasons",
     "torque_accel_limit_m_s2",
     "wheel_accel_reach_m_s2",
@@ -299,6 +300,29 @@ def actuator_headroom(
         worst_i = max(worst_i, float(np.max(np.abs(current), initial=0.0)) / i_max)
         worst_u = max(worst_u, float(np.max(np.abs(voltage), initial=0.0)) / u_fs)
     return 1.0 - worst_i, 1.0 - worst_u
+
+
+def feedback_accel_m_s2(vehicle: VehicleParams, current_headroom: float = CURRENT_HEADROOM) -> float:
+    """The rim acceleration the current a plan leaves to the feedback gives a wheel: eq 5's drive with
+    ``current_headroom``·I_max (friction is already paid by the plan's share), the smaller of the two sides'.
+
+    A plan at the acceleration a_p leaves the feedback this much more, a_p + this, up to eq 5's a_lim: for the
+    default limits of :func:`feasible_wheel_limits` the two add up to a_lim (0.42 + 0.23 = 0.66 m/s² for the IAU AGV).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle: each side's motor constants, gear ratio and wheel radius, its mass and the current limit I_max.
+    current_headroom : float
+        The fraction of I_max left to the feedback.
+
+    Returns
+    -------
+    float
+        The acceleration, m/s².
+    """
+    i_max = vehicle.amplifier.current_limit_a
+    return min(current_headroom * i_max * s.k_t / s.j_tot * s.r_over_n for s in _sides(vehicle))
 
 
 def torque_accel_limit_m_s2(vehicle: VehicleParams) -> float:

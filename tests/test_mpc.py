@@ -17,9 +17,11 @@ from agvctl.controllers.mpc.fallback import limit_command
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.nonlinear import NonlinearMpcController
 from agvctl.errors import ConfigError
+from agvctl.feasibility import feedback_accel_m_s2
 from agvctl.params import VehicleParams
-from agvctl.planning import plan_file
+from agvctl.planning import PathLimits, PathSpec, plan, plan_file
 from agvctl.planning.reference import Reference
+from agvctl.planning.spec import LineSegment
 
 ROOT = Path(__file__).resolve().parents[1]
 PLANT_TIME_CONSTANT_S = 0.12
@@ -159,6 +161,34 @@ def test_wheel_speed_and_acceleration_limits_hold(vehicle: VehicleParams, line: 
         pose = pose + T * np.array([U * math.cos(mid), U * math.sin(mid), omega])
     assert peak_rate > 0.99 * a_step  # the acceleration limit was reached, so the check above meant something
     assert peak_speed > 0.499  # and so was the speed limit
+
+
+@pytest.mark.parametrize("controller", [LtvMpcController, NonlinearMpcController])
+def test_setpoints_change_no_faster_than_the_paths_own_limit_plus_the_feedbacks_share(
+    vehicle: VehicleParams, controller: Any
+) -> None:
+    """A path planned at 0.2 m/s² for its load, started 3 cm and 2° off: the setpoints change by at most 0.2 m/s²
+    plus what the planner's 20 % current headroom gives (eq 5) per sample, the start's correction included; a path
+    at the default limits keeps eq 5's a_lim, which the default limits and that share add up to."""
+    T = vehicle.control.sample_period_s
+    share = feedback_accel_m_s2(vehicle)
+    gentle = plan(
+        PathSpec(segments=(LineSegment(length_m=1.0),), name="gentle", limits=PathLimits(wheel_accel_m_s2=0.2)),
+        vehicle,
+    )
+    ctrl = controller(vehicle)
+    ctrl.reset(plan(PathSpec(segments=(LineSegment(length_m=1.0),)), vehicle))
+    assert ctrl.max_wheel_accel_m_s2 == vehicle.derived.accel_limit_m_s2
+    ctrl.reset(gentle)
+    assert ctrl.max_wheel_accel_m_s2 == pytest.approx(0.2 + share)
+    assert controller(vehicle, MpcConfig(max_wheel_accel_m_s2=0.6)).max_wheel_accel_m_s2 == 0.6  # set: kept
+    if controller is NonlinearMpcController:
+        return
+    _, _, commands, statuses = closed_loop(ctrl, gentle, vehicle, start=(0.0, 0.03, math.radians(2.0)), duration_s=3)
+    rates = np.abs(np.diff(np.vstack([np.zeros(2), commands]), axis=0)) / T
+    assert set(statuses) == {"solved"}
+    assert np.max(rates) <= (0.2 + share) * (1 + 1e-9)
+    assert np.max(rates) > 0.99 * (0.2 + share)  # the correction used the bound, so the check above meant something
 
 
 def test_first_move_from_speed_above_limit_is_feasible(vehicle: VehicleParams, line: Reference) -> None:

@@ -329,3 +329,18 @@ def test_window_versions_change_exactly_where_a_windows_data_does() -> None:
         )
         assert (versions[k] == versions[k - 1]) == same, k
     assert versions[0] == 0 and np.all(np.diff(versions) >= 0)
+
+
+def test_docking_accelerates_no_harder_than_the_path_it_completes(vehicle: VehicleParams) -> None:
+    """A path planned at 0.2 m/s² for its load is docked at 0.2, not at the manoeuvre's own 0.3."""
+    gentle = plan(
+        PathSpec(segments=(LineSegment(length_m=1.0),), name="gentle", limits=PathLimits(wheel_accel_m_s2=0.2)),
+        vehicle,
+    )
+    docking = Docking(vehicle, DockingConfig())
+    for reference, accel in ((gentle, 0.2), (plan(PathSpec(segments=(LineSegment(length_m=1.0),)), vehicle), 0.3)):
+        docking.reset(reference)
+        final = reference.final_pose
+        manoeuvre = docking.plan(np.array([final.x_m, final.y_m + 0.02, final.theta_rad]))
+        assert manoeuvre is not None
+        assert manoeuvre.limits.wheel_accel_m_s2 == pytest.approx(accel)

@@ -14,6 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from agvctl.config import load_toml
+from agvctl.feasibility import feedback_accel_m_s2
 from agvctl.planning import (
     ArcSegment,
     LineSegment,
@@ -355,6 +356,16 @@ def test_programmatic_path_spec_and_start_pose(vehicle):
     spec = PathSpec(segments=[LineSegment(length_m=1.0)], start=StartPose(1.0, 2.0, 90.0))
     pose = plan(spec, vehicle).final_pose
     assert (pose.x_m, pose.y_m, pose.theta_rad) == pytest.approx((1.0, 3.0, math.pi / 2), abs=1e-12)
+
+
+def test_the_feedbacks_share_is_the_current_the_default_limits_leave(vehicle):
+    # 20 % of I_max accelerates a wheel by k_t 0.2 I_max r/(J_tot N) (eq 5, friction already paid by the plan): the
+    # default limits' acceleration and this share add up to a_lim of eq 5
+    k_t, n, r = 0.027, 36.0, 0.1
+    j_tot = 2.5e-5 + 0.5 * 85.0 * r**2 / n**2  # eq 5
+    assert feedback_accel_m_s2(vehicle) == pytest.approx(k_t * 0.2 * 5.5 / j_tot * r / n, rel=1e-12)
+    default = plan(PathSpec(segments=[LineSegment(length_m=1.0)]), vehicle).limits.wheel_accel_m_s2
+    assert default + feedback_accel_m_s2(vehicle) == pytest.approx(vehicle.derived.accel_limit_m_s2, rel=1e-12)
 
 
 def test_default_limits_come_from_the_vehicle(vehicle):

@@ -44,7 +44,7 @@ from agvctl.controllers.mpc.shaping import (
     ReachWindow,
     TowardTurningPoint,
 )
-from agvctl.feasibility import WheelReach
+from agvctl.feasibility import WheelReach, feedback_accel_m_s2
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 
@@ -88,6 +88,8 @@ class MpcStepper:
         self.sample_period_s = vehicle.control.sample_period_s
         self.separation_m = vehicle.wheels.separation_m
         self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 = resolved_limits(c, vehicle)
+        self._vehicle_accel_m_s2 = self.max_wheel_accel_m_s2
+        self._feedback_accel_m_s2 = feedback_accel_m_s2(vehicle)
         self._lead_factor_s = lead_factor_s(c, self.sample_period_s)
         self._reach = WheelReach(vehicle)
         self._window = ReachWindow(self._reach, self._lead_factor_s, self.max_wheel_speed_m_s)
@@ -131,7 +133,14 @@ class MpcStepper:
         return grid
 
     def reset(self, reference: Reference) -> None:
-        """Start tracking ``reference`` (precomputes its horizon data; clears warm starts and fallbacks)."""
+        """Start tracking ``reference`` (precomputes its horizon data; clears warm starts and fallbacks). Unless the
+        settings fix a_lim, the setpoints change no faster than the reference's own acceleration limit plus what
+        the planner leaves to the feedback (:func:`~agvctl.feasibility.feedback_accel_m_s2`), at most eq 5's a_lim:
+        a path planned gently for its load is tracked gently, start-up corrections, turns and stops included."""
+        if self.config.max_wheel_accel_m_s2 is None:
+            planned = reference.limits.wheel_accel_m_s2 + self._feedback_accel_m_s2
+            self.max_wheel_accel_m_s2 = min(self._vehicle_accel_m_s2, planned)
+            self._shaper.max_step_m_s = self.max_wheel_accel_m_s2 * self.sample_period_s
         grid = self._track(reference)
         self._shaper.reset(grid)
         self._end.reset(reference)

@@ -77,7 +77,10 @@ class MpcConfig:
     max_wheel_accel_m_s2: float | None = number(
         gt=0,
         default=None,
-        doc="a_lim, the largest change of a setpoint per sample over T_s (None: the vehicle's eq-5 limit), m/s².",
+        doc=(
+            "a_lim, the largest change of a setpoint per sample over T_s (None: the reference's own acceleration limit"
+            " plus what the planner leaves to the feedback, at most the vehicle's eq-5 limit), m/s²."
+        ),
     )
     max_solve_time_s: float | None = number(gt=0, default=None)
     """The solver's wall-time limit per step, s. None (default): no wall-clock limit, so a simulation gives the
@@ -205,7 +208,8 @@ def resolved_limits(config: MpcConfig, vehicle: VehicleParams) -> tuple[float, f
     max_wheel_speed_m_s : float
         v_max, the largest setpoint of either wheel, m/s.
     max_wheel_accel_m_s2 : float
-        a_lim, the largest change of a setpoint per sample over T_s, m/s².
+        a_lim, the largest change of a setpoint per sample over T_s (unless set, the ceiling the reference's own
+        limit narrows: :meth:`~agvctl.controllers.mpc.common.MpcStepper.reset`), m/s².
     """
     d = vehicle.derived
     v_max = config.max_wheel_speed_m_s if config.max_wheel_speed_m_s is not None else d.max_speed_m_s

@@ -45,7 +45,11 @@ class DockingConfig:
         "beyond which to dock, m.",
     )
     speed_m_s: float = number(gt=0, default=0.15, doc="The wheel-speed limit the manoeuvre is planned at, m/s.")
-    accel_m_s2: float = number(gt=0, default=0.3, doc="The wheel-acceleration limit the manoeuvre is planned at, m/s².")
+    accel_m_s2: float = number(
+        gt=0,
+        default=0.3,
+        doc="The wheel-acceleration limit the manoeuvre is planned at (at most the path's own), m/s².",
+    )
     max_deviation_m: float = number(
         gt=0,
         default=0.01,
@@ -86,6 +90,7 @@ class Docking:
         self._last_length_m = 0.0
         self._left = 0
         self._covariance = np.zeros((3, 3))
+        self._accel_m_s2 = self.config.accel_m_s2
 
     def observe(self, covariance: NDArray[np.float64]) -> None:
         """The pose estimate's 3×3 covariance (m², m rad, rad²) at this sample; zero (the default) for a known pose."""
@@ -99,6 +104,7 @@ class Docking:
     def reset(self, reference: Reference) -> None:
         """Start a run on ``reference``: where its last drive ends, its heading there and the turns after it."""
         self._covariance = np.zeros((3, 3))
+        self._accel_m_s2 = min(self.config.accel_m_s2, reference.limits.wheel_accel_m_s2)
         path_motions = [m for m in reference.motions if m.kind == "path"]
         self._left = self.config.attempts if path_motions else 0
         if not path_motions:
@@ -164,7 +170,7 @@ class Docking:
             segments=tuple(segments),
             name="docking",
             start=StartPose(x_m=float(x), y_m=float(y), theta_deg=math.degrees(float(theta))),
-            limits=PathLimits(wheel_speed_m_s=c.speed_m_s, wheel_accel_m_s2=c.accel_m_s2),
+            limits=PathLimits(wheel_speed_m_s=c.speed_m_s, wheel_accel_m_s2=self._accel_m_s2),
             join="stop",
         )
         return plan(spec, self.vehicle)

@@ -124,6 +124,7 @@ class NonlinearMpcController(MpcStepper):
 
     def _retarget(self, reference: Reference) -> HorizonReference:
         """Sample ``reference``'s horizon grid; forget the warm start."""
+        self._rate_bounds()
         self._w0 = None
         self._last_k = -1
         return HorizonReference(reference, self.config, self.sample_period_s)
@@ -169,17 +170,21 @@ class NonlinearMpcController(MpcStepper):
             },
         }
         self._solver = ca.nlpsol("nmpc", "ipopt", {"x": w, "p": p, "f": cost, "g": ca.vertcat(*g)}, options)
-        n_dyn = nx
-        lbg, ubg = [], []
-        a_step = self.max_wheel_accel_m_s2 * self.sample_period_s
-        for _ in range(N):
-            lbg += [0.0] * n_dyn + [-a_step, -a_step]
-            ubg += [0.0] * n_dyn + [a_step, a_step]
-        self._lbg, self._ubg = np.array(lbg), np.array(ubg)
+        self._rate_bounds()
         v_max = self.max_wheel_speed_m_s
         self._lbw = np.concatenate([np.full(nx * N, -np.inf), np.full(2 * N, -v_max)])
         self._ubw = np.concatenate([np.full(nx * N, np.inf), np.full(2 * N, v_max)])
         self._n_states = nx * N
+
+    def _rate_bounds(self) -> None:
+        """The constraint bounds: each prediction step's dynamics (= 0) and setpoint rates (within ±a_lim T_s)."""
+        a_step = self.max_wheel_accel_m_s2 * self.sample_period_s
+        lbg: list[float] = []
+        ubg: list[float] = []
+        for _ in range(self.config.horizon):
+            lbg += [0.0] * self.nx + [-a_step, -a_step]
+            ubg += [0.0] * self.nx + [a_step, a_step]
+        self._lbg, self._ubg = np.array(lbg), np.array(ubg)
 
     # -- one step -----------------------------------------------------------------------------------------
 
