@@ -10,6 +10,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvctl.actuator import full_scale_voltage_v
 from agvctl.config import document_fields
+from agvctl.errors import ConfigError, expect_instance
 from agvctl.params import SIDES, VehicleParams
 
 __all__ = [
@@ -74,6 +75,15 @@ def _sides(vehicle: VehicleParams) -> tuple[_Side, _Side]:
     return out[0], out[1]
 
 
+def _check_headroom(value: object, source: str, argument: str) -> float:
+    """A headroom fraction: a real number in [0, 1)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(source, argument, f"expected a number (got {value!r})")
+    if not 0.0 <= float(value) < 1.0:
+        raise ConfigError(source, argument, f"must be in [0, 1) (got {value!r})")
+    return float(value)
+
+
 class WheelReach:
     """The largest rim accelerations each wheel can reach at its rim speed.
 
@@ -89,6 +99,7 @@ class WheelReach:
     """
 
     def __init__(self, vehicle: VehicleParams) -> None:
+        expect_instance(vehicle, VehicleParams, "WheelReach", "vehicle")
         sides = _sides(vehicle)
 
         def field(name: str) -> NDArray[np.float64]:
@@ -154,6 +165,7 @@ def wheel_accel_reach_m_s2(
     down_m_s2 : ndarray
         The largest acceleration towards −v, at least 0: the mirror image, down(v) = up(−v), m/s².
     """
+    expect_instance(vehicle, VehicleParams, "wheel_accel_reach_m_s2", "vehicle")
     return WheelReach(vehicle).accel_m_s2(wheel_speed_m_s)
 
 
@@ -195,7 +207,16 @@ def feasible_wheel_limits(
     FeasibleLimits
         The limits, zero where the vehicle cannot meet them (:func:`no_default_limit_reasons` says why), and the
         headrooms.
+
+    Raises
+    ------
+    ConfigError
+        ``feasible_wheel_limits: <argument>: <problem>``: a vehicle that is not a :class:`VehicleParams`, or a
+        headroom that is not a number in [0, 1).
     """
+    expect_instance(vehicle, VehicleParams, "feasible_wheel_limits", "vehicle")
+    current_headroom = _check_headroom(current_headroom, "feasible_wheel_limits", "current_headroom")
+    voltage_headroom = _check_headroom(voltage_headroom, "feasible_wheel_limits", "voltage_headroom")
     u_fs, i_max = full_scale_voltage_v(vehicle), vehicle.amplifier.current_limit_a
     accels, speeds = [], []
     for s in _sides(vehicle):
@@ -234,6 +255,8 @@ def no_default_limit_reasons(vehicle: VehicleParams, limits: FeasibleLimits) -> 
         A sentence for each zero limit, naming the vehicle keys behind it, by the path-file key the limit is the
         default of (``wheel_speed_m_s``, ``wheel_accel_m_s2``); empty when both are positive.
     """
+    expect_instance(vehicle, VehicleParams, "no_default_limit_reasons", "vehicle")
+    expect_instance(limits, FeasibleLimits, "no_default_limit_reasons", "limits")
     reasons: dict[str, str] = {}
     u_fs, i_max = full_scale_voltage_v(vehicle), vehicle.amplifier.current_limit_a
     sides = _sides(vehicle)
@@ -288,6 +311,7 @@ def actuator_headroom(
     voltage : float
         1 − max ``|u|``/u_fs (negative: the amplifier cannot deliver the voltage).
     """
+    expect_instance(vehicle, VehicleParams, "actuator_headroom", "vehicle")
     v = np.asarray(wheel_speed_m_s, dtype=np.float64)
     a = np.asarray(wheel_accel_m_s2, dtype=np.float64)
     u_fs, i_max = full_scale_voltage_v(vehicle), vehicle.amplifier.current_limit_a
@@ -320,9 +344,17 @@ def feedback_accel_m_s2(vehicle: VehicleParams, current_headroom: float = CURREN
     -------
     float
         The acceleration, m/s².
+
+    Raises
+    ------
+    ConfigError
+        ``feedback_accel_m_s2: <argument>: <problem>``: a vehicle that is not a :class:`VehicleParams`, or a
+        headroom that is not a number in [0, 1).
     """
+    expect_instance(vehicle, VehicleParams, "feedback_accel_m_s2", "vehicle")
+    share = _check_headroom(current_headroom, "feedback_accel_m_s2", "current_headroom")
     i_max = vehicle.amplifier.current_limit_a
-    return min(current_headroom * i_max * s.k_t / s.j_tot * s.r_over_n for s in _sides(vehicle))
+    return min(share * i_max * s.k_t / s.j_tot * s.r_over_n for s in _sides(vehicle))
 
 
 def torque_accel_limit_m_s2(vehicle: VehicleParams) -> float:
@@ -347,6 +379,7 @@ def torque_accel_limit_m_s2(vehicle: VehicleParams) -> float:
     float
         The bound, m/s².
     """
+    expect_instance(vehicle, VehicleParams, "torque_accel_limit_m_s2", "vehicle")
     d, m = vehicle.derived, vehicle.motor
     mass = np.array([[m.left.inertia_kg_m2 + d.k_ll, d.k_lr], [d.k_lr, m.right.inertia_kg_m2 + d.k_rr]])
     torque = np.array([m.left.torque_constant_n_m_a, m.right.torque_constant_n_m_a]) * vehicle.amplifier.current_limit_a

@@ -15,6 +15,15 @@ import pytest
 from agvctl.calibration import read_umbmark_log
 from agvctl.errors import ConfigError
 from agvctl.estimation.offline import read_log
+from agvctl.feasibility import (
+    WheelReach,
+    actuator_headroom,
+    feasible_wheel_limits,
+    feedback_accel_m_s2,
+    no_default_limit_reasons,
+    torque_accel_limit_m_s2,
+    wheel_accel_reach_m_s2,
+)
 from agvctl.log import SimLog
 from agvctl.params import ControlParams, FrictionModelParams, MotorParams, SensorParams, WheelSide
 from agvctl.planning import ArcSegment, LineSegment, TurnSegment, WheelLimits, plan_segments
@@ -142,3 +151,24 @@ def test_a_calibration_log_error_names_the_line_in_the_file_after_comment_lines(
     runs.write_text("# hall B\ndirection,x_m,y_m\ncw,0.1,0.2\nleft,0.1,0.1\n")
     with pytest.raises(ConfigError, match=r"runs.csv: line 4: direction must be cw or ccw \(got 'left'\)"):
         read_umbmark_log(runs)
+
+
+@pytest.mark.parametrize(
+    ("call", "line"),
+    [
+        (lambda v: feasible_wheel_limits("vehicle"), "feasible_wheel_limits: vehicle: expected a VehicleParams"),
+        (lambda v: feasible_wheel_limits(v, current_headroom=1.0), "feasible_wheel_limits: current_headroom: must be"),
+        (lambda v: feasible_wheel_limits(v, voltage_headroom="x"), "feasible_wheel_limits: voltage_headroom: expected"),
+        (lambda v: feedback_accel_m_s2(None), "feedback_accel_m_s2: vehicle: expected a VehicleParams"),
+        (lambda v: feedback_accel_m_s2(v, current_headroom=-0.1), "feedback_accel_m_s2: current_headroom: must be"),
+        (lambda v: torque_accel_limit_m_s2(3), "torque_accel_limit_m_s2: vehicle: expected a VehicleParams"),
+        (lambda v: actuator_headroom("v", [[0.0, 0.0]], [[0.0, 0.0]]), "actuator_headroom: vehicle: expected a"),
+        (lambda v: WheelReach({}), "WheelReach: vehicle: expected a VehicleParams"),
+        (lambda v: wheel_accel_reach_m_s2(1.0, [0.0, 0.0]), "wheel_accel_reach_m_s2: vehicle: expected a"),
+        (lambda v: no_default_limit_reasons(v, None), "no_default_limit_reasons: limits: expected a FeasibleLimits"),
+    ],
+)
+def test_the_feasibility_functions_refuse_a_bad_argument_naming_it(vehicle: Any, call: Any, line: str) -> None:
+    with pytest.raises(ConfigError) as info:
+        call(vehicle)
+    assert line in str(info.value) and "\n" not in str(info.value)
