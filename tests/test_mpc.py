@@ -191,6 +191,28 @@ def test_setpoints_change_no_faster_than_the_paths_own_limit_plus_the_feedbacks_
     assert np.max(rates) > 0.99 * (0.2 + share)  # the correction used the bound, so the check above meant something
 
 
+def test_a_small_start_error_blends_into_driving_off_and_a_large_one_still_turns_a_wheel_backwards(
+    vehicle: VehicleParams, line: Reference
+) -> None:
+    """The reversal weight: from 3 cm and 2° off, the correction drives both wheels forward (without the weight one
+    runs backwards at several cm/s) and removes the offset no slower; from 20° off a wheel still turns backwards, as
+    turning on the spot is what such an error needs."""
+
+    def run(weight: float, heading_deg: float, lateral_m: float) -> tuple[float, float]:
+        ctrl = LtvMpcController(vehicle, MpcConfig(weight_reversal=weight))
+        start = (0.0, lateral_m, math.radians(heading_deg))
+        _, errors, commands, statuses = closed_loop(ctrl, line, vehicle, start=start, duration_s=3)
+        assert set(statuses) == {"solved"}
+        return float(np.min(commands)), float(np.max(errors[25:]))  # the slowest wheel; the error after 1 s
+
+    slowest, error = run(MpcConfig().weight_reversal, 2.0, 0.03)
+    slowest_without, error_without = run(0.0, 2.0, 0.03)
+    assert slowest > -0.005
+    assert slowest_without < -0.03
+    assert error <= error_without + 1e-3
+    assert run(MpcConfig().weight_reversal, 20.0, 0.0)[0] < -0.05
+
+
 def test_first_move_from_speed_above_limit_is_feasible(vehicle: VehicleParams, line: Reference) -> None:
     """Measured wheel speeds beyond v_max + a_lim·T_s at reset would make a hard first move infeasible."""
     ctrl = LtvMpcController(vehicle)

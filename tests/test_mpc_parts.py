@@ -12,7 +12,7 @@ import scipy.sparse as sp
 from agvctl.controllers.mpc.config import MpcConfig, lead_factor_s, resolved_config
 from agvctl.controllers.mpc.docking import Docking, DockingConfig, EndOfPath
 from agvctl.controllers.mpc.governor import ReferenceGovernor
-from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
+from agvctl.controllers.mpc.horizon import HorizonReference, heading_direction, turning_in_place
 from agvctl.controllers.mpc.ltv_qp import QpLayout, constraint_pattern, cost_matrix, window_versions
 from agvctl.controllers.mpc.shaping import (
     CommandShaper,
@@ -294,12 +294,13 @@ def test_docking_undoes_the_final_turns_in_place_the_short_way_round(vehicle: Ve
 # -- the QP ----------------------------------------------------------------------------------------------------
 
 
+@pytest.mark.parametrize("M", [0, 4])
 @pytest.mark.parametrize("wheel_loop", [False, True])
-def test_qp_layout_rows_follow_the_variables_and_the_matrices_fit_it(wheel_loop: bool) -> None:
+def test_qp_layout_rows_follow_the_variables_and_the_matrices_fit_it(wheel_loop: bool, M: int) -> None:
     N, nx = 6, (5 if wheel_loop else 3)
-    layout = QpLayout(horizon=N, n_states=nx, wheel_loop=wheel_loop)
-    assert layout.n_variables == N * nx + 2 * N
-    expected_rows = N * nx + 2 * N + 2 * (N - 1) + 2 + (2 * (N - 1) if wheel_loop else 0)
+    layout = QpLayout(horizon=N, n_states=nx, wheel_loop=wheel_loop, reversal_samples=M)
+    assert layout.n_variables == N * nx + 2 * N + 2 * M
+    expected_rows = N * nx + 2 * N + 2 * (N - 1) + 2 + (2 * (N - 1) if wheel_loop else 0) + 6 * M
     assert layout.n_rows == expected_rows
     A, pos_A, pos_B = constraint_pattern(layout)
     assert A.shape == (layout.n_rows, layout.n_variables)
@@ -311,6 +312,20 @@ def test_qp_layout_rows_follow_the_variables_and_the_matrices_fit_it(wheel_loop:
     assert sp.tril(P, k=-1).nnz == 0  # upper triangle, as OSQP takes it
     full = (P + sp.triu(P, k=1).T).toarray()
     assert np.all(np.linalg.eigvalsh(full) > -1e-12)  # convex
+    if M:  # each slack r_i of the first M samples: r_i + δs_i, r_i − δs_i and r_i alone
+        rows = A.toarray()[layout.r_reversal :]
+        slacks, setpoints = rows[:, layout.i_slacks :], rows[:, layout.i_setpoints : layout.i_slacks]
+        eye, first = np.eye(2 * M), np.eye(2 * M, 2 * N)
+        assert np.array_equal(slacks, np.vstack([eye, eye, eye]))
+        assert np.array_equal(setpoints, np.vstack([first, -first, 0 * first]))
+        assert not rows[:, : layout.i_setpoints].any()
+        assert not full[layout.i_slacks :].any()  # their cost is linear
+
+
+def test_heading_direction_is_the_setpoints_sign_and_at_rest_that_of_the_next_motion() -> None:
+    feedforward = np.array([[0.0, 0.0], [0.1, -0.1], [0.2, 0.0], [0.0, 0.0], [-0.1, 0.1], [0.0, 0.0]])
+    expected = np.array([[1, -1], [1, -1], [1, 1], [-1, 1], [-1, 1], [0, 0]], dtype=float)
+    assert np.array_equal(heading_direction(feedforward), expected)
 
 
 def test_window_versions_change_exactly_where_a_windows_data_does() -> None:

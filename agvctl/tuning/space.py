@@ -87,6 +87,7 @@ DEFAULT_SPACES: dict[str, dict[str, Any]] = {
         "weight_heading": {"low": 3.0, "high": 300.0, "log": True},
         "weight_input": {"low": 0.01, "high": 1.0, "log": True},
         "weight_input_rate": {"low": 1.0, "high": 100.0, "log": True},
+        "weight_reversal": [0.0, 30.0],
         "turn_in_place_position_scale": [1.0, 6.0],
         "reach_lead": [1.2, 4.0],
         "governor_lag_start_m": [0.02, 0.06],
@@ -106,8 +107,9 @@ DEFAULT_SPACES: dict[str, dict[str, Any]] = {
 }
 """The space searched when a fuzz file has no ``[search.<controller>]`` table: the settings that shape the tracking
 (weights, horizon, reach lead, governor band; Ramsete's b and ζ; the LQR's tolerances and efforts), each over the
-range in which it stays a sensible design. ``nmpc`` shares the mpc's settings and space."""
-DEFAULT_SPACES["nmpc"] = DEFAULT_SPACES["mpc"]
+range in which it stays a sensible design. ``nmpc`` shares the mpc's settings and space but the reversal weight,
+which only the LTV MPC has."""
+DEFAULT_SPACES["nmpc"] = {key: value for key, value in DEFAULT_SPACES["mpc"].items() if key != "weight_reversal"}
 
 
 def _field(settings: type, dotted: str, source: str, key: str) -> dataclasses.Field[Any]:

@@ -11,7 +11,8 @@ with s_k the wheel-speed setpoints (left, right) in m/s held over sample k, e_k 
 m, heading in rad) and s_ff the reference's feed-forward. The prediction model is the report's kinematics
 (eqs 39-43: U = (v_r + v_l)/2, ω = (v_r − v_l)/b, ẋ = U cos θ, ẏ = U sin θ, θ̇ = ω) driven either directly
 by the setpoints (``"kinematic"``) or through a first-order lag v̇ = (s − v)/τ standing for the closed
-wheel-speed loop (``"kinematic+wheel_loop"``).
+wheel-speed loop (``"kinematic+wheel_loop"``). The LTV MPC adds a linear cost on the first samples' setpoints
+against the direction their wheels are headed (``weight_reversal``, :mod:`~agvctl.controllers.mpc.ltv`).
 
 s_{−1} is the previous command (the measured wheel speeds at the first step after a reset): the setpoint
 ramps at most at a_lim, and the wheel loop follows the ramp. Measured against the *measured* wheel speed

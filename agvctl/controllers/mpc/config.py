@@ -35,7 +35,7 @@ class MpcConfig:
     """Settings of the MPC pose controllers, as in an experiment file's ``[controller]`` table (SI units).
 
     Weights are per squared unit of their quantity: position 1/m², heading 1/rad², input and input rate
-    1/(m/s)². Only their ratios matter.
+    1/(m/s)²; the reversal weight, a linear cost, per m/s. Only their ratios matter.
     """
 
     horizon: int = number(
@@ -62,6 +62,11 @@ class MpcConfig:
     weight_input_rate: float = number(
         ge=0, default=10.0, doc="w_Δ, the weight on each setpoint's change from the sample before, 1/(m/s)²."
     )
+    weight_reversal: float = number(ge=0, default=3.0)
+    """w_r, the LTV MPC's weight on each setpoint's speed against its wheel's direction along the reference (the
+    feed-forward's), 1/(m/s): a linear cost, zero on the reference, so that a small start-up correction blends into
+    driving off instead of turning a wheel backwards while a large one still turns it. 0: none (the QP then has no
+    reversal slacks). The NMPC has no such cost."""
     prediction_model: PredictionModel = "kinematic+wheel_loop"
     """The prediction model: the kinematics of eqs 39-43 driven by the setpoints directly (``"kinematic"``), or
     through the first-order lag v̇ = (s − v)/τ that stands for the closed wheel loops (``"kinematic+wheel_loop"``)."""

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
 from agvctl.planning.reference import Reference
 
-__all__ = ["GridPoint", "HorizonReference", "turning_in_place"]
+__all__ = ["GridPoint", "HorizonReference", "heading_direction", "turning_in_place"]
 
 FloatArray = NDArray[np.float64]
 
@@ -95,6 +95,9 @@ class HorizonReference:
             a = math.exp(-T / wheel_loop_time_constant_s(config))
             ff = (self.wheel_m_s[1:] - a * self.wheel_m_s[:-1]) / (1.0 - a)
         self.feedforward_m_s: FloatArray = np.ascontiguousarray(ff)
+        self.direction: FloatArray = heading_direction(ff)
+        """Each wheel's direction (+1 forward, −1 backward, 0 none) over each interval: its feed-forward's sign,
+        where the feed-forward is zero the sign of its next nonzero one (0 after the last)."""
         columns: list[FloatArray] = [self.x_m, self.y_m, self.theta_rad, self.cos_theta, self.sin_theta]
         columns += [self.speed_m_s, self.yaw_rate_rad_s, self.wheel_m_s[:, 0], self.wheel_m_s[:, 1], self.travel_m]
         self.points: list[GridPoint] = list(map(GridPoint._make, zip(*(c.tolist() for c in columns), strict=True)))
@@ -104,6 +107,34 @@ class HorizonReference:
         """The grid index of the sample starting at ``t_s`` (rounded), clamped to ``[0, last_start]``."""
         k = round(t_s / self.sample_period_s)
         return min(max(k, 0), self.last_start)
+
+
+def heading_direction(feedforward_m_s: FloatArray) -> FloatArray:
+    """Where each wheel is headed: the sign of its setpoint and, where the setpoint is zero (at rest), the sign of its
+    next nonzero one.
+
+    Parameters
+    ----------
+    feedforward_m_s : ndarray
+        The wheels' setpoints (n×2, left and right) along the reference, m/s.
+
+    Returns
+    -------
+    ndarray
+        n×2: +1 forward, −1 backward, 0 after the wheel's last motion.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> heading_direction(np.array([[0.0, 0.0], [0.1, -0.1], [0.0, 0.0]])).tolist()
+    [[1.0, -1.0], [1.0, -1.0], [0.0, 0.0]]
+    """
+    n = len(feedforward_m_s)
+    sign = np.where(np.abs(feedforward_m_s) > 1e-6, np.sign(feedforward_m_s), 0.0)
+    index = np.where(sign != 0.0, np.arange(n)[:, None], n)  # each nonzero entry's own index, n for the zeros
+    following = np.minimum.accumulate(index[::-1], axis=0)[::-1]  # the index of the next nonzero entry, or n
+    padded = np.vstack([sign, np.zeros((1, sign.shape[1]))])
+    return np.take_along_axis(padded, following, axis=0)
 
 
 @overload

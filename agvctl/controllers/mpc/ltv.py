@@ -15,6 +15,11 @@ path frame, ė_along = ω e_across + δU, ė_across = −ω e_along + U e_θ, ė
 (matrix exponential of the augmented system). The two frames are the same model in rotated coordinates (the
 cost is rotation invariant), so they track identically; ``path`` is the default for its readable errors.
 
+The cost is the common one plus, over the first :data:`~agvctl.controllers.mpc.ltv_qp.REVERSAL_SAMPLES` samples,
+``weight_reversal`` per m/s of a setpoint against the direction its wheel is headed along the reference (a linear
+cost through slack variables, zero on the reference): a small start-up correction blends into driving off, a large
+one still turns a wheel backwards.
+
 Everything that varies with time depends on the reference only, so it is computed for the whole reference at
 :meth:`LtvMpcController.reset`; a step is the initial error, a handful of slice copies into OSQP's vectors and
 its CSC data array at precomputed positions, ``update`` and a warm-started ``solve``. OSQP is set up once, in
@@ -36,7 +41,7 @@ from agvctl.controllers.mpc.common import MpcStepper
 from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
 from agvctl.controllers.mpc.fallback import clamp
 from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
-from agvctl.controllers.mpc.ltv_qp import QpLayout, constraint_pattern, cost_matrix, window_versions
+from agvctl.controllers.mpc.ltv_qp import REVERSAL_SAMPLES, QpLayout, constraint_pattern, cost_matrix, window_versions
 from agvctl.controllers.mpc.matrix_exponential import expm_batch
 from agvctl.controllers.mpc.shaping import HorizonStep, SetpointWindow
 from agvctl.errors import ConfigError, expect_instance
@@ -131,10 +136,13 @@ class LtvMpcController(MpcStepper):
 
     def _build_problem(self) -> None:
         c, N, nx = self.config, self.config.horizon, self.nx
-        layout = QpLayout(horizon=N, n_states=nx, wheel_loop=self._lag)
-        self._iU, self._iS = layout.i_setpoints, layout.n_variables
+        M = min(N, REVERSAL_SAMPLES) if c.weight_reversal > 0 else 0
+        layout = QpLayout(horizon=N, n_states=nx, wheel_loop=self._lag, reversal_samples=M)
+        self._iU, self._iS = layout.i_setpoints, layout.i_slacks
         self._r_box, self._r_rate, self._r_first = layout.r_box, layout.r_rate, layout.r_first
         self._r_reach = layout.r_reach
+        self._n_reversal = M
+        self._r_reversal = layout.r_reversal
         n_z, n_rows = layout.n_variables, layout.n_rows
 
         A, self._pos_A, self._pos_B = constraint_pattern(layout)
@@ -176,6 +184,10 @@ class LtvMpcController(MpcStepper):
         self._coupling = np.zeros((N, 2))
         self._coupling_heading = math.nan
         """The heading e_θ,0 the path frame's coupling rows were written for (NaN: none yet)."""
+        # the reversal slacks' linear cost w_r, their rows r_k ≥ 0; the other two rows' lower bounds are set per step
+        self._q[self._iS :] = c.weight_reversal
+        self._l[self._r_reversal + 4 * M :] = 0.0
+        self._u[self._r_reversal :] = _INF
         self._zeros_z = np.zeros(n_z)
         self._zeros_y = np.zeros(n_rows)
 
@@ -246,6 +258,10 @@ class LtvMpcController(MpcStepper):
         self._d_pairs: list[list[float]] = d.tolist()  # per-step reads as plain floats
         self._ff_pairs: list[list[float]] = ff.tolist()
         self._rate = np.stack([(-a_step - d).ravel(), (a_step - d).ravel()])
+        # the reversal rows' lower bounds: r + δs ≥ −s_ff where the wheel heads forward, r − δs ≥ s_ff backward
+        self._reversal_lower = np.stack(
+            [np.where(g.direction > 0, -ff, -_INF).ravel(), np.where(g.direction < 0, ff, -_INF).ravel()]
+        )
         # the rate cost's linear term (see _solve) where it depends on the reference only: 2 w_Δ (d_j − d_j+1)
         # for the inner samples, 2 w_Δ d_j for the last
         w_rate = 2.0 * c.weight_input_rate
@@ -378,6 +394,9 @@ class LtvMpcController(MpcStepper):
         a_step = self.max_wheel_accel_m_s2 * self.sample_period_s
         lo[rf], lo[rf + 1] = start_l - a_step, start_r - a_step
         hi[rf], hi[rf + 1] = start_l + a_step, start_r + a_step
+        if M := self._n_reversal:
+            r = self._r_reversal
+            lo[r : r + 4 * M].reshape(2, 2 * M)[:] = self._reversal_lower[:, 2 * k : 2 * (k + M)]
         if self._lag:
             assert step.window is not None  # finite wheel speeds: x_0 holds them
             self._reach_bounds(k, (ff_l, ff_r), step.wheel_speed_m_s, step.window)

@@ -1,10 +1,13 @@
 """The QP of the LTV MPC (:mod:`agvctl.controllers.mpc.ltv`): where its variables and constraint rows lie, the
 sparsity pattern of its constraint matrix and its cost matrix.
 
-Variables z = [x_1 … x_N, δs_0 … δs_{N−1}] (error states, then setpoints minus feed-forward, two per sample).
-Rows: the dynamics x_{k+1} − A_k x_k − B_k δs_k = 0 (N·nx), the speed box on δs (2N), the rate δs_k − δs_{k−1}
-(2(N − 1)), the first move from the previous command (2) and, with the wheel-loop model, the setpoints' reachable
-lead over the predicted wheel speeds s_k − v_k (2(N − 1)).
+Variables z = [x_1 … x_N, δs_0 … δs_{N−1}, r_0 … r_{M−1}] (error states, then setpoints minus feed-forward, two per
+sample, then, with a reversal weight, the reversal slacks of the first M samples, two per sample). Rows: the dynamics
+x_{k+1} − A_k x_k − B_k δs_k = 0 (N·nx), the speed box on δs (2N), the rate δs_k − δs_{k−1} (2(N − 1)), the first
+move from the previous command (2), with the wheel-loop model the setpoints' reachable lead over the predicted wheel
+speeds s_k − v_k (2(N − 1)) and, with the reversal slacks, r_k + δs_k (2M), r_k − δs_k (2M) and r_k (2M): with
+r_k ≥ 0 and r_k ≥ −d_k s_k (d_k the wheel's direction, one of the first two rows left open), r_k is at least the
+setpoint's speed against its wheel's direction, and its linear cost makes it exactly that.
 """
 
 from __future__ import annotations
@@ -18,7 +21,14 @@ from numpy.typing import NDArray
 from agvctl.config import document_fields
 from agvctl.controllers.mpc.config import MpcConfig
 
-__all__ = ["QpLayout", "constraint_pattern", "cost_matrix", "window_versions"]
+__all__ = ["REVERSAL_SAMPLES", "QpLayout", "constraint_pattern", "cost_matrix", "window_versions"]
+
+REVERSAL_SAMPLES = 5
+"""M, the samples at the head of the horizon whose setpoints pay the reversal weight: 0.2 s, two time constants of
+the wheel loop, what the wheels follow before the plan has been solved again five times. A reversal planned later is
+charged once it comes this close, so the start-up correction still blends into driving off; the slacks of a whole
+horizon (N = 20) would double OSQP's iterations on a start off the path and change nothing it commands by more than
+the slacks of these five (``docs/decisions/0028-reversal-weight.md``)."""
 
 
 @document_fields
@@ -32,6 +42,8 @@ class QpLayout:
     """nx, the error states per sample: 3 (the pose) or, with the wheel-loop model, 5."""
     wheel_loop: bool
     """Whether the states include the wheel-loop lag (then the reachable-lead rows exist)."""
+    reversal_samples: int = 0
+    """M, the samples whose reversal slacks r_k the QP holds, with their rows (0: none)."""
 
     @property
     def i_setpoints(self) -> int:
@@ -39,9 +51,14 @@ class QpLayout:
         return self.horizon * self.n_states
 
     @property
-    def n_variables(self) -> int:
-        """The number of variables: N·nx error states and 2N setpoints."""
+    def i_slacks(self) -> int:
+        """Index of r_0 in z, one past the setpoints."""
         return self.i_setpoints + 2 * self.horizon
+
+    @property
+    def n_variables(self) -> int:
+        """The number of variables: N·nx error states, 2N setpoints and 2M reversal slacks."""
+        return self.i_slacks + 2 * self.reversal_samples
 
     @property
     def r_box(self) -> int:
@@ -64,14 +81,19 @@ class QpLayout:
         return self.r_first + 2
 
     @property
+    def r_reversal(self) -> int:
+        """First of the reversal rows: r_k + δs_k, then r_k − δs_k, then r_k (2M each)."""
+        return self.r_reach + (2 * (self.horizon - 1) if self.wheel_loop else 0)
+
+    @property
     def n_rows(self) -> int:
         """The number of constraint rows (the reachable-lead rows with the wheel-loop model only)."""
-        return self.r_reach + (2 * (self.horizon - 1) if self.wheel_loop else 0)
+        return self.r_reversal + 6 * self.reversal_samples
 
 
 def cost_matrix(config: MpcConfig, layout: QpLayout) -> sp.csc_matrix:
     """P of the QP's cost ½ zᵀPz + qᵀz, its upper triangle: the state weights (terminal scale at k = N), the input
-    and input-rate weights.
+    and input-rate weights (the reversal slacks' cost is linear: q only).
 
     The position weights are placeholders, kept in the sparsity pattern: the LTV MPC sets them for each reference (the
     path frame's along-track share, the turns in place) and loads each step's window of them.
@@ -97,7 +119,8 @@ def cost_matrix(config: MpcConfig, layout: QpLayout) -> sp.csc_matrix:
     p_state[1::nx] = 1.0
     diff = sp.eye(2 * N, format="csc") - sp.eye(2 * N, k=-2, format="csc")  # rows: δs_k − δs_{k−1}
     p_input = 2.0 * c.weight_input * sp.eye(2 * N) + 2.0 * c.weight_input_rate * (diff.T @ diff)
-    return sp.triu(sp.block_diag([sp.diags(2.0 * p_state), p_input], format="csc"), format="csc")
+    blocks = [sp.diags(2.0 * p_state), p_input, sp.csc_matrix((2 * layout.reversal_samples,) * 2)]
+    return sp.triu(sp.block_diag(blocks, format="csc"), format="csc")
 
 
 def constraint_pattern(layout: QpLayout) -> tuple[sp.csc_matrix, NDArray[np.int64], NDArray[np.int64]]:
@@ -159,6 +182,13 @@ def constraint_pattern(layout: QpLayout) -> tuple[sp.csc_matrix, NDArray[np.int6
             for j in range(2):
                 add(r_reach + 2 * (k - 1) + j, iU + 2 * k + j, 1.0)
                 add(r_reach + 2 * (k - 1) + j, (k - 1) * nx + 3 + j, -1.0)
+    # r_k + δs_k ≥ −s_ff,k (headed forward), r_k − δs_k ≥ s_ff,k (backward), r_k ≥ 0
+    r_rev, i_r, n_r = layout.r_reversal, layout.i_slacks, 2 * layout.reversal_samples
+    for i in range(n_r):
+        for block, sign in ((0, 1.0), (1, -1.0)):
+            add(r_rev + n_r * block + i, i_r + i, 1.0)
+            add(r_rev + n_r * block + i, iU + i, sign)
+        add(r_rev + 2 * n_r + i, i_r + i, 1.0)
 
     ids = np.arange(1, len(rows) + 1, dtype=np.float64)
     A = sp.csc_matrix((ids, (rows, cols)), shape=(n_rows, n_z))
