@@ -25,10 +25,9 @@ __all__ = ["REVERSAL_SAMPLES", "QpLayout", "constraint_pattern", "cost_matrix", 
 
 REVERSAL_SAMPLES = 5
 """M, the samples at the head of the horizon whose setpoints pay the reversal weight: 0.2 s, two time constants of
-the wheel loop, what the wheels follow before the plan has been solved again five times. A reversal planned later is
-charged once it comes this close, so the start-up correction still blends into driving off; the slacks of a whole
-horizon (N = 20) would double OSQP's iterations on a start off the path and change nothing it commands by more than
-the slacks of these five (``docs/decisions/0028-reversal-weight.md``)."""
+the wheel loop. A reversal planned later is charged once it comes this close, so the start-up correction blends into
+driving off as with slacks on the whole horizon, which cost OSQP far more iterations on a start off the path
+(``docs/decisions/0028-reversal-weight.md``)."""
 
 
 @document_fields
