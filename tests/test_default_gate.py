@@ -79,3 +79,14 @@ def test_wheel_loops_with_four_times_their_gains_fail_on_acceleration_alone(tmp_
     failed = {r["limit"] for r in summary["limits"] if not r["passed"]}
     assert failed == {"wheel_accel_m_s2"}  # on the path, but slamming the wheels from limit to limit
     assert load_vehicle().derived.accel_limit_m_s2 < 1.3  # the bound is the torque limit, twice eq 5's a_lim
+
+
+def test_wheel_loops_that_drive_at_0_8_of_their_setpoints_fail_on_following_them(tmp_path: Path) -> None:
+    experiment = load_experiment(first_file(tmp_path, "s_curve"))
+    _, wheel_controller = faults().FAULTS["wheel loops at 0.8 of their setpoints"](experiment)
+    summary = run_summary(experiment, run_experiment(experiment, wheel_controller=wheel_controller))
+    limits = {r["limit"]: r for r in summary["limits"]}
+    failed = {key for key, r in limits.items() if not r["passed"]}
+    assert "wheel_speed_error_max_m_s" in failed, failed
+    # the pose loop closes around the fault: without the wheel-speed default the run would pass
+    assert failed == {"wheel_speed_error_max_m_s"}

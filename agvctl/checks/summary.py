@@ -23,6 +23,7 @@ SUMMARY_METRICS = (
     "along_track_lag_max_m",
     "path_heading_error_max_deg",
     "peak_wheel_accel_m_s2",
+    "wheel_speed_error_max_m_s",
     "peak_motor_current_a",
     "da_saturation_fraction",
     "current_limited_fraction",

@@ -63,7 +63,12 @@ class PoseController(Protocol):
 
 
 class WheelSpeedController(Protocol):
-    """Per-motor speed loops: motor-speed setpoints and measurements in rad/s, DA voltage commands out."""
+    """Per-motor speed loops: motor-speed setpoints and measurements in rad/s, DA voltage commands out.
+
+    A wheel controller may also say, in a ``limited`` attribute (left, right), whether its last output was clamped to
+    what the amplifier and the DA converter give. The closed loop logs it, and the default gate holds the wheels to
+    their setpoints only where it was not (``wheel_speed_error_max_m_s``); a controller without it is not judged there.
+    """
 
     def reset(self) -> None:
         """Zero the integrators."""

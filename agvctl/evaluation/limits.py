@@ -16,7 +16,11 @@ what every healthy run of a planned path keeps, derived from the vehicle and the
   manoeuvre (``wheel_accel_m_s2``, :func:`~agvctl.feasibility.torque_accel_limit_m_s2`, eqs 47-49 and 58-59: 1.31
   m/s² for the IAU AGV, twice eq 5's a_lim, which assumes both wheels driving alike against friction). Only friction
   helping a wheel brake in a turn in place takes it further; tracking a planned path never needs that, while a wheel
-  loop slammed from limit to limit does.
+  loop slammed from limit to limit does;
+* each wheel follows its setpoint wherever its loop has authority (``wheel_speed_error_max_m_s``, the mean error over
+  any second in which the loop is not clamped, :func:`~agvctl.evaluation.metrics.wheel_speed_error_m_s`): a loop
+  that settles within a sample lags a setpoint ramping at that torque's acceleration by at most one sample's
+  change, T_s times it (52 mm/s for the IAU AGV), while a loop that scales its speeds misses by a share of them.
 
 An explicit key replaces the default of that key only. The acceleration is the mean over a sample
 (:func:`~agvctl.evaluation.metrics.sample_wheel_accel_m_s2`), not the instant inside one: a wheel breaking away
@@ -40,6 +44,7 @@ from agvctl.evaluation.metrics import (
     estimate_heading_error_rad,
     estimate_position_error_m,
     sample_wheel_accel_m_s2,
+    wheel_speed_error_m_s,
 )
 from agvctl.feasibility import torque_accel_limit_m_s2
 from agvctl.log import SimLog
@@ -96,6 +101,7 @@ LIMITS: dict[str, Limit] = {
         "positive",
     ),
     "wheel_accel_m_s2": Limit("peak_wheel_accel_m_s2", " m/s²", sample_wheel_accel_m_s2, "peak", "positive"),
+    "wheel_speed_error_max_m_s": Limit("wheel_speed_error_max_m_s", " m/s", wheel_speed_error_m_s, "peak", "positive"),
     "motor_current_a": Limit(
         "peak_motor_current_a", " A", lambda log, ts: _both(log, "current_peak_{}_a"), "peak", "positive"
     ),
@@ -358,6 +364,9 @@ def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimi
     defaults = {
         "wheel_accel_m_s2": DefaultLimit(
             torque, "what the motors' torque at the current limit gives a wheel, eqs 58-59"
+        ),
+        "wheel_speed_error_max_m_s": DefaultLimit(
+            torque * vehicle.control.sample_period_s, "a wheel loop with authority reaches its setpoint in a sample"
         ),
         "final_position_error_m": DefaultLimit(0.01, "ends within 1 cm of the path's end"),
         "final_heading_error_deg": DefaultLimit(2.0, "ends facing the path's final heading"),

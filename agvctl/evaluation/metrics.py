@@ -20,6 +20,7 @@ __all__ = [
     "estimate_metrics",
     "estimate_position_error_m",
     "time_to_converge_s",
+    "wheel_speed_error_m_s",
     "RunRecord",
 ]
 
@@ -128,6 +129,44 @@ def sample_wheel_accel_m_s2(log: SimLog, sample_period_s: float) -> NDArray[np.f
     return np.concatenate(([0.0], accel))
 
 
+SPEED_ERROR_WINDOW_S = 1.0
+"""How long a wheel-speed error is averaged over (:func:`wheel_speed_error_m_s`): far longer than the wheel loop
+settles after a setpoint's step (a few of its 31 ms time constants), so that what remains is an error it keeps."""
+
+
+def wheel_speed_error_m_s(log: SimLog, sample_period_s: float) -> NDArray[np.float64]:
+    """Each sample's larger ``|mean(v(t_j+1) − v_sp(t_j))|`` of the two wheels over the :data:`SPEED_ERROR_WINDOW_S`
+    before it: how far a wheel stays from its setpoint, one sample after it is set, in the windows in which its loop
+    had authority (``wheel_loop_limited_*`` 0 at every sample). A window in which the loop was clamped to the current
+    limit or the DA range, or whose wheel controller does not say (NaN), counts 0.
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop log with the wheels' setpoints, rim speeds and ``wheel_loop_limited_*``.
+    sample_period_s : float
+        T_s, s.
+
+    Returns
+    -------
+    ndarray
+        The error per sample (0 before a whole window has passed), m/s.
+    """
+    n = max(1, int(round(SPEED_ERROR_WINDOW_S / sample_period_s)))
+    worst = np.zeros(len(log))
+    for side in ("left", "right"):
+        error = log[f"wheel_speed_{side}_m_s"][1:] - log[f"setpoint_wheel_speed_{side}_m_s"][:-1]
+        free = log[f"wheel_loop_limited_{side}"][:-1] == 0.0
+        if len(error) < n:
+            continue
+        total = np.concatenate(([0.0], np.cumsum(np.where(free, error, 0.0))))
+        count = np.concatenate(([0], np.cumsum(free)))
+        judged = (count[n:] - count[:-n]) == n
+        mean = np.where(judged, np.abs(total[n:] - total[:-n]) / n, 0.0)
+        worst[n:] = np.maximum(worst[n:], mean)
+    return worst
+
+
 JOINED_M = 0.02
 """How near the path (m) a vehicle that started off it counts as having joined it."""
 
@@ -151,8 +190,10 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
     time-indexed tracking error ``|p(t) − p_d(t)|``, the errors against the reference's path separate being off
     the path from being behind the clock (:mod:`agvctl.evaluation.path_metrics`): ``cross_track_error_*_m``
     (distance to the path), ``along_track_lag_max_m`` (the largest ``|lag|`` along the path, behind or ahead) and
-    ``path_heading_error_max_deg`` (heading against the path's at the nearest point). ``non_finite_commands`` counts
-    the samples whose pose-controller command was NaN or infinite (also counted in ``solver_failures``).
+    ``path_heading_error_max_deg`` (heading against the path's at the nearest point). ``wheel_speed_error_max_m_s`` is
+    how far a wheel stays from its setpoint where its loop has authority (:func:`wheel_speed_error_m_s`).
+    ``non_finite_commands`` counts the samples whose pose-controller command was NaN or infinite (also counted in
+    ``solver_failures``).
     ``cross_track_error_max_joined_m`` is the largest cross-track error once the vehicle is on the path: after it
     first comes within :data:`JOINED_M` of it (over the whole run if it never does), so that an off-path start does
     not hide what follows. ``completion_time_s`` is the first time after which the vehicle stays within 2 cm of the
@@ -196,6 +237,7 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
             max(np.max(np.abs(log["wheel_speed_left_m_s"])), np.max(np.abs(log["wheel_speed_right_m_s"])))
         ),
         "peak_wheel_accel_m_s2": _peak_abs(sample_wheel_accel_m_s2(log, result.sample_period_s)),
+        "wheel_speed_error_max_m_s": _peak_abs(wheel_speed_error_m_s(log, result.sample_period_s)),
         "peak_wheel_accel_instant_m_s2": float(
             max(log.peak_abs("wheel_accel_peak_left_m_s2"), log.peak_abs("wheel_accel_peak_right_m_s2"))
         ),

@@ -271,6 +271,16 @@ def run_closed_loop(
     return ClosedLoopResult(log, reference, wall, setup, failures, n, ts)
 
 
+def _limited(wheel_controller: WheelSpeedController) -> tuple[float, float]:
+    """Whether each wheel loop's output was just clamped (1.0 or 0.0), from its ``limited``; NaN for a wheel
+    controller that does not say."""
+    limited = getattr(wheel_controller, "limited", None)
+    if limited is None:
+        return math.nan, math.nan
+    left, right = (float(bool(x)) for x in limited)
+    return left, right
+
+
 def _run(
     plant: PlantStepper,
     sensors: Sensors,
@@ -307,12 +317,14 @@ def _run(
         setpoint = delay(commanded)
         sp_motor = setpoint / rim_per_motor
         da_cmd = wheel_controller.update(sp_motor, omega)  # 3. wheel-speed loops
+        limited = _limited(wheel_controller)
         speeds.applied(da_cmd)
         if k < n:  # 4. actuator and plant; the final row holds the state at the end, the last input applied
             plant.step(da_cmd)
         else:
             plant.finish(da_cmd)
-        rows.append(_control_row(est, setpoint, sp_motor, da_cmd, solve, status, angle, omega, counts, meas, estimator))
+        sample = (est, setpoint, sp_motor, da_cmd, solve, status, limited, angle, omega, counts, meas, estimator)
+        rows.append(_control_row(*sample))
         if progress is not None and k % progress_every == 0:
             progress(k / n)
         if k >= n:

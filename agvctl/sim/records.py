@@ -41,6 +41,8 @@ class _ControlRow(NamedTuple):
     da_command_right_v: float
     solve_time_s: float
     solver_status: float
+    wheel_loop_limited_left: float
+    wheel_loop_limited_right: float
     motor_angle_left_rad: float
     motor_angle_right_rad: float
     measured_omega_motor_left_rad_s: float
@@ -102,11 +104,15 @@ CONTROL_LOG_COLUMNS = (
     "heading_error_rad",
     "solve_time_s",
     "solver_status",
+    "wheel_loop_limited_left",
+    "wheel_loop_limited_right",
     *_SENSOR_COLUMNS,
 )
 """Columns the closed loop adds to :data:`~agvctl.log.PLANT_LOG_COLUMNS`. ``solver_status`` is 0 when the
 pose controller solved, 1 for the shifted previous solution, 2 for the reference feed-forward, 3 for a NaN or
-infinite command (the wheel loops get a stop, 0 m/s, instead; ``setpoint_*`` hold what they got); ``wheel_speed_*``
+infinite command (the wheel loops get a stop, 0 m/s, instead; ``setpoint_*`` hold what they got);
+``wheel_loop_limited_*`` is 1 where the wheel loop's output was clamped to what the amplifier and the DA converter
+give (its ``limited``), 0 where it was not, NaN for a wheel controller that does not say; ``wheel_speed_*``
 are the true rim speeds ω_mot·r/N of the plant. :class:`ClosedLoopResult` adds the errors against the path,
 :data:`~agvctl.evaluation.path_metrics.PATH_LOG_COLUMNS` (cross-track error, along-track lag, path heading error)."""
 
@@ -130,6 +136,7 @@ def _control_row(
     da_cmd: NDArray[np.float64],
     solve_s: float,
     status: int,
+    limited: tuple[float, float],
     angle: NDArray[np.float64],
     omega: NDArray[np.float64],
     counts: NDArray[np.int64],
@@ -148,8 +155,9 @@ def _control_row(
     fix = meas.fixes[-1].pose if meas.fixes else (math.nan, math.nan, math.nan)
     fix_t = meas.fixes[-1].measured_t_s if meas.fixes else math.nan
     return _ControlRow(
-        x, y, theta, sp_l, sp_r, spm_l, spm_r, da_l, da_r, solve_s, float(status), angle_l, angle_r, omega_l, omega_r,
-        float(count_l), float(count_r), meas.gyro_rate_rad_s, float(fix[0]), float(fix[1]), float(fix[2]), fix_t,
+        x, y, theta, sp_l, sp_r, spm_l, spm_r, da_l, da_r, solve_s, float(status), *limited, angle_l, angle_r,
+        omega_l, omega_r, float(count_l), float(count_r), meas.gyro_rate_rad_s, float(fix[0]), float(fix[1]),
+        float(fix[2]), fix_t,
         *checks,
     )  # fmt: skip
 

@@ -3,9 +3,11 @@ it, each run on the scenarios of a fuzz file and judged by the default gate alon
 
 Each fault is one a real integration makes: the wheels' sides swapped, the heading feedback's sign flipped, commands
 that stop at 60 % of the path (ramping the wheels down gently, so no acceleration gives it away), the wheel loops'
-gains four times the design, one sample of extra delay, setpoints 20 % short, docking switched off. For each, the
-table gives how often the gate fails it, in all scenarios and in those where the fault changes the run at all (a run
-within 1 mm and 0.5° of the healthy one, all along, is one the fault cannot show in), and which limits caught it.
+gains four times the design, one sample of extra delay, setpoints 20 % short, docking switched off, and the delay
+and the scaling again inside the wheel loops (their wheels driven at 0.8 of the speed asked, their DA commands a
+sample late). For each, the table gives how often the gate fails it, in all scenarios and in those where the fault
+changes the run at all (a run within 1 mm and 0.5° of the healthy one, all along, is one the fault cannot show
+in), and which limits caught it.
 
 Run: python experiments/robustness/broken_controllers.py [FUZZ.toml] [--jobs 2] [--out TABLE.md]
 (the CI fuzz file by default: 30 scenarios, about 4 minutes on 2 cores).
@@ -134,6 +136,43 @@ class Delayed(Wrapped):
         return dataclasses.replace(out, reference_done=c.reference_done)
 
 
+class WheelWrapped:
+    """The default wheel loops, changing what goes in or comes out; they still say when they are clamped."""
+
+    def __init__(self, inner: PIWheelController) -> None:
+        self.inner = inner
+
+    @property
+    def limited(self) -> tuple[bool, bool]:
+        return self.inner.limited
+
+    def reset(self) -> None:
+        self.inner.reset()
+
+    def update(self, setpoint_rad_s: np.ndarray, measured_rad_s: np.ndarray) -> np.ndarray:
+        return self.inner.update(setpoint_rad_s, measured_rad_s)
+
+
+class WheelScaled(WheelWrapped):
+    """The wheel loops drive their wheels at 0.8 of the speed they are given (a gear ratio or an encoder's resolution
+    wrong in the wheel computer's conversion)."""
+
+    def update(self, setpoint_rad_s: np.ndarray, measured_rad_s: np.ndarray) -> np.ndarray:
+        return self.inner.update(0.8 * np.asarray(setpoint_rad_s), measured_rad_s)
+
+
+class WheelLate(WheelWrapped):
+    """Each DA command written one sample late (the converter loaded before the new command is computed)."""
+
+    def reset(self) -> None:
+        super().reset()
+        self.previous = np.zeros(2)
+
+    def update(self, setpoint_rad_s: np.ndarray, measured_rad_s: np.ndarray) -> np.ndarray:
+        out, self.previous = self.previous, self.inner.update(setpoint_rad_s, measured_rad_s)
+        return out
+
+
 Controllers = tuple[PoseController, WheelSpeedController | None]
 
 
@@ -169,6 +208,11 @@ FAULTS: dict[str, Callable[[Experiment], Controllers]] = {
     "one sample of delay": lambda e: (Delayed(_default(e)), None),
     "setpoints x0.8": lambda e: (Scaled(_default(e), 0.8), None),
     "never docks": lambda e: (_default(e, docking=DockingConfig(enabled=False)), None),
+    "wheel loops at 0.8 of their setpoints": lambda e: (
+        _default(e),
+        WheelScaled(e.wheel_loops.controller(e.controller_vehicle)),
+    ),
+    "wheel loops one sample late": lambda e: (_default(e), WheelLate(e.wheel_loops.controller(e.controller_vehicle))),
 }
 
 

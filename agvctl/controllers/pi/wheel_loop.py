@@ -392,6 +392,13 @@ class PIWheelController:
         for loop in self.loops:
             loop.reset()
 
+    @property
+    def limited(self) -> tuple[bool, bool]:
+        """Whether each loop's last output (left, right) was clamped to its window: the current limit, the DA
+        range, or the steering priority's share of them. The closed loop logs it (``wheel_loop_limited_*``)."""
+        left, right = self.loops
+        return left.limited, right.limited
+
     def motor_voltages_v(
         self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]
     ) -> NDArray[np.float64]:
