@@ -366,7 +366,8 @@ def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimi
             torque, "what the motors' torque at the current limit gives a wheel, eqs 58-59"
         ),
         "wheel_speed_error_max_m_s": DefaultLimit(
-            torque * vehicle.control.sample_period_s, "a wheel loop with authority reaches its setpoint in a sample"
+            torque * vehicle.control.sample_period_s,
+            "where its loop is not clamped, a wheel reaches its setpoint within a sample",
         ),
         "final_position_error_m": DefaultLimit(0.01, "ends within 1 cm of the path's end"),
         "final_heading_error_deg": DefaultLimit(2.0, "ends facing the path's final heading"),

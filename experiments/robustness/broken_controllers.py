@@ -238,12 +238,9 @@ def run_scenario(args: tuple[str, int, tuple[str, ...]]) -> list[dict[str, Any]]
                     dict(index=index, fault=fault, passed=False, failed=[f"error: {type(exc).__name__}"], differs=True)
                 )
                 continue
+            metrics = closed_loop_metrics(result)
             limits = evaluate_limits(
-                experiment.spec.limits,
-                result.log,
-                closed_loop_metrics(result),
-                experiment.controller_vehicle,
-                result.sample_period_s,
+                experiment.spec.limits, result.log, metrics, experiment.controller_vehicle, result.sample_period_s
             )
             pose = np.column_stack([result.log["x_m"], result.log["y_m"], result.log["theta_rad"]])
             if fault == "healthy":
@@ -255,9 +252,27 @@ def run_scenario(args: tuple[str, int, tuple[str, ...]]) -> list[dict[str, Any]]
                     passed=all(r.passed for r in limits),
                     failed=[r.limit for r in limits if not r.passed],
                     differs=_differs(pose, healthy_pose),
+                    **{key: float(metrics[key]) for key in EFFECTS},
                 )
             )
     return rows
+
+
+EFFECTS = ("cross_track_error_max_m", "final_position_error_m", "completion_time_s")
+"""What a fault changes, by the healthy run's value on the same scenario: how far off the path, how far from the
+end, and how late (the time after which the vehicle stays within 2 cm of the end)."""
+
+
+def _effect(runs: list[dict[str, Any]], healthy: dict[int, dict[str, Any]]) -> str:
+    """The median change of each of :data:`EFFECTS` against the healthy run of the same scenario (a run that raised
+    counts as infinitely worse)."""
+    change = {k: np.median([r.get(k, math.inf) - healthy[r["index"]].get(k, 0.0) for r in runs]) for k in EFFECTS}
+    late = change["completion_time_s"]
+    late_text = "never within 2 cm" if math.isinf(late) else f"{late:+.1f} s"
+    return (
+        f"{1e3 * change['cross_track_error_max_m']:+.1f} mm, {1e3 * change['final_position_error_m']:+.1f} mm, "
+        + late_text
+    )
 
 
 def _differs(pose: np.ndarray, healthy: np.ndarray | None) -> bool:
@@ -271,9 +286,11 @@ def _differs(pose: np.ndarray, healthy: np.ndarray | None) -> bool:
 def table(rows: list[dict[str, Any]]) -> str:
     """The Markdown table of how often the default gate fails each fault."""
     lines = [
-        "| controller | fails the gate | of the runs the fault changes | limits that caught it |",
-        "|---|---|---|---|",
+        "| controller | fails the gate | of the runs the fault changes | limits that caught it "
+        "| median change: cross-track max, final position, completion |",
+        "|---|---|---|---|---|",
     ]
+    healthy = {r["index"]: r for r in rows if r["fault"] == "healthy"}
     for fault in dict.fromkeys(r["fault"] for r in rows):
         runs = [r for r in rows if r["fault"] == fault]
         shows = [r for r in runs if r["differs"]]
@@ -282,7 +299,8 @@ def table(rows: list[dict[str, Any]]) -> str:
         keys = collections.Counter(k for r in runs for k in r["failed"])
         named = ", ".join(f"`{k}` {n}" for k, n in keys.most_common()) or "none"
         where = "—" if fault == "healthy" else f"{caught_shows} of {len(shows)}"
-        lines.append(f"| {fault} | {caught} of {len(runs)} | {where} | {named} |")
+        effect = "—" if fault == "healthy" else _effect(runs, healthy)
+        lines.append(f"| {fault} | {caught} of {len(runs)} | {where} | {named} | {effect} |")
     return "\n".join(lines) + "\n"
 
 
