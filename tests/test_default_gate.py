@@ -61,6 +61,8 @@ def faults() -> ModuleType:
         ("sides swapped", "final_position_error_m"),
         ("heading feedback flipped", "cross_track_error_max_m"),
         ("stops at 60 %", "final_position_error_m"),
+        ("solver stopped after one iteration", "solver_failures"),
+        ("NaN from 60 % of the path", "non_finite_commands"),
     ],
 )
 def test_the_default_gate_fails_a_broken_controller(tmp_path: Path, fault: str, caught_by: str) -> None:
