@@ -42,7 +42,7 @@ class MpcConfig:
         ge=1, le=500, default=20, doc="N, the prediction and control horizon in samples (at most 500: 20 s at 40 ms)."
     )
     weight_position: float = number(ge=0, default=1.0e3, doc="The weight on each predicted position error, 1/m².")
-    along_track_share: float = number(ge=0, le=1, default=0.7)
+    along_track_share: float = number(ge=0, le=1, default=0.4)
     """The along-path share of ``weight_position``: in the path frame, the along-path error is weighted
     ``along_track_share`` × ``weight_position`` and the cross-path error ``weight_position``; below 1, being on the
     path counts more than keeping time (the reference governor bounds the lag). The world frame weighs both axes
