@@ -223,6 +223,27 @@ def test_docking_takes_an_error_along_the_last_drive_only_after_final_turns():
     assert not docking.needed(np.array([1.005, 0.0, math.radians(120.0)]))  # within the tolerance
 
 
+def test_docking_after_final_turns_judges_the_distance_from_the_end_point():
+    """After turns in place the vehicle can remove neither part of its error by moving along its heading, so what
+    counts is its distance from the end point: 7 mm along the drive and 7 mm across it are 9.9 mm from the end, past
+    the 8 mm tolerance, though each part alone is within it."""
+    from agvctl.controllers.mpc.docking import Docking
+    from agvctl.planning import LineSegment, PathSpec, TurnSegment
+
+    vehicle = load_vehicle()
+    docking = Docking(vehicle)
+    tolerance = docking.config.tolerance_m
+    part = 0.007
+    assert part < tolerance < math.hypot(part, part)
+    turned = plan(PathSpec(segments=[LineSegment(length_m=1.0), TurnSegment(angle_deg=120.0)]), vehicle)
+    docking.reset(turned)
+    assert docking.needed(np.array([1.0 + part, part, math.radians(120.0)]))
+    assert not docking.needed(np.array([1.0 + 0.005, 0.005, math.radians(120.0)]))  # 7.1 mm from the end
+    straight = plan(PathSpec(segments=[LineSegment(length_m=1.0)]), vehicle)
+    docking.reset(straight)
+    assert not docking.needed(np.array([1.0 + part, part, 0.0]))  # facing along the drive, it drives there itself
+
+
 def test_a_turn_in_place_never_carries_the_vehicle_away_from_its_point():
     """A generated scenario (seed 10, no. 121) that starts 2.4 cm beside two turns in place, on a plant whose right
     wheel breaks away at 1.8x the left's torque: while the reference turns on the spot, the vehicle only ever moves

@@ -4,13 +4,14 @@ At the end the reference is at rest, and a vehicle beside it cannot move sideway
 frame needs U ≠ 0); a controller linearised about the reference at rest sees no way to remove a lateral error there, so
 it stays. A driver backs up and comes in again. :class:`Docking` decides when and plans that manoeuvre as an ordinary
 reference: once the vehicle has (nearly) stopped at the end with an error across the path's last drive above
-``tolerance_m`` (or along it, where the path ends with turns in place), a straight line back along that drive's final
-heading and the same line forwards again, slowly (``speed_m_s``, ``accel_m_s2``), ending at the path's end pose (where
-the path ends with turns in place, the heading they leave is undone first, the short way round, and turned again after);
-the controller tracks it like any reference and removes the error while moving. The distance grows with the error (a
-heading change of about 2·e/L suffices) and shrinks where the path ends on a curve, so that backing straight up stays
-within ``max_deviation_m`` of the path's arc (``L ≤ √(2δ/|κ|)``), and never reaches back beyond the path's last
-motion. It is tried at most ``attempts`` times, and never on a path that only turns in place.
+``tolerance_m`` (where the path ends with turns in place, a distance from the end point above it, across the drive and
+along it together), a straight line back along that drive's final heading and the same line forwards again, slowly
+(``speed_m_s``, ``accel_m_s2``), ending at the path's end pose (where the path ends with turns in place, the heading
+they leave is undone first, the short way round, and turned again after); the controller tracks it like any reference
+and removes the error while moving. The distance grows with the error (a heading change of about 2·e/L suffices) and
+shrinks where the path ends on a curve, so that backing straight up stays within ``max_deviation_m`` of the path's arc
+(``L ≤ √(2δ/|κ|)``), and never reaches back beyond the path's last motion. It is tried at most ``attempts`` times, and
+never on a path that only turns in place.
 """
 
 from __future__ import annotations
@@ -41,8 +42,8 @@ class DockingConfig:
     tolerance_m: float = number(
         gt=0,
         default=0.008,
-        doc="The error at rest across the path's last drive (or along it, where the path ends with turns in place) "
-        "beyond which to dock, m.",
+        doc="The error at rest across the path's last drive (where the path ends with turns in place, the distance "
+        "from its end point) beyond which to dock, m.",
     )
     speed_m_s: float = number(gt=0, default=0.15, doc="The wheel-speed limit the manoeuvre is planned at, m/s.")
     accel_m_s2: float = number(
@@ -135,18 +136,18 @@ class Docking:
 
     def needed(self, pose: NDArray[np.float64]) -> bool:
         """Whether a vehicle at rest at ``pose`` should dock: attempts left, and an error that may be beyond tolerance
-        (the estimated error plus ``uncertainty_sigmas`` of the estimate, :meth:`observe`) across the last drive, or
-        along it where the path ends with turns in place (then the vehicle no longer faces along the drive and
-        cannot remove that error by moving along its heading)."""
+        (the estimated error plus ``uncertainty_sigmas`` of the estimate, :meth:`observe`) across the last drive, or,
+        where the path ends with turns in place, in the distance from the end point, across the drive and along it
+        together (then the vehicle no longer faces along the drive and cannot remove either part by moving along its
+        heading)."""
         if self._left <= 0:
             return False
         c, theta = self.config, self._drive_heading_rad
         lateral = abs(self.lateral_error_m(pose)) + c.uncertainty_sigmas * self._sigma_m(theta + 0.5 * math.pi)
-        if lateral > c.tolerance_m:
-            return True
         if abs(self._turned_rad()) <= 1e-6:
-            return False
-        return abs(self.along_error_m(pose)) + c.uncertainty_sigmas * self._sigma_m(theta) > c.tolerance_m
+            return lateral > c.tolerance_m
+        along = abs(self.along_error_m(pose)) + c.uncertainty_sigmas * self._sigma_m(theta)
+        return math.hypot(lateral, along) > c.tolerance_m
 
     def plan(self, pose: NDArray[np.float64]) -> Reference | None:
         """The manoeuvre for a vehicle at ``pose`` (and count the attempt), or None when it cannot help."""
