@@ -239,6 +239,13 @@ def test_docking_after_final_turns_judges_the_distance_from_the_end_point():
     docking.reset(turned)
     assert docking.needed(np.array([1.0 + part, part, math.radians(120.0)]))
     assert not docking.needed(np.array([1.0 + 0.005, 0.005, math.radians(120.0)]))  # 7.1 mm from the end
+    # on an estimate, the uncertainty that counts is the one in the direction of the error: 5 mm along the drive
+    # with σ = 2 mm across it is within the tolerance, with σ = 2 mm along it (5 + 2·2 mm) not
+    along = np.array([1.005, 0.0, math.radians(120.0)])
+    docking.observe(np.diag([1e-12, 0.002**2, 0.0]))
+    assert not docking.needed(along)
+    docking.observe(np.diag([0.002**2, 1e-12, 0.0]))
+    assert docking.needed(along)
     straight = plan(PathSpec(segments=[LineSegment(length_m=1.0)]), vehicle)
     docking.reset(straight)
     assert not docking.needed(np.array([1.0 + part, part, 0.0]))  # facing along the drive, it drives there itself

@@ -136,18 +136,19 @@ class Docking:
 
     def needed(self, pose: NDArray[np.float64]) -> bool:
         """Whether a vehicle at rest at ``pose`` should dock: attempts left, and an error that may be beyond tolerance
-        (the estimated error plus ``uncertainty_sigmas`` of the estimate, :meth:`observe`) across the last drive, or,
-        where the path ends with turns in place, in the distance from the end point, across the drive and along it
-        together (then the vehicle no longer faces along the drive and cannot remove either part by moving along its
-        heading)."""
+        (the estimated error plus ``uncertainty_sigmas`` of the estimate in the same direction, :meth:`observe`)
+        across the last drive, or, where the path ends with turns in place, in the distance from the end point
+        (then the vehicle no longer faces along the drive and can remove neither the error across it nor the one
+        along it by moving along its heading)."""
         if self._left <= 0:
             return False
         c, theta = self.config, self._drive_heading_rad
-        lateral = abs(self.lateral_error_m(pose)) + c.uncertainty_sigmas * self._sigma_m(theta + 0.5 * math.pi)
+        lateral = self.lateral_error_m(pose)
         if abs(self._turned_rad()) <= 1e-6:
-            return lateral > c.tolerance_m
-        along = abs(self.along_error_m(pose)) + c.uncertainty_sigmas * self._sigma_m(theta)
-        return math.hypot(lateral, along) > c.tolerance_m
+            return abs(lateral) + c.uncertainty_sigmas * self._sigma_m(theta + 0.5 * math.pi) > c.tolerance_m
+        along = self.along_error_m(pose)
+        direction = theta + math.atan2(lateral, along)  # of the error, in the world frame
+        return math.hypot(lateral, along) + c.uncertainty_sigmas * self._sigma_m(direction) > c.tolerance_m
 
     def plan(self, pose: NDArray[np.float64]) -> Reference | None:
         """The manoeuvre for a vehicle at ``pose`` (and count the attempt), or None when it cannot help."""
