@@ -103,6 +103,9 @@ class NonlinearMpcController(MpcStepper):
         from ``config``).
     """
 
+    solver_errors = (RuntimeError,)
+    """CasADi's exception for an error inside the solver call (a failed solve is IPOPT's return status instead)."""
+
     def __init__(
         self,
         vehicle: VehicleParams,
