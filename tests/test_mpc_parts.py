@@ -15,6 +15,7 @@ from agvctl.controllers.mpc.governor import ReferenceGovernor
 from agvctl.controllers.mpc.horizon import HorizonReference, heading_direction, turning_in_place
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.ltv_qp import window_versions
+from agvctl.controllers.mpc.prediction import PREDICTION_MODELS
 from agvctl.controllers.mpc.qp_blocks import BlockQp, Pattern, QpBlock, VariableBlock, VariableLayout
 from agvctl.controllers.mpc.shaping import (
     CommandShaper,
@@ -46,7 +47,8 @@ def turn(vehicle: VehicleParams) -> Reference:
 
 
 def grid_of(reference: Reference, vehicle: VehicleParams) -> HorizonReference:
-    return HorizonReference(reference, CONFIG, vehicle.control.sample_period_s)
+    T = vehicle.control.sample_period_s
+    return HorizonReference(reference, CONFIG, T, PREDICTION_MODELS[CONFIG.prediction_model](CONFIG, T))
 
 
 def on_reference(grid: HorizonReference, k: int) -> np.ndarray:

@@ -121,7 +121,7 @@ class LtvMpcController(MpcStepper):
             expect_instance(osqp_settings, Mapping, "LtvMpcController", "osqp_settings")
         self._osqp_overrides = dict(osqp_settings or {})
         self._frame = ERROR_FRAMES[self.config.error_frame](self.config.horizon, self.sample_period_s)
-        self._model = PREDICTION_MODELS[self.config.prediction_model](self.config, self._frame)
+        self._model = PREDICTION_MODELS[self.config.prediction_model](self.config, self.sample_period_s)
         self.nx = self._model.n_states
         self._build_problem()
 
@@ -141,7 +141,7 @@ class LtvMpcController(MpcStepper):
 
     def _retarget(self, reference: Reference) -> HorizonReference:
         """``reference``'s horizon grid, and each block's precompute for it."""
-        grid = HorizonReference(reference, self.config, self.sample_period_s)
+        grid = HorizonReference(reference, self.config, self.sample_period_s, self._model)
         ff = grid.feedforward_m_s
         d = np.zeros_like(ff)
         d[1:] = ff[1:] - ff[:-1]
@@ -234,7 +234,7 @@ class LtvMpcController(MpcStepper):
         # s_{−1} − s_ff,0, with s_{−1} brought into the speed box (see FirstMove)
         v_max = self.max_wheel_speed_m_s
         start = (clamp(u_l, -v_max, v_max) - ff_l, clamp(u_r, -v_max, v_max) - ff_r)
-        heading_rad, coupling = self._model.coupling(g, k, e[2])
+        heading_rad, coupling = self._model.coupling(self._frame, g, k, e[2])
         qp_step = QpStep(k, x0, e, start, (ff_l, ff_r), heading_rad, coupling, step.wheel_speed_m_s, step.window)
         qp = self._qp
         qp.write(qp_step)

@@ -89,6 +89,7 @@ class QpReference:
     """The time over which a setpoint may lead its wheel by the wheel's reachable acceleration, s."""
 
 
+@document_fields
 @dataclass(slots=True)
 class QpStep:
     """What the blocks write one step from."""
@@ -186,7 +187,7 @@ class Dynamics(StepBlock):
         (:func:`window_versions`)."""
         g, nx, N = reference.grid, self._nx, self._horizon
         n = g.n_points - 1
-        E = expm_batch(self._model.continuous(g, self._separation_m) * self._period_s)
+        E = expm_batch(self._model.continuous(g, self._frame, self._separation_m) * self._period_s)
         self._Ad = np.ascontiguousarray(E[:, :nx, :nx])
         self._neg_Ad_flat = np.ascontiguousarray(-self._Ad).reshape(n * nx * nx)
         self._neg_Bd_flat = np.ascontiguousarray(-E[:, :nx, nx:]).reshape(n * nx * 2)
@@ -226,7 +227,7 @@ class Dynamics(StepBlock):
 
 
 class SpeedBox(StepBlock):
-    """|s_k| ≤ v_max: δs_k ∈ [−v_max − s_ff,k, v_max − s_ff,k] (2N rows).
+    """``|s_k| ≤ v_max``: δs_k ∈ [−v_max − s_ff,k, v_max − s_ff,k] (2N rows).
 
     Parameters
     ----------
@@ -265,7 +266,7 @@ class SpeedBox(StepBlock):
 
 
 class Rate(StepBlock):
-    """|s_k − s_{k−1}| ≤ a_lim·T_s, k = 1 … N − 1: δs_k − δs_{k−1} ∈ ±a_lim·T_s − d_k (2(N − 1) rows).
+    """``|s_k − s_{k−1}| ≤ a_lim·T_s``, k = 1 … N − 1: δs_k − δs_{k−1} ∈ ±a_lim·T_s − d_k (2(N − 1) rows).
 
     Parameters
     ----------
@@ -303,8 +304,9 @@ class Rate(StepBlock):
 
 
 class FirstMove(StepBlock):
-    """|s_0 − s_{−1}| ≤ a_lim·T_s, s_{−1} the previous command brought into the speed box (2 rows): the only case where
-    the hard first move could be infeasible is |s_{−1}| > v_max + a_lim·T_s, and there it is relaxed just enough."""
+    """``|s_0 − s_{−1}| ≤ a_lim·T_s``, s_{−1} the previous command brought into the speed box (2 rows): the only case
+    where the hard first move could be infeasible is ``|s_{−1}| > v_max + a_lim·T_s``, and there it is
+    relaxed just enough."""
 
     name = "first move"
     n_rows = 2

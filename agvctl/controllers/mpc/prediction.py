@@ -6,7 +6,7 @@ initial position error, the along-track share of the position weight and the dir
 of the wheel-loop model moves the position error. The prediction model (``prediction_model``) says what drives the
 kinematics: the setpoints directly, or the wheel speeds lagging them (v̇ = (s − v)/τ); it supplies the continuous
 system over one interval, the wheel-speed errors of the initial state, the heading coupling and the constraint blocks
-of its own states.
+of its own states and the feed-forward (what makes its wheels follow the reference).
 
 Each is chosen by name from a registry (:data:`ERROR_FRAMES`, :data:`PREDICTION_MODELS`); nothing outside them asks
 which one is in use.
@@ -255,7 +255,24 @@ class PredictionModel(Protocol):
     wheel_columns: tuple[int, int] | None
     """The states of the wheel-speed errors (δv_l, δv_r), None where the setpoints drive the kinematics directly."""
 
-    def continuous(self, grid: HorizonReference, separation_m: float) -> FloatArray:
+    def feedforward_m_s(self, wheel_m_s: FloatArray, mid_wheel_m_s: FloatArray) -> FloatArray:
+        """The setpoints over each interval that make the model's wheels follow the reference.
+
+        Parameters
+        ----------
+        wheel_m_s : ndarray
+            The reference's wheel speeds at the grid points (n × 2: left, right), m/s.
+        mid_wheel_m_s : ndarray
+            Its wheel speeds at the intervals' midpoints ((n − 1) × 2), m/s.
+
+        Returns
+        -------
+        ndarray
+            (n − 1) × 2, m/s.
+        """
+        ...
+
+    def continuous(self, grid: HorizonReference, frame: ErrorFrame, separation_m: float) -> FloatArray:
         """The continuous system of each interval, augmented with the held setpoints ((nx + 2) square each; its
         exponential times T_s gives A_j and B_j).
 
@@ -263,6 +280,8 @@ class PredictionModel(Protocol):
         ----------
         grid : HorizonReference
             The reference's grid (its midpoints' U, ω, θ).
+        frame : ErrorFrame
+            The error frame, which writes the kinematics.
         separation_m : float
             The wheel separation b, m.
 
@@ -291,12 +310,16 @@ class PredictionModel(Protocol):
         """Forget what was linearised about for the previous reference."""
         ...
 
-    def coupling(self, grid: HorizonReference, k: int, heading_rad: float) -> tuple[float, FloatArray | None]:
+    def coupling(
+        self, frame: ErrorFrame, grid: HorizonReference, k: int, heading_rad: float
+    ) -> tuple[float, FloatArray | None]:
         """The heading error the position error's response to δU is linearised about and that response's change
         (first, second) per unit δU for x_0 … x_{N−1} (N × 2), or (0, None) for none.
 
         Parameters
         ----------
+        frame : ErrorFrame
+            The error frame, in whose axes the change is.
         grid : HorizonReference
             The reference's grid.
         k : int
@@ -336,21 +359,25 @@ class KinematicModel:
     ----------
     config : MpcConfig
         The settings.
-    frame : ErrorFrame
-        The error frame.
+    sample_period_s : float
+        T_s, s.
     """
 
     n_states = 3
     wheel_columns: tuple[int, int] | None = None
 
-    def __init__(self, config: MpcConfig, frame: ErrorFrame) -> None:
-        del config
-        self._frame = frame
+    def __init__(self, config: MpcConfig, sample_period_s: float) -> None:
+        del config, sample_period_s
 
-    def continuous(self, grid: HorizonReference, separation_m: float) -> FloatArray:
+    def feedforward_m_s(self, wheel_m_s: FloatArray, mid_wheel_m_s: FloatArray) -> FloatArray:
+        """See :meth:`PredictionModel.feedforward_m_s`: the midpoint wheel speeds."""
+        del wheel_m_s
+        return mid_wheel_m_s
+
+    def continuous(self, grid: HorizonReference, frame: ErrorFrame, separation_m: float) -> FloatArray:
         """See :meth:`PredictionModel.continuous`: the frame's kinematics, driven by the setpoints in columns 3-4."""
         m = np.zeros((grid.n_points - 1, 5, 5))
-        self._frame.kinematics(m, grid.mid_speed_m_s, grid.mid_yaw_rate_rad_s, grid.mid_theta_rad, separation_m)
+        frame.kinematics(m, grid.mid_speed_m_s, grid.mid_yaw_rate_rad_s, grid.mid_theta_rad, separation_m)
         return m
 
     def wheel_errors(self, x0: FloatArray, wheel_speed_m_s: FloatArray, reference_m_s: tuple[float, float]) -> None:
@@ -359,7 +386,9 @@ class KinematicModel:
     def restart(self) -> None:
         """See :meth:`PredictionModel.restart`: nothing is kept."""
 
-    def coupling(self, grid: HorizonReference, k: int, heading_rad: float) -> tuple[float, FloatArray | None]:
+    def coupling(
+        self, frame: ErrorFrame, grid: HorizonReference, k: int, heading_rad: float
+    ) -> tuple[float, FloatArray | None]:
         """See :meth:`PredictionModel.coupling`: none (the setpoints' columns are B's, not A's)."""
         return 0.0, None
 
@@ -376,23 +405,31 @@ class WheelLoopModel:
     ----------
     config : MpcConfig
         The settings (τ, the wheel loop's time constant).
-    frame : ErrorFrame
-        The error frame.
+    sample_period_s : float
+        T_s, s.
     """
 
     n_states = 5
     wheel_columns: tuple[int, int] | None = (3, 4)
 
-    def __init__(self, config: MpcConfig, frame: ErrorFrame) -> None:
-        self._inv_tau = 1.0 / wheel_loop_time_constant_s(config)
-        self._frame = frame
+    def __init__(self, config: MpcConfig, sample_period_s: float) -> None:
+        tau_s = wheel_loop_time_constant_s(config)
+        self._inv_tau = 1.0 / tau_s
+        self._decay = math.exp(-sample_period_s / tau_s)
         self._heading_rad = 0.0
 
-    def continuous(self, grid: HorizonReference, separation_m: float) -> FloatArray:
+    def feedforward_m_s(self, wheel_m_s: FloatArray, mid_wheel_m_s: FloatArray) -> FloatArray:
+        """See :meth:`PredictionModel.feedforward_m_s`: the inverse of the lag's exact discretisation,
+        s_j = (v_j+1 − a v_j)/(1 − a) with a = exp(−T_s/τ)."""
+        del mid_wheel_m_s
+        a = self._decay
+        return (wheel_m_s[1:] - a * wheel_m_s[:-1]) / (1.0 - a)
+
+    def continuous(self, grid: HorizonReference, frame: ErrorFrame, separation_m: float) -> FloatArray:
         """See :meth:`PredictionModel.continuous`: the frame's kinematics driven by the wheel-speed states 3-4, which
         follow the setpoints in columns 5-6."""
         m = np.zeros((grid.n_points - 1, 7, 7))
-        self._frame.kinematics(m, grid.mid_speed_m_s, grid.mid_yaw_rate_rad_s, grid.mid_theta_rad, separation_m)
+        frame.kinematics(m, grid.mid_speed_m_s, grid.mid_yaw_rate_rad_s, grid.mid_theta_rad, separation_m)
         m[:, 3, 3] = m[:, 4, 4] = -self._inv_tau
         m[:, 3, 5] = m[:, 4, 6] = self._inv_tau
         return m
@@ -406,7 +443,9 @@ class WheelLoopModel:
         """See :meth:`PredictionModel.restart`: linearise about no heading error again."""
         self._heading_rad = 0.0
 
-    def coupling(self, grid: HorizonReference, k: int, heading_rad: float) -> tuple[float, FloatArray | None]:
+    def coupling(
+        self, frame: ErrorFrame, grid: HorizonReference, k: int, heading_rad: float
+    ) -> tuple[float, FloatArray | None]:
         """Linearised about the reference, the position error moves with δU along the reference's heading: blind,
         where the reference stands still (the start, a stop), to what driving with the present heading error e_θ,0
         does. About the present error δU moves it along θ_ref + e_θ,0, a change of (cos e_θ,0 − 1, sin e_θ,0) in the
@@ -417,7 +456,7 @@ class WheelLoopModel:
         e0 = self._heading_rad
         if abs(e0) < 1e-4:  # below 0.006°: a change under 1e-6 of T_s per m/s, nothing to see
             return 0.0, None
-        return e0, self._frame.coupling(e0, grid, k)
+        return e0, frame.coupling(e0, grid, k)
 
     def constraint_blocks(self, horizon: int, box: SpeedBox) -> list[StepBlock]:
         """See :meth:`PredictionModel.constraint_blocks`: the setpoints' reachable lead over the wheel speeds."""
