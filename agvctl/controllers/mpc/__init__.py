@@ -7,7 +7,8 @@
   vehicle lags it.
 * :mod:`~agvctl.controllers.mpc.shaping` — the command filter: the reach window and the start and turn rules.
 * :mod:`~agvctl.controllers.mpc.ltv` with :mod:`~agvctl.controllers.mpc.ltv_qp`,
-  :mod:`~agvctl.controllers.mpc.qp_blocks`, :mod:`~agvctl.controllers.mpc.prediction` and
+  :mod:`~agvctl.controllers.mpc.ltv_qp_model`, :mod:`~agvctl.controllers.mpc.qp_blocks`,
+  :mod:`~agvctl.controllers.mpc.error_frames`, :mod:`~agvctl.controllers.mpc.prediction` and
   :mod:`~agvctl.controllers.mpc.matrix_exponential` — the LTV MPC, its QP's blocks, the builder that assembles them,
   the error frames and prediction models that supply its matrices, and the exact discretisation.
 * :mod:`~agvctl.controllers.mpc.nonlinear` — the nonlinear MPC (IPOPT), for comparison.

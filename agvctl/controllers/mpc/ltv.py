@@ -20,12 +20,13 @@ The cost is the common one plus, over the first :data:`~agvctl.controllers.mpc.l
 cost through slack variables, zero on the reference): a small start-up correction blends into driving off, a large
 one still turns a wheel backwards.
 
-The QP is built from named blocks (:mod:`~agvctl.controllers.mpc.ltv_qp`), the error frame and the prediction
-model are strategies that supply its matrices (:mod:`~agvctl.controllers.mpc.prediction`). Everything that varies
-with time depends on the reference only, so each block computes it for the whole reference at
-:meth:`LtvMpcController.reset`; a step is the initial error, each block's handful of slice copies into OSQP's vectors
-and its CSC data arrays at the positions the builder computed, ``update`` and a warm-started ``solve``. OSQP is set up
-once, in the constructor, with every entry that can ever be nonzero in the sparsity pattern.
+The QP is built from named blocks (:mod:`~agvctl.controllers.mpc.ltv_qp`), the error frame and the prediction model are
+strategies that supply its matrices (:mod:`~agvctl.controllers.mpc.error_frames`,
+:mod:`~agvctl.controllers.mpc.prediction`). Everything that varies with time depends on the reference only, so each
+block computes it for the whole reference at :meth:`LtvMpcController.reset`; a step is the initial error, each block's
+handful of slice copies into OSQP's vectors and its CSC data arrays at the positions the builder computed, ``update``
+and a warm-started ``solve``. OSQP is set up once, in the constructor, with every entry that can ever be nonzero in the
+sparsity pattern.
 """
 
 from __future__ import annotations
@@ -41,10 +42,10 @@ from numpy.typing import NDArray
 from agvctl.angles import wrap_angle
 from agvctl.controllers.mpc.common import MpcStepper
 from agvctl.controllers.mpc.config import MpcConfig
+from agvctl.controllers.mpc.error_frames import ERROR_FRAMES
 from agvctl.controllers.mpc.fallback import clamp
 from agvctl.controllers.mpc.horizon import HorizonReference
 from agvctl.controllers.mpc.ltv_qp import (
-    Dynamics,
     FirstMove,
     InputCost,
     QpReference,
@@ -52,12 +53,12 @@ from agvctl.controllers.mpc.ltv_qp import (
     Rate,
     Reversal,
     SpeedBox,
-    StateCost,
     StepBlock,
     StepQp,
     reversal_samples,
 )
-from agvctl.controllers.mpc.prediction import ERROR_FRAMES, PREDICTION_MODELS
+from agvctl.controllers.mpc.ltv_qp_model import Dynamics, StateCost
+from agvctl.controllers.mpc.prediction import PREDICTION_MODELS
 from agvctl.controllers.mpc.qp_blocks import BlockQp, VariableBlock
 from agvctl.controllers.mpc.shaping import HorizonStep
 from agvctl.errors import ConfigError, expect_instance
