@@ -10,12 +10,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import osqp
 import pytest
 
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.fallback import limit_command
 from agvctl.controllers.mpc.ltv import LtvMpcController
+from agvctl.controllers.mpc.ltv_qp import INF, QpReference, QpStep, StepBlock
 from agvctl.controllers.mpc.nonlinear import NonlinearMpcController
+from agvctl.controllers.mpc.qp_blocks import Pattern, VariableLayout
 from agvctl.errors import ConfigError
 from agvctl.feasibility import feedback_accel_m_s2
 from agvctl.params import VehicleParams
@@ -78,16 +81,16 @@ def test_converges_from_lateral_offset_and_tracks_figure8(vehicle: VehicleParams
 class _FullReload(LtvMpcController):
     """The LTV MPC giving OSQP all of P and A on every step."""
 
-    def _load_matrices(self, k: int, heading_rad: float, coupling: np.ndarray | None) -> dict[str, Any]:
-        super()._load_matrices(k, heading_rad, coupling)  # the step's entries into the data arrays
-        return {"Px": self._P_data.copy(), "Ax": self._A_data.copy()}
+    def _load_matrices(self, step: QpStep) -> dict[str, Any]:
+        super()._load_matrices(step)  # the step's entries into the data arrays
+        return {"Px": self._qp.p_data.copy(), "Ax": self._qp.a_data.copy()}
 
 
 class _FirstLoadOnly(LtvMpcController):
     """The LTV MPC keeping the first step's A: what a wrong change test would do."""
 
-    def _load_matrices(self, k: int, heading_rad: float, coupling: np.ndarray | None) -> dict[str, Any]:
-        update = super()._load_matrices(k, heading_rad, coupling)
+    def _load_matrices(self, step: QpStep) -> dict[str, Any]:
+        update = super()._load_matrices(step)
         if hasattr(self, "_loaded_once"):
             return {}
         self._loaded_once = True
@@ -221,6 +224,101 @@ def test_first_move_from_speed_above_limit_is_feasible(vehicle: VehicleParams, l
     assert cmd.status == "solved"
     v_max = vehicle.derived.max_speed_m_s
     assert v_max - 0.03 < cmd.wheel_speed_left_m_s <= v_max + 1e-6
+
+
+class _LeftWheelCap(StepBlock):
+    """A constraint block: the left wheel's setpoints at most :attr:`CAP_M_S` over the horizon, one row per sample
+    (δs_left,k ≤ cap − s_ff,left,k, written for each window from the reference's feed-forward)."""
+
+    name = "left wheel cap"
+    CAP_M_S = 0.2
+
+    def __init__(self, horizon: int) -> None:
+        self.n_rows = horizon
+
+    def constraints(self, layout: VariableLayout, pattern: Pattern) -> None:
+        for k in range(self.n_rows):
+            pattern.add(k, layout.start("setpoints") + 2 * k, 1.0)
+
+    def bind(self, qp: Any, rows: slice) -> None:
+        self._upper = qp.upper[rows]
+        qp.lower[rows] = -INF
+
+    def retarget(self, reference: QpReference) -> None:
+        self._upper_by_point = self.CAP_M_S - reference.grid.feedforward_m_s[:, 0]
+
+    def write(self, step: QpStep) -> None:
+        self._upper[:] = self._upper_by_point[step.k : step.k + self.n_rows]
+
+
+class _CappedLeftWheel(LtvMpcController):
+    def _blocks(self) -> list[StepBlock]:
+        return [*super()._blocks(), _LeftWheelCap(self.config.horizon)]
+
+
+def test_a_constraint_block_added_to_the_qp_bounds_its_solution(vehicle: VehicleParams, line: Reference) -> None:
+    """A new constraint is one block class and one entry in the controller's list of blocks: on a line cruising at
+    0.5 m/s, the left wheel's every planned setpoint stays within the block's cap, which the plain controller's
+    exceed, and the right wheel is left to go faster."""
+    capped, plain = _CappedLeftWheel(vehicle), LtvMpcController(vehicle)
+    T = vehicle.control.sample_period_s
+    highest = {}
+    for ctrl in (capped, plain):
+        ctrl.reset(line)
+        pose, wheel, plans = np.zeros(3), np.zeros(2), []
+        for k in range(75):  # 3 s: up to cruise
+            cmd = ctrl.update(k * T, pose, wheel)
+            assert cmd.status == "solved"
+            plans.append(ctrl.predicted_setpoints_m_s)
+            wheel = np.array([cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s])
+            U, omega = 0.5 * (wheel[0] + wheel[1]), (wheel[1] - wheel[0]) / vehicle.wheels.separation_m  # eqs 39-40
+            pose = pose + T * np.array([U * math.cos(pose[2]), U * math.sin(pose[2]), omega])  # eqs 41-43
+        highest[ctrl] = np.max(np.array(plans), axis=(0, 1))
+    assert highest[capped][0] <= _LeftWheelCap.CAP_M_S + 1e-3  # within the solver's tolerance
+    assert highest[plain][0] > 0.4
+    assert highest[capped][1] > _LeftWheelCap.CAP_M_S + 0.05
+
+
+class _FaultyBlock(StepBlock):
+    """A block with an indexing bug: it writes past its one row."""
+
+    name = "faulty"
+    n_rows = 1
+
+    def bind(self, qp: Any, rows: slice) -> None:
+        self._upper = qp.upper[rows]
+
+    def write(self, step: QpStep) -> None:
+        self._upper[1] = 0.0
+
+
+class _Faulty(LtvMpcController):
+    def _blocks(self) -> list[StepBlock]:
+        return [*super()._blocks(), _FaultyBlock()]
+
+
+def test_a_fault_in_the_step_raises_and_is_no_solver_failure(vehicle: VehicleParams, line: Reference) -> None:
+    """An exception that is not the solver's own (here an index out of range) leaves the step, for the run to report
+    as its error; it is not counted as a solver failure and hidden behind a fallback."""
+    ctrl = _Faulty(vehicle)
+    ctrl.reset(line)
+    with pytest.raises(IndexError):
+        ctrl.update(0.0, np.zeros(3), np.zeros(2))
+    assert ctrl.failures == 0
+
+
+def test_the_solvers_own_exception_falls_back_and_is_counted(
+    vehicle: VehicleParams, line: Reference, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    ctrl = LtvMpcController(vehicle)
+    ctrl.reset(line)
+
+    def refuse(**_: Any) -> None:
+        raise osqp.OSQPException(osqp.SolverError.OSQP_DATA_VALIDATION_ERROR)
+
+    monkeypatch.setattr(ctrl._solver, "solve", refuse)
+    cmd = ctrl.update(0.0, np.zeros(3), np.zeros(2))
+    assert cmd.status == "fallback_feedforward" and ctrl.failures == 1
 
 
 def test_forced_solver_failure_falls_back_and_is_counted(vehicle: VehicleParams, figure8: Reference) -> None:

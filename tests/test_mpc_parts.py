@@ -13,7 +13,10 @@ from agvctl.controllers.mpc.config import MpcConfig, lead_factor_s, resolved_con
 from agvctl.controllers.mpc.docking import Docking, DockingConfig, EndOfPath
 from agvctl.controllers.mpc.governor import ReferenceGovernor
 from agvctl.controllers.mpc.horizon import HorizonReference, heading_direction, turning_in_place
-from agvctl.controllers.mpc.ltv_qp import QpLayout, constraint_pattern, cost_matrix, window_versions
+from agvctl.controllers.mpc.ltv import LtvMpcController
+from agvctl.controllers.mpc.ltv_qp import window_versions
+from agvctl.controllers.mpc.prediction import PREDICTION_MODELS
+from agvctl.controllers.mpc.qp_blocks import BlockQp, Pattern, QpBlock, VariableBlock, VariableLayout
 from agvctl.controllers.mpc.shaping import (
     CommandShaper,
     HorizonStep,
@@ -44,7 +47,8 @@ def turn(vehicle: VehicleParams) -> Reference:
 
 
 def grid_of(reference: Reference, vehicle: VehicleParams) -> HorizonReference:
-    return HorizonReference(reference, CONFIG, vehicle.control.sample_period_s)
+    T = vehicle.control.sample_period_s
+    return HorizonReference(reference, CONFIG, T, PREDICTION_MODELS[CONFIG.prediction_model](CONFIG, T))
 
 
 def on_reference(grid: HorizonReference, k: int) -> np.ndarray:
@@ -294,32 +298,90 @@ def test_docking_undoes_the_final_turns_in_place_the_short_way_round(vehicle: Ve
 # -- the QP ----------------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("M", [0, 4])
-@pytest.mark.parametrize("wheel_loop", [False, True])
-def test_qp_layout_rows_follow_the_variables_and_the_matrices_fit_it(wheel_loop: bool, M: int) -> None:
-    N, nx = 6, (5 if wheel_loop else 3)
-    layout = QpLayout(horizon=N, n_states=nx, wheel_loop=wheel_loop, reversal_samples=M)
-    assert layout.n_variables == N * nx + 2 * N + 2 * M
-    expected_rows = N * nx + 2 * N + 2 * (N - 1) + 2 + (2 * (N - 1) if wheel_loop else 0) + 6 * M
-    assert layout.n_rows == expected_rows
-    A, pos_A, pos_B = constraint_pattern(layout)
-    assert A.shape == (layout.n_rows, layout.n_variables)
+@pytest.mark.parametrize("reversal", [0.0, 0.01])
+@pytest.mark.parametrize("model", ["kinematic", "kinematic+wheel_loop"])
+def test_qp_rows_follow_the_blocks_and_the_matrices_fit_them(
+    vehicle: VehicleParams, model: str, reversal: float
+) -> None:
+    N = 6
+    ctrl = LtvMpcController(vehicle, MpcConfig(horizon=N, prediction_model=model, weight_reversal=reversal))
+    qp, nx = ctrl._qp, ctrl.nx
+    wheel_loop, M = model == "kinematic+wheel_loop", 5 if reversal else 0
+    assert nx == (5 if wheel_loop else 3)
+    assert qp.layout.n_variables == N * nx + 2 * N + 2 * M
+    expected = {"dynamics": N * nx, "speed box": 2 * N, "rate": 2 * (N - 1), "first move": 2}
+    expected |= {"reach": 2 * (N - 1)} if wheel_loop else {}
+    expected |= {"reversal": 6 * M} if M else {}
+    expected |= {"state cost": 0, "input cost": 0}
+    assert {name: rows.stop - rows.start for name, rows in qp.rows.items()} == expected  # in this order, contiguous
+    assert list(qp.rows) == list(expected) and qp.n_rows == sum(expected.values())
+    A, P = qp.A, qp.P
+    assert A.shape == (qp.n_rows, qp.layout.n_variables)
+    pos_A, pos_B = qp.a_slots["dynamics"]["A"], qp.a_slots["dynamics"]["B"]
     assert pos_A.size == (N - 1) * nx * nx and pos_B.size == N * nx * 2
     assert np.all(A.data[pos_B] == 1.0) and np.all(A.data[pos_A] == 0.0)  # placeholders of −B_k and −A_k
     assert len(set(pos_A) | set(pos_B)) == pos_A.size + pos_B.size
-    P = cost_matrix(resolved_config(MpcConfig(horizon=N)), layout)
-    assert P.shape == (layout.n_variables, layout.n_variables)
+    assert P.shape == (qp.layout.n_variables,) * 2
     assert sp.tril(P, k=-1).nnz == 0  # upper triangle, as OSQP takes it
     full = (P + sp.triu(P, k=1).T).toarray()
     assert np.all(np.linalg.eigvalsh(full) > -1e-12)  # convex
     if M:  # each slack r_i of the first M samples: r_i + δs_i, r_i − δs_i and r_i alone
-        rows = A.toarray()[layout.r_reversal :]
-        slacks, setpoints = rows[:, layout.i_slacks :], rows[:, layout.i_setpoints : layout.i_slacks]
+        i_slacks, i_setpoints = qp.layout.start("reversal slacks"), qp.layout.start("setpoints")
+        rows = A.toarray()[qp.rows["reversal"]]
+        slacks, setpoints = rows[:, i_slacks:], rows[:, i_setpoints:i_slacks]
         eye, first = np.eye(2 * M), np.eye(2 * M, 2 * N)
         assert np.array_equal(slacks, np.vstack([eye, eye, eye]))
         assert np.array_equal(setpoints, np.vstack([first, -first, 0 * first]))
-        assert not rows[:, : layout.i_setpoints].any()
-        assert not full[layout.i_slacks :].any()  # their cost is linear
+        assert not rows[:, :i_setpoints].any()
+        assert not full[i_slacks:].any()  # their cost is linear
+        assert np.all(qp.q[i_slacks:] == reversal)
+
+
+class _Diagonal(QpBlock[None, float]):
+    """One entry of A on each variable, its slot written each step with the step's value."""
+
+    name = "diagonal"
+
+    def __init__(self, n: int) -> None:
+        self.n_rows = n
+
+    def constraints(self, layout: VariableLayout, pattern: Pattern) -> None:
+        for i in range(self.n_rows):
+            pattern.add(i, layout.start("z") + self.n_rows - 1 - i, 1.0, "anti-diagonal")
+
+    def bind(self, qp: BlockQp[None, float], rows: slice) -> None:
+        self._data, self._positions = qp.a_data, qp.a_slots[self.name]["anti-diagonal"]
+
+    def write_matrices(self, step: float) -> tuple[bool, bool]:
+        self._data[self._positions] = step * np.arange(1, self.n_rows + 1)
+        return True, False
+
+
+def test_the_builder_puts_each_slot_value_at_its_entry() -> None:
+    """A block's slot values, written in the order it added the entries, land at those entries whatever order the
+    CSC data array keeps them in (here the reverse: column order runs against the block's row order)."""
+    qp: BlockQp[None, float] = BlockQp([VariableBlock("z", 4)], [_Diagonal(4)])
+    update = qp.matrix_update(0.5)
+    assert set(update) == {"Ax", "Ax_idx"}
+    A = qp.A.copy()
+    A.data[update["Ax_idx"]] = update["Ax"]
+    assert np.array_equal(A.toarray(), np.fliplr(np.diag([0.5, 1.0, 1.5, 2.0])))
+
+
+def test_the_builder_refuses_entries_outside_a_blocks_rows_and_twice_the_same_entry() -> None:
+    class Outside(_Diagonal):
+        def constraints(self, layout: VariableLayout, pattern: Pattern) -> None:
+            pattern.add(self.n_rows, 0, 1.0)
+
+    class Twice(_Diagonal):
+        def constraints(self, layout: VariableLayout, pattern: Pattern) -> None:
+            pattern.add(0, 0, 1.0)
+            pattern.add(0, 0, 2.0)
+
+    with pytest.raises(ValueError, match="outside its 2 rows"):
+        BlockQp([VariableBlock("z", 2)], [Outside(2)])
+    with pytest.raises(ValueError, match="same entry"):
+        BlockQp([VariableBlock("z", 2)], [Twice(2)])
 
 
 def test_heading_direction_is_the_setpoints_sign_and_at_rest_that_of_the_next_motion() -> None:

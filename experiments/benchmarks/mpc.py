@@ -36,6 +36,7 @@ from agvctl.controllers.mpc.fallback import limit_command
 from agvctl.controllers.mpc.horizon import HorizonReference
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.nonlinear import NonlinearMpcController, prediction_step
+from agvctl.controllers.mpc.prediction import PREDICTION_MODELS
 from agvctl.controllers.pi.tuning import default_pi_gains
 from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.params import VehicleParams, load_vehicle
@@ -152,7 +153,8 @@ class DoMpcController:
         return self._template
 
     def reset(self, reference: Reference) -> None:
-        self._grid = HorizonReference(reference, self.config, self.T)
+        model = PREDICTION_MODELS[self.config.prediction_model](self.config, self.T)
+        self._grid = HorizonReference(reference, self.config, self.T, model)
         self._u_prev = None
         self._started = False
 

@@ -71,7 +71,8 @@ class MpcStepper:
 
     A subclass builds its solver in its constructor (after this one's) and implements :meth:`_retarget` (the grid
     of a new reference, and whatever the solver precomputes for it), :meth:`_solve` and, if a failed solve can spoil
-    its state, :meth:`_on_failure`.
+    its state, :meth:`_on_failure`; it names in :attr:`solver_errors` the exceptions its solver raises for its own
+    failures.
 
     Parameters
     ----------
@@ -83,6 +84,12 @@ class MpcStepper:
         The settings (None: the defaults); an unset wheel-loop time constant becomes
         :data:`~agvctl.controllers.mpc.config.DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S`.
     """
+
+    solver_errors: tuple[type[Exception], ...] = ()
+    """The exceptions the solver raises to report a failure of its own: counted and fallen back from, like a solve
+    :meth:`_solve` reports as failed (None). Any other exception is a fault in the step (an index out of range, a
+    wrong shape) and propagates, so that the run reports it as its error rather than as a solver failure
+    (``docs/decisions/0015-run-errors-exit-3.md``)."""
 
     def __init__(self, vehicle: VehicleParams, config: MpcConfig | None) -> None:
         self.config = c = resolved_config(config or MpcConfig())
@@ -156,7 +163,7 @@ class MpcStepper:
     def _solve_or_fall_back(self, step: HorizonStep) -> tuple[float, float, SolveStatus]:
         try:
             setpoint = self._solve(step)
-        except Exception:  # noqa: BLE001 - a solver failure must never stop the run
+        except self.solver_errors:  # the solver's own failure: fall back (any other exception is a fault)
             setpoint = None
         if setpoint is not None:
             return setpoint[0], setpoint[1], "solved"

@@ -3,18 +3,39 @@ whether the reference turns in place there."""
 
 from __future__ import annotations
 
-import math
-from typing import Any, NamedTuple, overload
+from typing import Any, NamedTuple, Protocol, overload
 
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
+from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.planning.reference import Reference
 
-__all__ = ["GridPoint", "HorizonReference", "heading_direction", "turning_in_place"]
+__all__ = ["GridPoint", "HorizonReference", "WheelFeedforward", "heading_direction", "turning_in_place"]
 
 FloatArray = NDArray[np.float64]
+
+
+class WheelFeedforward(Protocol):
+    """What a prediction model says about the feed-forward (the models of
+    :mod:`~agvctl.controllers.mpc.prediction`)."""
+
+    def feedforward_m_s(self, wheel_m_s: FloatArray, mid_wheel_m_s: FloatArray) -> FloatArray:
+        """The setpoints over each interval that make the model's wheels follow the reference.
+
+        Parameters
+        ----------
+        wheel_m_s : ndarray
+            The reference's wheel speeds at the grid points (n × 2: left, right), m/s.
+        mid_wheel_m_s : ndarray
+            Its wheel speeds at the intervals' midpoints ((n − 1) × 2), m/s.
+
+        Returns
+        -------
+        ndarray
+            (n − 1) × 2, m/s.
+        """
+        ...
 
 
 class GridPoint(NamedTuple):
@@ -54,22 +75,25 @@ class HorizonReference:
     yaw_rate_rad_s, wheel_m_s`` (n×2), and the same values per grid point in plain floats, ``points``
     (:class:`GridPoint`). Arrays of length ``n_points − 1`` (intervals [t_j, t_j+1]):
     ``mid_*``, the reference at the midpoint of the interval, and ``feedforward_m_s`` (n×2), the setpoint
-    that makes the prediction model follow the reference: the midpoint wheel speeds for the kinematic model,
-    and for the wheel loop the inverse of its exact discretisation, s_j = (v_j+1 − a v_j)/(1 − a) with
-    a = exp(−T_s/τ).
+    that makes the prediction model follow the reference (the model's
+    :meth:`~WheelFeedforward.feedforward_m_s`).
 
     Parameters
     ----------
     reference : Reference
         The reference to track.
     config : MpcConfig
-        Resolved settings (:func:`~agvctl.controllers.mpc.config.resolved_config`): the horizon N, the prediction
-        model and its τ, which set the padding and the feed-forward.
+        Resolved settings (:func:`~agvctl.controllers.mpc.config.resolved_config`): the horizon N, which sets the
+        padding.
     sample_period_s : float
         The control sample period T_s, s.
+    model : WheelFeedforward
+        The prediction model, which sets the feed-forward.
     """
 
-    def __init__(self, reference: Reference, config: MpcConfig, sample_period_s: float) -> None:
+    def __init__(
+        self, reference: Reference, config: MpcConfig, sample_period_s: float, model: WheelFeedforward
+    ) -> None:
         T = sample_period_s
         N = config.horizon
         self.sample_period_s = T
@@ -89,13 +113,8 @@ class HorizonReference:
         self.mid_theta_rad, self.mid_speed_m_s = m.theta_rad, m.speed_m_s
         self.mid_yaw_rate_rad_s = m.yaw_rate_rad_s
         mid_wheel = np.column_stack([m.wheel_speed_left_m_s, m.wheel_speed_right_m_s])
-        if config.prediction_model == "kinematic":
-            ff = mid_wheel
-        else:
-            a = math.exp(-T / wheel_loop_time_constant_s(config))
-            ff = (self.wheel_m_s[1:] - a * self.wheel_m_s[:-1]) / (1.0 - a)
-        self.feedforward_m_s: FloatArray = np.ascontiguousarray(ff)
-        self.direction: FloatArray = heading_direction(ff)
+        self.feedforward_m_s: FloatArray = np.ascontiguousarray(model.feedforward_m_s(self.wheel_m_s, mid_wheel))
+        self.direction: FloatArray = heading_direction(self.feedforward_m_s)
         """Each wheel's direction (+1 forward, −1 backward, 0 none) over each interval: its feed-forward's sign,
         where the feed-forward is zero the sign of its next nonzero one (0 after the last)."""
         columns: list[FloatArray] = [self.x_m, self.y_m, self.theta_rad, self.cos_theta, self.sin_theta]

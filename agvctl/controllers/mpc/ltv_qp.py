@@ -1,13 +1,24 @@
-"""The QP of the LTV MPC (:mod:`agvctl.controllers.mpc.ltv`): where its variables and constraint rows lie, the
-sparsity pattern of its constraint matrix and its cost matrix.
+"""The QP of the LTV MPC (:mod:`agvctl.controllers.mpc.ltv`) as named blocks (:mod:`~agvctl.controllers.mpc.qp_blocks`):
+what they are written from, and the blocks on the setpoints.
 
-Variables z = [x_1 … x_N, δs_0 … δs_{N−1}, r_0 … r_{M−1}] (error states, then setpoints minus feed-forward, two per
-sample, then, with a reversal weight, the reversal slacks of the first M samples, two per sample). Rows: the dynamics
-x_{k+1} − A_k x_k − B_k δs_k = 0 (N·nx), the speed box on δs (2N), the rate δs_k − δs_{k−1} (2(N − 1)), the first
-move from the previous command (2), with the wheel-loop model the setpoints' reachable lead over the predicted wheel
-speeds s_k − v_k (2(N − 1)) and, with the reversal slacks, r_k + δs_k (2M), r_k − δs_k (2M) and r_k (2M): with
-r_k ≥ 0 and r_k ≥ −d_k s_k (d_k the wheel's direction, one of the first two rows left open), r_k is at least the
-setpoint's speed against its wheel's direction, and its linear cost makes it exactly that.
+Variables z = [x_1 … x_N, δs_0 … δs_{N−1}, r_0 … r_{M−1}]: the error states (``"states"``, nx per sample), the
+setpoints minus feed-forward (``"setpoints"``, two per sample) and, with a reversal weight, the reversal slacks of the
+first M samples (``"reversal slacks"``, two per sample). The blocks, in row order:
+
+* :class:`~agvctl.controllers.mpc.ltv_qp_model.Dynamics`, x_{k+1} − A_k x_k − B_k δs_k = 0 (N·nx rows; A_0 x_0 in
+  the bounds), A_k and B_k from the prediction model and error frame (:mod:`~agvctl.controllers.mpc.prediction`);
+* :class:`SpeedBox`, the speed box on δs (2N);
+* :class:`Rate`, the rate δs_k − δs_{k−1} (2(N − 1));
+* :class:`FirstMove`, the first move from the previous command (2);
+* the prediction model's own: with the wheel-loop model :class:`Reach`, the setpoints' reachable lead over the
+  predicted wheel speeds s_k − v_k (2(N − 1));
+* :class:`Reversal`, with the reversal slacks: r_k + δs_k (2M), r_k − δs_k (2M) and r_k (2M). With r_k ≥ 0 and
+  r_k ≥ −d_k s_k (d_k the wheel's direction, one of the first two rows left open), r_k is at least the setpoint's
+  speed against its wheel's direction, and its linear cost makes it exactly that;
+* the cost's blocks, without rows: :class:`~agvctl.controllers.mpc.ltv_qp_model.StateCost` (the error states'
+  weights) and :class:`InputCost` (the setpoints' and their rate's).
+
+Each precomputes its data for a reference (:class:`QpReference`) and writes its part of each step (:class:`QpStep`).
 """
 
 from __future__ import annotations
@@ -20,8 +31,31 @@ from numpy.typing import NDArray
 
 from agvctl.config import document_fields
 from agvctl.controllers.mpc.config import MpcConfig
+from agvctl.controllers.mpc.horizon import HorizonReference
+from agvctl.controllers.mpc.qp_blocks import BlockQp, Pattern, QpBlock, VariableBlock, VariableLayout
+from agvctl.controllers.mpc.shaping import SetpointWindow
+from agvctl.feasibility import WheelReach
 
-__all__ = ["REVERSAL_SAMPLES", "QpLayout", "constraint_pattern", "cost_matrix", "window_versions"]
+__all__ = [
+    "INF",
+    "REVERSAL_SAMPLES",
+    "FirstMove",
+    "InputCost",
+    "QpReference",
+    "QpStep",
+    "Rate",
+    "Reach",
+    "Reversal",
+    "SpeedBox",
+    "reversal_samples",
+    "window_versions",
+]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+INF = 1.0e30
+"""A bound that is no bound (OSQP's infinity)."""
 
 REVERSAL_SAMPLES = 5
 """M, the samples at the head of the horizon whose setpoints pay the reversal weight: 0.2 s, two time constants of
@@ -32,173 +66,329 @@ driving off as with slacks on the whole horizon, which cost OSQP far more iterat
 
 @document_fields
 @dataclass(frozen=True)
-class QpLayout:
-    """Where the QP's variables and constraint rows lie (see the module notes)."""
+class QpReference:
+    """What the blocks precompute from, for one reference."""
 
-    horizon: int
-    """N, the horizon in samples."""
-    n_states: int
-    """nx, the error states per sample: 3 (the pose) or, with the wheel-loop model, 5."""
-    wheel_loop: bool
-    """Whether the states include the wheel-loop lag (then the reachable-lead rows exist)."""
-    reversal_samples: int = 0
-    """M, the samples whose reversal slacks r_k the QP holds, with their rows (0: none)."""
-
-    @property
-    def i_setpoints(self) -> int:
-        """Index of δs_0 in z."""
-        return self.horizon * self.n_states
-
-    @property
-    def i_slacks(self) -> int:
-        """Index of r_0 in z, one past the setpoints."""
-        return self.i_setpoints + 2 * self.horizon
-
-    @property
-    def n_variables(self) -> int:
-        """The number of variables: N·nx error states, 2N setpoints and 2M reversal slacks."""
-        return self.i_slacks + 2 * self.reversal_samples
-
-    @property
-    def r_box(self) -> int:
-        """First row of the speed box."""
-        return self.horizon * self.n_states
-
-    @property
-    def r_rate(self) -> int:
-        """First row of the setpoints' rate δs_k − δs_{k−1}, k = 1 … N − 1."""
-        return self.r_box + 2 * self.horizon
-
-    @property
-    def r_first(self) -> int:
-        """First of the two rows of the first move from the previous command."""
-        return self.r_rate + 2 * (self.horizon - 1)
-
-    @property
-    def r_reach(self) -> int:
-        """First row of the setpoints' reachable lead over the predicted wheel speeds."""
-        return self.r_first + 2
-
-    @property
-    def r_reversal(self) -> int:
-        """First of the reversal rows: r_k + δs_k, then r_k − δs_k, then r_k (2M each)."""
-        return self.r_reach + (2 * (self.horizon - 1) if self.wheel_loop else 0)
-
-    @property
-    def n_rows(self) -> int:
-        """The number of constraint rows (the reachable-lead rows with the wheel-loop model only)."""
-        return self.r_reversal + 6 * self.reversal_samples
+    grid: HorizonReference
+    """The reference on the horizon grid."""
+    max_wheel_speed_m_s: float
+    """v_max, the setpoints' speed limit, m/s."""
+    max_step_m_s: float
+    """a_lim·T_s, the setpoints' largest change in one sample, m/s."""
+    feedforward_step_m_s: FloatArray
+    """d_j = s_ff,j − s_ff,j−1 (d_0 = 0): the rate of the feed-forward itself (grid points × 2), m/s."""
+    reach: WheelReach
+    """What each wheel can reach from a speed."""
+    lead_factor_s: float
+    """The time over which a setpoint may lead its wheel by the wheel's reachable acceleration, s."""
 
 
-def cost_matrix(config: MpcConfig, layout: QpLayout) -> sp.csc_matrix:
-    """P of the QP's cost ½ zᵀPz + qᵀz, its upper triangle: the state weights (terminal scale at k = N), the input
-    and input-rate weights (the reversal slacks' cost is linear: q only).
+@document_fields
+@dataclass(slots=True)
+class QpStep:
+    """What the blocks write one step from."""
 
-    The position weights are placeholders, kept in the sparsity pattern: the LTV MPC sets them for each reference (the
-    path frame's along-track share, the turns in place) and loads each step's window of them.
+    k: int
+    """The window's first grid point."""
+    x0: FloatArray
+    """x_0, the initial error (nx)."""
+    errors: list[float]
+    """x_0 as floats."""
+    start_m_s: tuple[float, float]
+    """s_{−1} − s_ff,0 (left, right), with s_{−1} the previous command brought into the speed box, m/s."""
+    feedforward_m_s: tuple[float, float]
+    """s_ff,0 (left, right), m/s."""
+    heading_rad: float
+    """The heading error the coupling is linearised about, rad (0: none)."""
+    coupling: FloatArray | None
+    """The heading coupling of x_0 … x_{N−1} (N × 2), or None (see
+    :meth:`~agvctl.controllers.mpc.prediction.PredictionModel.coupling`)."""
+    wheel_speed_m_s: FloatArray
+    """The measured wheel speeds (left, right), m/s."""
+    window: SetpointWindow | None
+    """Where the setpoints can be reached (None for a broken measurement)."""
+
+
+StepBlock = QpBlock[QpReference, QpStep]
+StepQp = BlockQp[QpReference, QpStep]
+
+
+class SpeedBox(StepBlock):
+    """``|s_k| ≤ v_max``: δs_k ∈ [−v_max − s_ff,k, v_max − s_ff,k] (2N rows).
+
+    Parameters
+    ----------
+    horizon : int
+        N.
+    """
+
+    name = "speed box"
+
+    def __init__(self, horizon: int) -> None:
+        self._horizon = horizon
+        self.n_rows = 2 * horizon
+
+    def constraints(self, layout: VariableLayout, pattern: Pattern) -> None:
+        """δs itself."""
+        us = layout.start("setpoints")
+        for i in range(2 * self._horizon):
+            pattern.add(i, us + i, 1.0)
+
+    def bind(self, qp: StepQp, rows: slice) -> None:
+        """Its bounds; :attr:`first` is the first sample's (lower, upper) × (left, right), which a later block may
+        tighten."""
+        self._bounds = qp.bounds[:, rows]
+        self.first = self._bounds[:, :2]
+        """The first sample's bounds, (lower, upper) × (left, right), m/s."""
+
+    def retarget(self, reference: QpReference) -> None:
+        """The box around the feed-forward at every grid point."""
+        ff, v_max = reference.grid.feedforward_m_s, reference.max_wheel_speed_m_s
+        self._box = np.stack([(-v_max - ff).ravel(), (v_max - ff).ravel()])  # (lower, upper) × flat samples
+
+    def write(self, step: QpStep) -> None:
+        """The window's box."""
+        k = step.k
+        self._bounds[:] = self._box[:, 2 * k : 2 * (k + self._horizon)]
+
+
+class Rate(StepBlock):
+    """``|s_k − s_{k−1}| ≤ a_lim·T_s``, k = 1 … N − 1: δs_k − δs_{k−1} ∈ ±a_lim·T_s − d_k (2(N − 1) rows).
+
+    Parameters
+    ----------
+    horizon : int
+        N.
+    """
+
+    name = "rate"
+
+    def __init__(self, horizon: int) -> None:
+        self._horizon = horizon
+        self.n_rows = 2 * (horizon - 1)
+
+    def constraints(self, layout: VariableLayout, pattern: Pattern) -> None:
+        """δs_k − δs_{k−1}."""
+        us = layout.start("setpoints")
+        for k in range(1, self._horizon):
+            for j in range(2):
+                pattern.add(2 * (k - 1) + j, us + 2 * k + j, 1.0)
+                pattern.add(2 * (k - 1) + j, us + 2 * (k - 1) + j, -1.0)
+
+    def bind(self, qp: StepQp, rows: slice) -> None:
+        """Its bounds."""
+        self._bounds = qp.bounds[:, rows]
+
+    def retarget(self, reference: QpReference) -> None:
+        """The bounds at every grid point."""
+        d, a_step = reference.feedforward_step_m_s, reference.max_step_m_s
+        self._rate = np.stack([(-a_step - d).ravel(), (a_step - d).ravel()])
+
+    def write(self, step: QpStep) -> None:
+        """The window's bounds."""
+        k = step.k
+        self._bounds[:] = self._rate[:, 2 * (k + 1) : 2 * (k + self._horizon)]
+
+
+class FirstMove(StepBlock):
+    """``|s_0 − s_{−1}| ≤ a_lim·T_s``, s_{−1} the previous command brought into the speed box (2 rows): the only case
+    where the hard first move could be infeasible is ``|s_{−1}| > v_max + a_lim·T_s``, and there it is
+    relaxed just enough."""
+
+    name = "first move"
+    n_rows = 2
+
+    def constraints(self, layout: VariableLayout, pattern: Pattern) -> None:
+        """δs_0."""
+        us = layout.start("setpoints")
+        for j in range(2):
+            pattern.add(j, us + j, 1.0)
+
+    def bind(self, qp: StepQp, rows: slice) -> None:
+        """Its bounds."""
+        self._lower, self._upper = qp.lower[rows], qp.upper[rows]
+
+    def retarget(self, reference: QpReference) -> None:
+        """a_lim·T_s."""
+        self._step_m_s = reference.max_step_m_s
+
+    def write(self, step: QpStep) -> None:
+        """s_{−1} − s_ff,0 ± a_lim·T_s."""
+        (start_l, start_r), a_step, lo, hi = step.start_m_s, self._step_m_s, self._lower, self._upper
+        lo[0], lo[1] = start_l - a_step, start_r - a_step
+        hi[0], hi[1] = start_l + a_step, start_r + a_step
+
+
+class Reach(StepBlock):
+    """The setpoints' reachable leads over their wheels: s_k − v_k ∈ [−D↓, D↑], k = 1 … N − 1 (2(N − 1) rows, the
+    wheel speeds being states), and the first sample's from the measured speed within the speed box, tightening its
+    rows. Later samples' leads are the reference's speeds', never tighter than the first's (so that holding the first
+    setpoint stays feasible as the wheel converges).
+
+    Parameters
+    ----------
+    horizon : int
+        N.
+    n_states : int
+        nx.
+    wheel_columns : tuple of int
+        The states of the wheel-speed errors (left, right).
+    box : SpeedBox
+        The speed box, whose first sample this block tightens (it comes after it).
+    """
+
+    name = "reach"
+
+    def __init__(self, horizon: int, n_states: int, wheel_columns: tuple[int, int], box: SpeedBox) -> None:
+        self._horizon, self._nx, self._wheels, self._box = horizon, n_states, wheel_columns, box
+        self.n_rows = 2 * (horizon - 1)
+
+    def constraints(self, layout: VariableLayout, pattern: Pattern) -> None:
+        """δs_k − δv_k (δv_0 is data, in the first sample's bounds)."""
+        xs, us, nx = layout.start("states"), layout.start("setpoints"), self._nx
+        for k in range(1, self._horizon):
+            for j in range(2):
+                pattern.add(2 * (k - 1) + j, us + 2 * k + j, 1.0)
+                pattern.add(2 * (k - 1) + j, xs + (k - 1) * nx + self._wheels[j], -1.0)
+
+    def bind(self, qp: StepQp, rows: slice) -> None:
+        """Its bounds, by sample and wheel."""
+        self._lower, self._upper = qp.lower[rows].reshape(-1, 2), qp.upper[rows].reshape(-1, 2)
+
+    def retarget(self, reference: QpReference) -> None:
+        """The leads at the reference's wheel speeds: δs_k − δv_k ∈ v_ref − s_ff + [−D↓, D↑]."""
+        g = reference.grid
+        up, down = reference.reach.accel_m_s2(g.wheel_m_s[:-1])
+        self._base = g.wheel_m_s[:-1] - g.feedforward_m_s
+        self._down = down * reference.lead_factor_s
+        self._up = up * reference.lead_factor_s
+        self._max_wheel_speed_m_s = reference.max_wheel_speed_m_s
+
+    def write(self, step: QpStep) -> None:
+        """The first sample's box within the window, the later samples' leads."""
+        assert step.window is not None  # finite wheel speeds: x_0 holds them
+        N, k, (ff_l, ff_r), window = self._horizon, step.k, step.feedforward_m_s, step.window
+        first = self._box.first
+        (box_lo_l, box_lo_r), (box_hi_l, box_hi_r) = first.tolist()
+        (lower_l, lower_r), (upper_l, upper_r) = window.lower_m_s, window.upper_m_s
+        first[0, 0], first[0, 1] = max(box_lo_l, lower_l - ff_l), max(box_lo_r, lower_r - ff_r)
+        first[1, 0], first[1, 1] = min(box_hi_l, upper_l - ff_l), min(box_hi_r, upper_r - ff_r)
+        lo, hi = self._lower, self._upper
+        v_l, v_r = step.wheel_speed_m_s.tolist()
+        if max(abs(v_l), abs(v_r)) <= self._max_wheel_speed_m_s:
+            base = self._base[k + 1 : k + N]
+            np.maximum(self._down[k + 1 : k + N], window.lead_down_m_s, out=lo)
+            np.subtract(base, lo, out=lo)
+            np.maximum(self._up[k + 1 : k + N], window.lead_up_m_s, out=hi)
+            np.add(base, hi, out=hi)
+        else:  # a wheel beyond the speed box (a reset at speed): only the first sample is bounded
+            lo[:] = -INF
+            hi[:] = INF
+
+
+class Reversal(StepBlock):
+    """The reversal slacks r_k of the first M samples (variables ``"reversal slacks"``) with their linear cost
+    ``weight_reversal`` and rows r_k + δs_k ≥ −s_ff,k where the wheel heads forward, r_k − δs_k ≥ s_ff,k where it
+    heads backward (each row open otherwise) and r_k ≥ 0 (6M rows).
+
+    Parameters
+    ----------
+    samples : int
+        M.
+    weight : float
+        The slacks' linear cost w_r, per m/s.
+    """
+
+    name = "reversal"
+
+    def __init__(self, samples: int, weight: float) -> None:
+        self._samples, self._weight = samples, weight
+        self.variables = (VariableBlock("reversal slacks", 2 * samples),)
+        self.n_rows = 6 * samples
+
+    def constraints(self, layout: VariableLayout, pattern: Pattern) -> None:
+        """r_k ± δs_k, r_k."""
+        n_r, i_r, us = 2 * self._samples, layout.start("reversal slacks"), layout.start("setpoints")
+        for i in range(n_r):
+            for block, sign in ((0, 1.0), (1, -1.0)):
+                pattern.add(n_r * block + i, i_r + i, 1.0)
+                pattern.add(n_r * block + i, us + i, sign)
+            pattern.add(2 * n_r + i, i_r + i, 1.0)
+
+    def bind(self, qp: StepQp, rows: slice) -> None:
+        """The slacks' cost, r_k ≥ 0 and no upper bounds: fixed; the first two rows' lower bounds are the steps'."""
+        M, i_r = self._samples, qp.layout.start("reversal slacks")
+        qp.q[i_r : i_r + 2 * M] = self._weight
+        lower, upper = qp.lower[rows], qp.upper[rows]
+        lower[4 * M :] = 0.0
+        upper[:] = INF
+        self._lower = lower[: 4 * M].reshape(2, 2 * M)
+
+    def retarget(self, reference: QpReference) -> None:
+        """The lower bounds at every grid point: −s_ff where the wheel heads forward, s_ff backward."""
+        g = reference.grid
+        ff, direction = g.feedforward_m_s, g.direction
+        self._reversal_lower = np.stack(
+            [np.where(direction > 0, -ff, -INF).ravel(), np.where(direction < 0, ff, -INF).ravel()]
+        )
+
+    def write(self, step: QpStep) -> None:
+        """The window's lower bounds."""
+        k, M = step.k, self._samples
+        self._lower[:] = self._reversal_lower[:, 2 * k : 2 * (k + M)]
+
+
+class InputCost(StepBlock):
+    """The setpoints' weights w_u Σ ‖δs_k‖² + w_Δ Σ_{k=0..N−1} ‖s_k − s_{k−1}‖² with s_{−1} the previous command: P's
+    fixed entries, and the rate's linear term written each step, 2 w_Δ Dᵀ r with r_0 = −(s_{−1} − s_ff,0) and
+    r_j = d_{k+j} (D the differences δs_j − δs_{j−1}), i.e. 2 w_Δ (r_j − r_{j+1}) and 2 w_Δ r_{N−1} for the last.
 
     Parameters
     ----------
     config : MpcConfig
-        The weights: heading, terminal scale, input and input rate.
-    layout : QpLayout
-        Where the variables lie.
-
-    Returns
-    -------
-    scipy.sparse.csc_matrix
-        The upper triangle of P, ``n_variables`` square.
+        The weights.
     """
-    c, N, nx = config, layout.horizon, layout.n_states
-    q_diag = np.zeros(nx)
-    q_diag[2] = c.weight_heading
-    p_state = np.tile(q_diag, N)
-    p_state[-nx:] *= c.weight_terminal_scale
-    p_state[::nx] = 1.0
-    p_state[1::nx] = 1.0
-    diff = sp.eye(2 * N, format="csc") - sp.eye(2 * N, k=-2, format="csc")  # rows: δs_k − δs_{k−1}
-    p_input = 2.0 * c.weight_input * sp.eye(2 * N) + 2.0 * c.weight_input_rate * (diff.T @ diff)
-    blocks = [sp.diags(2.0 * p_state), p_input, sp.csc_matrix((2 * layout.reversal_samples,) * 2)]
-    return sp.triu(sp.block_diag(blocks, format="csc"), format="csc")
 
+    name = "input cost"
 
-def constraint_pattern(layout: QpLayout) -> tuple[sp.csc_matrix, NDArray[np.int64], NDArray[np.int64]]:
-    """The QP's constraint matrix with every entry that can ever be nonzero, and where its time-varying entries lie.
+    def __init__(self, config: MpcConfig) -> None:
+        self._config = config
+        self._w_rate = 2.0 * config.weight_input_rate
 
-    The time-varying entries, the dynamics' A_k and B_k, are zero or one here; each step writes its window's values
-    (negated) at the returned positions of the CSC data array, so the sparsity pattern OSQP is set up with never
-    changes.
+    def cost(self, layout: VariableLayout, pattern: Pattern) -> None:
+        """2 w_u I + 2 w_Δ DᵀD."""
+        c, us, n = self._config, layout.start("setpoints"), 2 * self._config.horizon
+        diff = sp.eye(n, format="csc") - sp.eye(n, k=-2, format="csc")  # rows: δs_k − δs_{k−1}
+        p_input = 2.0 * c.weight_input * sp.eye(n) + 2.0 * c.weight_input_rate * (diff.T @ diff)
+        upper = sp.triu(p_input, format="coo")
+        for r, col, value in zip(upper.row.tolist(), upper.col.tolist(), upper.data.tolist(), strict=True):
+            pattern.add(us + r, us + col, value)
 
-    Parameters
-    ----------
-    layout : QpLayout
-        Where the variables and the rows lie.
+    def bind(self, qp: StepQp, rows: slice) -> None:
+        """The setpoints' part of q, by sample."""
+        us = qp.layout.start("setpoints")
+        self._q = qp.q[us : us + 2 * self._config.horizon].reshape(-1, 2)
 
-    Returns
-    -------
-    matrix : scipy.sparse.csc_matrix
-        The constraint matrix, ``n_rows`` × ``n_variables``, its indices sorted.
-    positions_a : ndarray of int
-        The positions in ``matrix.data`` of the entries of A_1 … A_{N−1}, ordered by k, row, column.
-    positions_b : ndarray of int
-        The positions in ``matrix.data`` of the entries of B_0 … B_{N−1}, ordered by k, row, column.
-    """
-    N, nx, iU, n_z, n_rows = layout.horizon, layout.n_states, layout.i_setpoints, layout.n_variables, layout.n_rows
-    r_box, r_rate, r_first, r_reach = layout.r_box, layout.r_rate, layout.r_first, layout.r_reach
-    rows: list[int] = []
-    cols: list[int] = []
-    vals: list[float] = []
+    def retarget(self, reference: QpReference) -> None:
+        """The linear term where it depends on the reference only: 2 w_Δ (d_j − d_j+1) for the inner samples,
+        2 w_Δ d_j for the last."""
+        d, w_rate = reference.feedforward_step_m_s, self._w_rate
+        self._d_pairs: list[list[float]] = d.tolist()  # per-step reads as plain floats
+        self._inner = np.zeros_like(d)
+        self._inner[:-1] = (d[:-1] - d[1:]) * w_rate
+        self._last = (d - 0.0) * w_rate
 
-    def add(r: int, col: int, v: float) -> int:
-        rows.append(r)
-        cols.append(col)
-        vals.append(v)
-        return len(rows) - 1
-
-    # dynamics x_{k+1} − A_k x_k − B_k δs_k = 0; x_0 is data, so A_0 x_0 goes into the bounds
-    a_entries: list[int] = []
-    b_entries: list[int] = []
-    for k in range(N):
-        for i in range(nx):
-            add(k * nx + i, k * nx + i, 1.0)
-        if k >= 1:
-            for i in range(nx):
-                for j in range(nx):
-                    a_entries.append(add(k * nx + i, (k - 1) * nx + j, 0.0))
-        for i in range(nx):
-            for j in range(2):
-                b_entries.append(add(k * nx + i, iU + 2 * k + j, 1.0))
-    for k in range(2 * N):  # speed box on δs
-        add(r_box + k, iU + k, 1.0)
-    for k in range(1, N):  # rate δs_k − δs_{k−1}
-        for j in range(2):
-            add(r_rate + 2 * (k - 1) + j, iU + 2 * k + j, 1.0)
-            add(r_rate + 2 * (k - 1) + j, iU + 2 * (k - 1) + j, -1.0)
-    for j in range(2):  # first move from the previous command s_{−1}
-        add(r_first + j, iU + j, 1.0)
-    if layout.wheel_loop:  # reachable lead of the setpoint over the wheel: s_k − v_k (v_0 is data, in the bounds)
-        for k in range(1, N):
-            for j in range(2):
-                add(r_reach + 2 * (k - 1) + j, iU + 2 * k + j, 1.0)
-                add(r_reach + 2 * (k - 1) + j, (k - 1) * nx + 3 + j, -1.0)
-    # r_k + δs_k ≥ −s_ff,k (headed forward), r_k − δs_k ≥ s_ff,k (backward), r_k ≥ 0
-    r_rev, i_r, n_r = layout.r_reversal, layout.i_slacks, 2 * layout.reversal_samples
-    for i in range(n_r):
-        for block, sign in ((0, 1.0), (1, -1.0)):
-            add(r_rev + n_r * block + i, i_r + i, 1.0)
-            add(r_rev + n_r * block + i, iU + i, sign)
-        add(r_rev + 2 * n_r + i, i_r + i, 1.0)
-
-    ids = np.arange(1, len(rows) + 1, dtype=np.float64)
-    A = sp.csc_matrix((ids, (rows, cols)), shape=(n_rows, n_z))
-    A.sort_indices()
-    order = A.data.astype(np.int64) - 1  # CSC position p holds entry order[p]
-    position = np.empty_like(order)
-    position[order] = np.arange(len(order))
-    A.data = np.asarray(vals, dtype=np.float64)[order]
-    pos_A = position[np.asarray(a_entries, dtype=np.int64)]
-    pos_B = position[np.asarray(b_entries, dtype=np.int64)]
-    return A, pos_A, pos_B
+    def write(self, step: QpStep) -> None:
+        """The window's linear term, its first sample's from the previous command."""
+        qu, w_rate, N, k = self._q, self._w_rate, self._config.horizon, step.k
+        start_l, start_r = step.start_m_s
+        if N > 1:
+            d_l, d_r = self._d_pairs[k + 1]
+            qu[0, 0], qu[0, 1] = (-start_l - d_l) * w_rate, (-start_r - d_r) * w_rate
+            qu[1 : N - 1] = self._inner[k + 1 : k + N - 1]
+            qu[N - 1] = self._last[k + N - 1]
+        else:
+            qu[0, 0], qu[0, 1] = (-start_l - 0.0) * w_rate, (-start_r - 0.0) * w_rate
 
 
 def window_versions(sources: list[tuple[NDArray[np.float64], int, int]], n_windows: int) -> NDArray[np.int64]:
@@ -233,3 +423,19 @@ def window_versions(sources: list[tuple[NDArray[np.float64], int, int]], n_windo
         # window k against window k − 1: entries j = k + first … k + last against j − 1
         changes[1:] += cumulative[k + last + 1] - cumulative[k + first]
     return np.cumsum(changes > 0)
+
+
+def reversal_samples(config: MpcConfig) -> int:
+    """M, the samples whose setpoints pay the reversal weight.
+
+    Parameters
+    ----------
+    config : MpcConfig
+        The horizon and the reversal weight.
+
+    Returns
+    -------
+    int
+        :data:`REVERSAL_SAMPLES` within the horizon with a reversal weight, else 0.
+    """
+    return min(config.horizon, REVERSAL_SAMPLES) if config.weight_reversal > 0 else 0

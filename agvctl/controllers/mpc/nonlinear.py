@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from agvctl.controllers.mpc.common import MpcStepper
 from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
 from agvctl.controllers.mpc.horizon import HorizonReference
+from agvctl.controllers.mpc.prediction import PREDICTION_MODELS
 from agvctl.controllers.mpc.shaping import HorizonStep
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
@@ -103,6 +104,9 @@ class NonlinearMpcController(MpcStepper):
         from ``config``).
     """
 
+    solver_errors = (RuntimeError,)
+    """CasADi's exception for an error inside the solver call (a failed solve is IPOPT's return status instead)."""
+
     def __init__(
         self,
         vehicle: VehicleParams,
@@ -111,6 +115,7 @@ class NonlinearMpcController(MpcStepper):
         ipopt_options: dict[str, Any] | None = None,
     ) -> None:
         super().__init__(vehicle, config)
+        self._model = PREDICTION_MODELS[self.config.prediction_model](self.config, self.sample_period_s)
         self._lag = self.config.prediction_model == "kinematic+wheel_loop"
         self.nx = 5 if self._lag else 3
         self._w0: FloatArray | None = None
@@ -127,7 +132,7 @@ class NonlinearMpcController(MpcStepper):
         self._rate_bounds()
         self._w0 = None
         self._last_k = -1
-        return HorizonReference(reference, self.config, self.sample_period_s)
+        return HorizonReference(reference, self.config, self.sample_period_s, self._model)
 
     # -- the NLP ------------------------------------------------------------------------------------------
 
