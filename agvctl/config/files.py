@@ -76,15 +76,15 @@ def check_plain_name(name: str, source: str, key: str, folder: str) -> None:
 MAX_FILE_BYTES = 4 * 2**20
 """The largest settings file read (vehicle, experiment, path, fuzz, gains and settings files), bytes: 4 MiB.
 
-The largest file shipped is under 3 kB; a path of the most segments a file may hold (10 000), written out one key a
-line with comments, is about 1 MB. Parsed, 4 MiB of TOML takes about a second and well under 100 MB."""
+The largest file shipped is under 3 kB; a path of the most segments a file may hold (10 000), written one key a line,
+is under 1 MB with comments. Parsing 4 MiB of TOML takes a few seconds and under 100 MB of memory."""
 
-MAX_LOG_BYTES = 256 * 2**20
-"""The largest log read (CSV: a measured or simulated log, a DA profile), bytes: 256 MiB.
+MAX_LOG_BYTES = 64 * 2**20
+"""The largest log read (CSV: a measured or simulated log, a DA profile), bytes: 64 MiB.
 
-An hour at 1 kHz with ten columns of twelve digits is about 500 MB of which few columns are read; a log of a
-measurement procedure or a run of the simulator at its control rate is a few MB. Read and parsed, 256 MiB stays well
-under 2 GB of memory."""
+About 450 000 rows of ten columns at full precision: over an hour of samples at 100 Hz, where a measurement
+procedure logs minutes. Reading 64 MiB of CSV takes under 20 s and under 1 GB of memory (the csv module holds each
+cell as a string before it is a number)."""
 
 
 def _refuse(path: Path, problem: str) -> ConfigError:
