@@ -34,7 +34,9 @@ def _files(d: Path) -> dict[str, bytes]:
 # -- names ------------------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("name", ["/tmp/agvctl-escaped", "../../escaped", "", ".", "..", "a\\b", "a/b"])
+@pytest.mark.parametrize(
+    "name", ["/tmp/agvctl-escaped", "../../escaped", "", ".", "..", "a\\b", "a/b", " ", ".agvctl-output", "x" * 300]
+)
 def test_an_experiment_name_that_is_not_a_plain_folder_name_is_refused(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], name: str
 ) -> None:

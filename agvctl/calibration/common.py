@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import io
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -11,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.config import document_fields
+from agvctl.config import MAX_LOG_BYTES, document_fields, read_text
 from agvctl.errors import ConfigError
 
 __all__ = ["Estimate", "read_csv_columns"]
@@ -48,13 +49,10 @@ class Estimate:
 
 def _rows(path: str | Path, source: str) -> list[tuple[int, list[str]]]:
     """The rows of a CSV file with their line numbers, blank and comment lines left out."""
+    reader = csv.reader(io.StringIO(read_text(path, MAX_LOG_BYTES), newline=""))
     try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            reader = csv.reader(fh)
-            numbered = [(reader.line_num, row) for row in reader]
-    except FileNotFoundError:
-        raise ConfigError(source, "", "file not found") from None
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        numbered = [(reader.line_num, row) for row in reader]
+    except csv.Error as exc:
         raise ConfigError(source, "", f"cannot read: {exc}") from None
     return [
         (n, r)

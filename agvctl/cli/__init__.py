@@ -36,6 +36,19 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         raise _UsageError(f"{self.prog}: {message}")
 
+    def parse_known_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> tuple[argparse.Namespace, list[str]]:
+        """Parse as argparse does, then refuse an empty value (``--out ''``): no file, name or address is empty,
+        and none may silently mean the default."""
+        parsed, extras = super().parse_known_args(args, namespace)
+        for action in self._actions:
+            value = getattr(parsed, action.dest, None)
+            if any(v == "" for v in (value if isinstance(value, list) else [value])):
+                name = "/".join(action.option_strings) or str(action.metavar or action.dest)
+                self.error(f"argument {name}: must not be empty")
+        return parsed, extras
+
 
 def build_parser() -> argparse.ArgumentParser:
     from agvctl.cli import check_cmd, fuzz_cmd, identify_cmd, params_cmd, plan_cmd, run_cmd, simulate_cmd, tune_cmd

@@ -16,6 +16,7 @@ atomically (:func:`agvctl.fileio.atomic_open`); :func:`writing` turns an error w
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
 from collections.abc import Iterable, Iterator, Sequence
@@ -23,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from agvctl.errors import ConfigError
+from agvctl.fileio import file_kind, real_path
 from agvctl.params import default_vehicle_path
 
 __all__ = ["Output", "check_outputs", "files_in", "vehicle_input", "writing"]
@@ -46,25 +48,50 @@ def vehicle_input(vehicle: str | Path | None) -> Path:
     return Path(vehicle) if vehicle is not None and str(vehicle) != "default" else default_vehicle_path()
 
 
-def _same_file(a: Path, b: Path) -> bool:
+PACKAGE = Path(__file__).resolve().parent.parent
+"""The agvctl package's folder: no output is written into it."""
+
+
+def _real(flag: str, path: Path) -> Path:
+    """``path`` resolved (:func:`~agvctl.fileio.real_path`), an error as one line naming ``flag``."""
+    if not str(path):
+        raise ConfigError(flag, "", "must not be empty")
     try:
-        return os.path.samefile(a, b)
+        return real_path(path)
+    except OSError as exc:
+        if exc.errno == errno.ENAMETOOLONG:
+            raise ConfigError(flag, "", f"cannot write it: {exc.strerror} (a name in it, or the whole path)") from None
+        raise ConfigError(flag, "", f"cannot write {path}: {exc.strerror}") from None
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """``a`` and ``b`` (both resolved) are one file: the same path, or another name of it (a hard link)."""
+    try:
+        return a == b or os.path.samefile(a, b)
     except OSError:  # either does not exist (yet): the same file only by name
-        return a.resolve() == b.resolve()
+        return False
+
+
+def _check_not_in_package(flag: str, real: Path, shown: Path) -> None:
+    if real == PACKAGE or PACKAGE in real.parents or real in PACKAGE.parents:
+        where = "holds" if real in PACKAGE.parents else "lies inside"
+        raise ConfigError(flag, "", f"{shown} {where} the agvctl package ({PACKAGE}); refusing to write there")
 
 
 def _nearest_existing(path: Path) -> Path:
     for p in (path, *path.parents):
         if p.exists():
             return p
-    return Path(".")
+    return Path("/")
 
 
-def _check_directory(flag: str, directory: Path, shown: Path) -> None:
-    """``directory`` exists or can be made, and a file can be created in it (or in the nearest existing parent)."""
+def _check_directory(flag: str, directory: Path, shown: Path, target: Path | None = None) -> None:
+    """The resolved ``directory`` exists or can be made, a file can be created in it (or in the nearest existing
+    parent), and each name to be made (up to ``target`` if given) is within the file system's limit."""
     nearest = _nearest_existing(directory)
     if not nearest.is_dir():
         raise ConfigError(flag, "", f"cannot write {shown}: {nearest} is not a directory")
+    _check_names(flag, nearest, target or directory)
     try:
         with tempfile.TemporaryFile(dir=nearest):
             pass
@@ -74,10 +101,29 @@ def _check_directory(flag: str, directory: Path, shown: Path) -> None:
         ) from None
 
 
+def _check_names(flag: str, nearest: Path, path: Path) -> None:
+    """Each name of ``path`` below the existing folder ``nearest`` fits the file system's limit on a name."""
+    try:
+        limit = os.pathconf(nearest, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        limit = 255
+    for name in path.relative_to(nearest).parts:
+        size = len(os.fsencode(name))
+        if size > limit:
+            short = name if len(name) <= 24 else name[:24] + "…"
+            raise ConfigError(
+                flag, "", f"cannot write {short}: a name of {size} bytes; the file system allows {limit} (not written)"
+            )
+
+
 def check_outputs(
     outputs: Sequence[Output], inputs: Iterable[str | Path], directories: Sequence[tuple[str, str | Path]] = ()
 ) -> None:
-    """Refuse, before anything runs, outputs that would overwrite an input or each other or cannot be written.
+    """Refuse, before anything runs, outputs that would overwrite an input, each other or anything but a regular
+    file, that lie in the package, or that cannot be written.
+
+    Every path is judged where it really is (:func:`~agvctl.fileio.real_path`: ``..`` and symbolic links resolved,
+    missing folders included), and the writers write there.
 
     Parameters
     ----------
@@ -93,25 +139,36 @@ def check_outputs(
     ConfigError
         One line naming the flag and the path as given.
     """
-    existing = [Path(p) for p in inputs if Path(p).exists()]
+    existing: list[tuple[Path, Path]] = []
+    for p in inputs:
+        with contextlib.suppress(OSError):
+            if Path(p).exists():
+                existing.append((Path(p), real_path(p)))
     for flag, directory in directories:
         d = Path(directory)
-        if d.exists() and not d.is_dir():
-            raise ConfigError(flag, "", f"{d} exists and is not a directory")
-        _check_directory(flag, d, d)
-    seen: list[Output] = []
+        real = _real(flag, d)
+        if real.exists() and not real.is_dir():
+            raise ConfigError(flag, "", f"{d} is {file_kind(real.lstat().st_mode)}, not a directory")
+        _check_not_in_package(flag, real, d)
+        _check_directory(flag, real, d)
+    seen: list[tuple[Output, Path]] = []
     for out in outputs:
-        if out.path.is_dir():
+        real = _real(out.flag, out.path)
+        if real.is_dir():
             raise ConfigError(out.flag, "", f"{out.path} is a directory; expected a file name")
-        clash = next((p for p in existing if _same_file(out.path, p)), None)
+        if real.exists() and not real.is_file():
+            kind = file_kind(real.lstat().st_mode)
+            raise ConfigError(out.flag, "", f"{out.path} is {kind}, not a regular file; refusing to replace it")
+        clash = next((given for given, p in existing if _same_file(real, p)), None)
         if clash is not None:
             also = "" if clash == out.path else f" (the same file as {clash})"
             raise ConfigError(out.flag, "", f"{out.path} is an input of this command{also}; refusing to overwrite it")
-        other = next((o for o in seen if _same_file(out.path, o.path)), None)
+        _check_not_in_package(out.flag, real, out.path)
+        other = next((o for o, p in seen if _same_file(real, p)), None)
         if other is not None:
             raise ConfigError(out.flag, "", f"{out.path} is also written by {other.flag}")
-        _check_directory(out.flag, out.path.parent, out.path)
-        seen.append(out)
+        _check_directory(out.flag, real.parent, out.path, real)
+        seen.append((out, real))
 
 
 @contextlib.contextmanager

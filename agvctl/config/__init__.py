@@ -17,11 +17,21 @@ The package's modules: :mod:`~agvctl.config.fields` (declaring, checking and doc
 from __future__ import annotations
 
 from agvctl.config.fields import check_fields, document_fields, number
-from agvctl.config.files import check_plain_name, dump_toml, load_toml, read_text, to_dict
+from agvctl.config.files import (
+    MAX_FILE_BYTES,
+    MAX_LOG_BYTES,
+    check_plain_name,
+    dump_toml,
+    load_toml,
+    read_text,
+    to_dict,
+)
 from agvctl.config.loading import as_file_error, build, build_fields, convert_value, did_you_mean, join_key, renamed
 from agvctl.config.overrides import apply_overrides, check_key, parse_override
 
 __all__ = [
+    "MAX_FILE_BYTES",
+    "MAX_LOG_BYTES",
     "apply_overrides",
     "as_file_error",
     "build",

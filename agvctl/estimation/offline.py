@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
-from agvctl.config import read_text
+from agvctl.config import MAX_LOG_BYTES, read_text
 from agvctl.errors import ConfigError, expect_instance
 from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator
 from agvctl.estimation.ekf import CALIBRATION_STATES, EkfSettings, PoseEkf
@@ -90,7 +90,7 @@ def read_log(path: str | Path) -> SimLog:
         it for values that do not apply).
     """
     source = str(path)
-    rows = list(csv.reader(read_text(path).splitlines()))
+    rows = list(csv.reader(read_text(path, MAX_LOG_BYTES).splitlines()))
     if not rows or not any(cell.strip() for cell in rows[0]):
         raise ConfigError(source, "", "empty file (expected a header row naming the columns)")
     header = [h.strip() for h in rows[0]]

@@ -30,8 +30,9 @@ the controllers (or takes yours) and runs the closed loop::
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -110,6 +111,18 @@ def load_experiment(path: str | Path) -> Experiment:
     return experiment_from_spec(dataclasses.replace(spec, source=str(path)))
 
 
+@contextlib.contextmanager
+def _read_for(source: str, key: str, path: Path | None) -> Iterator[None]:
+    """A file that cannot be read as a whole (not a regular file, too large, not UTF-8 ...) named by the key of
+    ``source`` that names it; an error at a key of the file itself names that file."""
+    try:
+        yield
+    except ConfigError as exc:
+        if path is None or exc.key or exc.source != str(path):
+            raise
+        raise ConfigError(source, key, f"{path}: {exc.problem}") from None
+
+
 def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
     """An experiment from its validated file: the vehicles (nominal and true) loaded, the reference planned, the
     wheel loops designed and the pose controller's settings completed with them.
@@ -134,12 +147,14 @@ def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
     vehicle_path = None if spec.vehicle == "default" else spec.resolve(spec.vehicle)
     if vehicle_path is not None and not vehicle_path.exists():
         raise ConfigError(src, "vehicle", f"file not found: {vehicle_path}")
-    controller_vehicle = load_vehicle(vehicle_path)
+    with _read_for(src, "vehicle", vehicle_path):
+        controller_vehicle = load_vehicle(vehicle_path)
     plant_vehicle = controller_vehicle.with_overrides(list(spec.plant.set.items()), source=f"{src}: plant.set")
     traj = spec.resolve(spec.trajectory)
     if not traj.exists():
         raise ConfigError(src, "trajectory", f"file not found: {traj}")
-    path = load_path(traj)
+    with _read_for(src, "trajectory", traj):
+        path = load_path(traj)
     reference = plan(path, controller_vehicle)
     c = spec.controller
     wheel_loops = design_wheel_loops(

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvctl.actuator import Actuator
-from agvctl.config import document_fields, read_text
+from agvctl.config import MAX_LOG_BYTES, document_fields, read_text
 from agvctl.errors import ConfigError
 from agvctl.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.params import VehicleParams
@@ -283,7 +283,7 @@ def load_input_profile(path: str | Path, sample_period_s: float, duration_s: flo
         ``--duration`` (:func:`sample_count`).
     """
     path = Path(path)
-    text = read_text(path)
+    text = read_text(path, MAX_LOG_BYTES)
     numbered = [(no, line) for no, line in enumerate(text.splitlines(), start=1) if line.strip() and not _comment(line)]
     if not numbered:
         raise ConfigError(str(path), "", "empty file; expected a header t_s,da_left_v,da_right_v")
