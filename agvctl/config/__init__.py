@@ -19,7 +19,7 @@ from __future__ import annotations
 from agvctl.config.fields import check_fields, document_fields, number
 from agvctl.config.files import check_plain_name, dump_toml, load_toml, read_text, to_dict
 from agvctl.config.loading import as_file_error, build, build_fields, convert_value, did_you_mean, join_key, renamed
-from agvctl.config.overrides import apply_overrides, check_key, parse_override
+from agvctl.config.overrides import apply_overrides, check_key, override_pairs, parse_override
 
 __all__ = [
     "apply_overrides",
@@ -36,6 +36,7 @@ __all__ = [
     "join_key",
     "load_toml",
     "number",
+    "override_pairs",
     "parse_override",
     "read_text",
     "renamed",
