@@ -5,7 +5,9 @@ file, under --set and in Python alike; a rule is accepted by name in [checks] ac
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 import shutil
+import tempfile
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -13,6 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 from cli_runs import one_line, run
+from hypothesis import HealthCheck, given, settings
 
 from agvctl.config import dump_toml
 from agvctl.errors import ConfigError
@@ -184,3 +187,27 @@ def test_a_references_arrays_are_read_only() -> None:
         reference.grid.x_m[0] = 1.0
     with pytest.raises(ValueError, match="read-only"):
         reference.grid_times_s[0] = 1.0
+
+
+# -- random vehicles ---------------------------------------------------------------------------------------------
+
+
+def _property_module() -> Any:
+    path = ROOT / "experiments" / "vehicle_rules_property.py"
+    spec = importlib.util.spec_from_file_location("vehicle_rules_property", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+PROPERTY = _property_module()
+
+
+@pytest.mark.slow
+@settings(max_examples=100, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+@given(sets=PROPERTY.vehicle_overrides())
+def test_a_random_vehicle_is_refused_naming_a_key_or_runs_a_line_to_completion(sets: list[tuple[str, Any]]) -> None:
+    """experiments/vehicle_rules_property.py: the same property over 1,000 examples."""
+    with tempfile.TemporaryDirectory() as folder:
+        PROPERTY.check_vehicle(sets, Path(folder), dict.fromkeys(("refused", "path refused", "ran", "within 1 cm"), 0))
