@@ -59,6 +59,7 @@ ENCODER_SPEED_STEP_SHARE = 0.05
 measure by counting then resolves 20 steps between rest and full speed at least."""
 
 
+@document_fields
 @dataclass(frozen=True)
 class VehicleRule:
     """One rule between a vehicle's numbers: its name, its reason and the report's equation it follows from."""
