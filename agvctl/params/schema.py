@@ -161,16 +161,6 @@ class VehicleParams:
                     f"motor torque at the current limit ({stall:g} N m, {side}) does not exceed the stiction "
                     f"({m.stiction_n_m:g} N m): the vehicle cannot move",
                 )
-        u_full = _full_scale_amplifier_voltage(self)
-        for side, m in (("left", self.motor.left), ("right", self.motor.right)):
-            if m.torque_constant_n_m_a * u_full / m.resistance_ohm <= m.stiction_n_m:
-                binds = u_full == self.amplifier.voltage_limit_v
-                raise ConfigError(
-                    src,
-                    "amplifier.voltage_limit_v" if binds else "da.max_v",
-                    f"motor torque at full output, k_t u/R with u = {u_full:g} V, does not exceed the stiction "
-                    f"({m.stiction_n_m:g} N m, {side}): the vehicle cannot move (eq 33)",
-                )
         try:
             derived = derive(self)
             values = derived.as_dict()
