@@ -14,11 +14,13 @@ BASE = load_vehicle()
 def vehicles(draw):
     rel = lambda lo, hi: draw(st.floats(lo, hi))  # noqa: E731
     coulomb = rel(0.0, 0.12)
+    mass, h, about = 85 * rel(0.8, 3.0), rel(0.0, 0.45), draw(st.sampled_from(["rotation_point", "center_of_mass"]))
+    inertia_cm = 4.236 * rel(0.4, 3.0)  # about the centre of mass: within the rules of agvctl.params.rules
     sets = [
-        f"body.mass_kg={85 * rel(0.3, 3.0)}",
-        f"body.inertia_kg_m2={5.46 * rel(0.3, 3.0)}",
-        f"body.com_behind_axle_m={rel(-0.2, 0.4)}",
-        f"wheels.separation_m={rel(0.3, 1.0)}",
+        f"body.mass_kg={mass}",
+        f"body.inertia_kg_m2={inertia_cm + (mass * h**2 if about == 'rotation_point' else 0.0)}",
+        f"body.com_behind_axle_m={h}",
+        f"wheels.separation_m={rel(0.3, 0.94)}",
         f"wheels.left.radius_m={rel(0.05, 0.2)}",
         f"wheels.right.radius_m={rel(0.05, 0.2)}",
         f"motor.left.coulomb_friction_n_m={coulomb}",
@@ -28,7 +30,7 @@ def vehicles(draw):
         f"motor.gear_ratio={rel(10.0, 80.0)}",
         f"friction_model.p_factor={rel(10.0, 100.0)}",
         f"amplifier.current_limit_a={rel(10.0, 20.0)}",  # k_t I_max above the largest stiction (0.24 N m)
-        f"body.inertia_about={draw(st.sampled_from(['rotation_point', 'center_of_mass']))}",
+        f"body.inertia_about={about}",
     ]
     return BASE.with_overrides(sets)
 

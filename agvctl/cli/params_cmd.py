@@ -61,7 +61,8 @@ def format_params(vehicle: VehicleParams) -> str:
             if isinstance(v, dict):
                 walk(key, v)
             elif key != "name":
-                lines.append(f"  {key:<44} {v:>14}" if isinstance(v, str) else f"  {key:<44} {v:>14.6g}")
+                shown = v if isinstance(v, str) else ", ".join(v) if isinstance(v, list) else f"{v:.6g}"
+                lines.append(f"  {key:<44} {shown:>14}")
 
     walk("", data)
     lines += ["", "derived:"]

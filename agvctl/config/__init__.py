@@ -27,7 +27,7 @@ from agvctl.config.files import (
     to_dict,
 )
 from agvctl.config.loading import as_file_error, build, build_fields, convert_value, did_you_mean, join_key, renamed
-from agvctl.config.overrides import apply_overrides, check_key, parse_override
+from agvctl.config.overrides import apply_overrides, check_key, override_pairs, parse_override
 
 __all__ = [
     "MAX_FILE_BYTES",
@@ -46,6 +46,7 @@ __all__ = [
     "join_key",
     "load_toml",
     "number",
+    "override_pairs",
     "parse_override",
     "read_text",
     "renamed",

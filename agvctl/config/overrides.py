@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import numbers
 import tomllib
 from collections.abc import Iterable, Mapping
 from typing import Any, get_type_hints
@@ -10,7 +11,7 @@ from typing import Any, get_type_hints
 from agvctl.config.loading import did_you_mean, renamed
 from agvctl.errors import ConfigError
 
-__all__ = ["apply_overrides", "check_key", "parse_override"]
+__all__ = ["apply_overrides", "check_key", "override_pairs", "parse_override"]
 
 
 def parse_override(text: str, source: str = "--set") -> tuple[str, Any]:
@@ -54,6 +55,55 @@ def parse_override(text: str, source: str = "--set") -> tuple[str, Any]:
     except RecursionError:
         raise ConfigError(source, key, "value nested too deeply") from None
     return key, value
+
+
+def override_pairs(overrides: Iterable[Any], source: str = "--set") -> list[tuple[str, Any]]:
+    """Overrides in either form, ``"KEY=VALUE"`` strings or ``(key, value)`` pairs, as ``(key, value)`` pairs.
+
+    A numpy scalar (or another ``numbers.Real``) value becomes the Python value it holds (``np.int64(10)`` →
+    ``10``), so it is accepted wherever a Python number is.
+
+    Parameters
+    ----------
+    overrides : iterable
+        Each a ``"KEY=VALUE"`` string (:func:`parse_override`) or a ``(key, value)`` pair with a string key.
+    source : str
+        What errors name as the file (the option, by default).
+
+    Returns
+    -------
+    list of (str, object)
+        The pairs, in order.
+
+    Raises
+    ------
+    ConfigError
+        An override of neither form, naming it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> override_pairs(["da.bits=10", ("da.max_v", np.float64(4.5))])
+    [('da.bits', 10), ('da.max_v', 4.5)]
+    """
+    if isinstance(overrides, (str, bytes)):
+        raise ConfigError(source, "", f"expected a list of overrides (got the string {overrides!r})")
+    pairs: list[tuple[str, Any]] = []
+    for o in overrides:
+        if isinstance(o, str):
+            pairs.append(parse_override(o, source))
+            continue
+        if not (isinstance(o, (tuple, list)) and len(o) == 2 and isinstance(o[0], str) and o[0]):
+            raise ConfigError(source, repr(o)[:60], 'expected "KEY=VALUE" or a (key, value) pair with a string key')
+        key, value = o
+        if type(value).__module__ == "numpy" and getattr(value, "ndim", None) == 0:
+            value = value.item()  # a numpy scalar (np.int64, np.float64, np.bool_): the Python value it holds
+        elif isinstance(value, numbers.Integral) and not isinstance(value, bool):
+            value = int(value)
+        elif isinstance(value, numbers.Real) and not isinstance(value, (int, float)):
+            value = float(value)
+        pairs.append((key, value))
+    return pairs
 
 
 def apply_overrides(

@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import os
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from agvctl.config import apply_overrides, build, document_fields, load_toml, parse_override, to_dict
+from agvctl.config import apply_overrides, build, check_fields, document_fields, load_toml, override_pairs, to_dict
 from agvctl.errors import ConfigError
 from agvctl.params.derived import (
     DerivedConstants,
@@ -35,6 +36,7 @@ from agvctl.params.derived import (
     motor_from_rim,
     rim_from_motor,
 )
+from agvctl.params.rules import VehicleChecks, broken_rules
 from agvctl.params.sides import MotorPair, MotorParams, WheelParams
 from agvctl.params.tables import (
     AmplifierParams,
@@ -135,11 +137,18 @@ class VehicleParams:
     sensors: SensorParams = dataclasses.field(default_factory=SensorParams)
     """The encoders, gyro and position fixes (``[sensors]``)."""
 
-    def validate(self, *, source: str, prefix: str) -> None:
+    checks: VehicleChecks = dataclasses.field(default_factory=VehicleChecks)
+    """The rules between its numbers it breaks on purpose (``[checks] accept``, :mod:`agvctl.params.rules`)."""
+
+    def __post_init__(self) -> None:
+        """Check the vehicle as its file is checked: each table's fields, then the rules between tables, the
+        derived constants and the plant's stiffness. Construction and ``dataclasses.replace`` run it alike."""
+        check_fields(self)
+        src = type(self).__name__
         per_sample_hz, rate_hz = 1.0 / self.control.sample_period_s, self.sensors.position_fix_rate_hz
         if rate_hz > per_sample_hz * (1 + 1e-9):
             raise ConfigError(
-                source,
+                src,
                 "sensors.position_fix_rate_hz",
                 f"at most one fix per control sample: <= {per_sample_hz:g} Hz (got {rate_hz:g})",
             )
@@ -147,30 +156,39 @@ class VehicleParams:
             stall = self.amplifier.current_limit_a * m.torque_constant_n_m_a
             if stall <= m.stiction_n_m:
                 raise ConfigError(
-                    source,
+                    src,
                     "amplifier.current_limit_a",
                     f"motor torque at the current limit ({stall:g} N m, {side}) does not exceed the stiction "
                     f"({m.stiction_n_m:g} N m): the vehicle cannot move",
                 )
         try:
-            derived = derive(self).as_dict()
-        except ArithmeticError:  # e.g. a square that overflows
-            derived = {}
-        if not derived or not all(math.isfinite(v) for v in derived.values()):
-            raise ConfigError(source, prefix, "the derived constants overflow: a value is far out of range")
+            derived = derive(self)
+            values = derived.as_dict()
+        except ArithmeticError:  # within the fields' ranges (agvctl.params.ranges) no constant overflows
+            values = {}
+        if not values or not all(math.isfinite(v) for v in values.values()):
+            raise ConfigError(src, "", "the derived constants overflow: a value is far out of range")
+        for key, problem in broken_rules(self, derived, self.checks.accept):
+            raise ConfigError(src, key, problem)
         try:
             rate_1_s = self.stiffest_rate_1_s()
         except np.linalg.LinAlgError:  # k_ll k_rr − k_lr² cancels to nothing for an inertia far out of range
             raise ConfigError(
-                source, prefix, "the motor-side mass matrix is singular: a mass or inertia is far out of range"
+                src,
+                "body.inertia_kg_m2",
+                "the motor-side mass matrix is singular: a mass or inertia is far out of range",
             ) from None
         substeps = self.control.sample_period_s * rate_1_s / PLANT_STIFFNESS_STEP
         if not substeps <= MAX_PLANT_SUBSTEPS:
+            stiff = self.friction_model.p_factor > 10.0  # above eq 62's preferred 10, the gain is what to lower
+            tau_s = min(c.inertia_equivalent_kg_m2 / c.friction_gain_p for c in (derived.left, derived.right))
             raise ConfigError(
-                source,
-                "friction_model.p_factor",
+                src,
+                "friction_model.p_factor" if stiff else "motor.inertia_kg_m2",
                 f"the plant would need {substeps:.3g} RK4 substeps per control sample, above the maximum "
-                f"{MAX_PLANT_SUBSTEPS} (the stiction spring P against the motor inertia; lower p_factor)",
+                f"{MAX_PLANT_SUBSTEPS} (the stiction spring P of eq 62 against the inertia J̃ of eqs 60-61: "
+                f"J̃/P = {tau_s:.3g} s; "
+                + ("lower p_factor)" if stiff else "the motor is far too fast for its inertia)"),
             )
 
     def stiffest_rate_1_s(self) -> float:
@@ -180,8 +198,11 @@ class VehicleParams:
         d = self.derived
         ml, mr = self.motor.left, self.motor.right
         mass = np.array([[ml.inertia_kg_m2 + d.k_ll, d.k_lr], [d.k_lr, mr.inertia_kg_m2 + d.k_rr]])
-        stiffness = [max(side.friction_gain_p, side.damping_n_m_s_rad) for side in (d.left, d.right)]
-        return float(np.max(np.abs(np.linalg.eigvals(np.linalg.solve(mass, np.diag(stiffness))))))
+        stiffness = np.array([max(side.friction_gain_p, side.damping_n_m_s_rad) for side in (d.left, d.right)])
+        scale = float(np.max(stiffness))  # scaled so that a huge gain gives a huge rate, never an overflow inside
+        rates = np.linalg.eigvals(np.linalg.solve(mass, np.diag(stiffness / scale)))
+        with np.errstate(over="ignore"):
+            return float(scale * np.max(np.abs(rates)))
 
     @property
     def derived(self) -> DerivedConstants:
@@ -203,8 +224,7 @@ class VehicleParams:
 
     def with_overrides(self, overrides: Iterable[str | tuple[str, Any]], source: str = "--set") -> VehicleParams:
         """A copy with dotted-key overrides applied, e.g. ``["wheels.right.radius_m=0.101"]``."""
-        pairs = [parse_override(o, source) if isinstance(o, str) else o for o in overrides]
-        raw = apply_overrides(to_dict(self), pairs, VehicleParams, source)
+        raw = apply_overrides(to_dict(self), override_pairs(overrides, source), VehicleParams, source)
         return build(VehicleParams, raw, source=source)
 
 
@@ -324,10 +344,12 @@ def load_vehicle(
     >>> print(f"{vehicle.derived.accel_limit_m_s2:.3f} m/s²")
     0.652 m/s²
     """
+    if path is not None and not isinstance(path, (str, os.PathLike)):
+        raise ConfigError("load_vehicle", "path", f"expected a str or a Path (got {type(path).__name__})")
     if path is None or str(path) == "default":
         path = default_vehicle_path()
     raw = load_toml(path)
-    pairs = [parse_override(o, override_source) if isinstance(o, str) else o for o in overrides]
+    pairs = override_pairs(overrides, override_source)
     if pairs:
         raw = apply_overrides(raw, pairs, VehicleParams, override_source)
         source = f"{path} (with {override_source})"

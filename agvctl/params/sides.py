@@ -14,13 +14,28 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
-from agvctl.config import check_fields, convert_value, did_you_mean, document_fields, join_key, number, renamed
+from agvctl.config import (
+    as_file_error,
+    check_fields,
+    convert_value,
+    did_you_mean,
+    document_fields,
+    join_key,
+    number,
+    renamed,
+)
 from agvctl.errors import ConfigError
 from agvctl.params.derived import Side
+from agvctl.params.ranges import check_ranges, physical
 
 __all__ = ["SIDES", "MotorPair", "MotorParams", "WheelParams", "WheelSide"]
 
 SIDES: tuple[Side, Side] = ("left", "right")
+
+_MOTOR_CONSTANT = (1e-5, 1e3, "a watch motor's 10 µV s/rad to a ship's 1 kV s/rad")
+"""The physically possible range of k_e (V s/rad) and k_t (N m/A), and its reason."""
+_TORQUE = (0.0, 1e5, "below a hundred kilonewton metres")
+"""The physically possible range of a motor's friction torques (N m, N m s/rad), and its reason."""
 
 T = TypeVar("T")
 
@@ -49,11 +64,8 @@ def _sides_from_file(side_cls: type[T], data: Mapping[str, Any], *, source: str,
         for k in meta:
             if k not in merged:
                 raise ConfigError(source, join_key(prefix, k), "missing key")
-        value = side_cls(**merged)
-        check = getattr(value, "validate", None)
-        if check is not None:
-            check(source=source, prefix=side_prefix if override else prefix)
-        sides.append(value)
+        with as_file_error(side_cls, source, side_prefix if override else prefix):
+            sides.append(side_cls(**merged))
     return sides[0], sides[1]
 
 
@@ -73,10 +85,11 @@ def _sides_to_file(left: Any, right: Any) -> dict[str, Any]:
 class WheelSide:
     """One driving wheel."""
 
-    radius_m: float = number(gt=0, doc="Its radius r (r_l or r_r), m.")
+    radius_m: float = physical(1e-3, 10.0, "a millimetre to ten metres", gt=0, doc="Its radius r (r_l or r_r), m.")
 
     def __post_init__(self) -> None:
         check_fields(self)
+        check_ranges(self)
 
 
 _WHEEL_SIDE_KEYS = tuple(f.name for f in dataclasses.fields(WheelSide))
@@ -96,7 +109,13 @@ class WheelParams:
     """The left wheel."""
     right: WheelSide
     """The right wheel."""
-    separation_m: float = number(gt=0, doc="b, the distance between the wheels' contact points, m.")
+    separation_m: float = physical(
+        1e-3,
+        100.0,
+        "a millimetre to a hundred metres",
+        gt=0,
+        doc="b, the distance between the wheels' contact points, m.",
+    )
     radius_tolerance: float = number(
         ge=0.0, le=0.2, default=0.01, doc="Relative half-width of the range each true radius lies in (±)."
     )
@@ -106,6 +125,7 @@ class WheelParams:
 
     def __post_init__(self) -> None:
         check_fields(self)
+        check_ranges(self)
 
     @classmethod
     def extra_file_keys(cls) -> dict[str, Any]:
@@ -132,7 +152,8 @@ class WheelParams:
             k: convert_value(float, data[k], source, join_key(prefix, k), meta[k]) for k in _TOLERANCE_KEYS if k in data
         }
         left, right = _sides_from_file(WheelSide, data, source=source, prefix=prefix)
-        return cls(separation_m=separation, left=left, right=right, **tolerances)
+        with as_file_error(cls, source, prefix):
+            return cls(separation_m=separation, left=left, right=right, **tolerances)
 
     def to_file(self) -> dict[str, Any]:
         tolerances = {k: getattr(self, k) for k in _TOLERANCE_KEYS}
@@ -147,23 +168,28 @@ class WheelParams:
 class MotorParams:
     """One armature-controlled DC motor with its gear (eqs 1-4, appendix A "Actuator characteristics")."""
 
-    inertia_kg_m2: float = number(gt=0, doc="J, the rotor's moment of inertia, kg m².")
-    resistance_ohm: float = number(gt=0, doc="R, the armature resistance, Ω.")
-    voltage_constant_v_s_rad: float = number(gt=0, doc="k_e, the back-EMF constant, V s/rad.")
-    torque_constant_n_m_a: float = number(gt=0, doc="k_t, the torque constant, N m/A.")
-    viscous_friction_n_m_s_rad: float = number(ge=0, doc="f_m, the viscous friction, N m s/rad.")
-    coulomb_friction_n_m: float = number(ge=0, doc="τ_c, the Coulomb (sliding) friction, N m.")
-    stiction_n_m: float = number(ge=0, doc="τ_s, the stiction (break-away) torque, at least τ_c, N m.")
-    gear_ratio: float = number(gt=0, doc="N, motor turns per wheel turn.")
+    inertia_kg_m2: float = physical(
+        1e-12, 1e3, "a watch motor's rotor to a ship's", gt=0, doc="J, the rotor's moment of inertia, kg m²."
+    )
+    resistance_ohm: float = physical(
+        1e-4, 1e4, "a traction motor's 0.1 mΩ to a micro-motor's 10 kΩ", gt=0, doc="R, the armature resistance, Ω."
+    )
+    voltage_constant_v_s_rad: float = physical(*_MOTOR_CONSTANT, gt=0, doc="k_e, the back-EMF constant, V s/rad.")
+    torque_constant_n_m_a: float = physical(*_MOTOR_CONSTANT, gt=0, doc="k_t, the torque constant, N m/A.")
+    viscous_friction_n_m_s_rad: float = physical(*_TORQUE, ge=0, doc="f_m, the viscous friction, N m s/rad.")
+    coulomb_friction_n_m: float = physical(*_TORQUE, ge=0, doc="τ_c, the Coulomb (sliding) friction, N m.")
+    stiction_n_m: float = physical(*_TORQUE, ge=0, doc="τ_s, the stiction (break-away) torque, at least τ_c, N m.")
+    gear_ratio: float = physical(
+        1e-3, 1e5, "a thousandth to a hundred thousand", gt=0, doc="N, motor turns per wheel turn."
+    )
 
     def __post_init__(self) -> None:
         check_fields(self)
-
-    def validate(self, *, source: str, prefix: str) -> None:
-        if self.coulomb_friction_n_m > self.stiction_n_m:
+        check_ranges(self)
+        if self.coulomb_friction_n_m > self.stiction_n_m:  # model note 5
             raise ConfigError(
-                source,
-                join_key(prefix, "coulomb_friction_n_m"),
+                type(self).__name__,
+                "coulomb_friction_n_m",
                 f"Coulomb friction {self.coulomb_friction_n_m:g} N m exceeds stiction {self.stiction_n_m:g} N m; "
                 "the break-away torque must be at least the sliding friction",
             )

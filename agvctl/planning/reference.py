@@ -15,6 +15,7 @@ Evaluation is vectorised: :meth:`Reference.sample` takes an array of times.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Sequence
@@ -131,6 +132,12 @@ class ReferenceSamples:
     motion_index: NDArray[np.int64]
     """The index of the motion in progress (the last one once the reference has ended)."""
 
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):  # frozen, arrays included: a cached grid is shared by every reader
+            value = getattr(self, f.name)
+            if isinstance(value, np.ndarray):
+                value.flags.writeable = False
+
     def __len__(self) -> int:
         return len(self.t_s)
 
@@ -223,6 +230,8 @@ class Reference:
         self._ph_v0 = np.concatenate(v0)
         self._ph_a0 = np.concatenate(a0)
         self._ph_motion = np.concatenate(owner).astype(np.int64)
+        for array in (self._s0, self._ph_t0, self._ph_j, self._ph_q0, self._ph_v0, self._ph_a0, self._ph_motion):
+            array.flags.writeable = False
 
     # ------------------------------------------------------------------------------------------------------
     def _coordinate(
@@ -300,7 +309,9 @@ class Reference:
     def grid_times_s(self) -> FloatArray:
         """t_k = k·T_s for k = 0 … ⌈duration/T_s⌉ (computed as k·T_s, never by accumulation)."""
         n = math.ceil(self.duration_s / self.sample_period_s - 1e-9)
-        return np.arange(n + 1, dtype=np.float64) * self.sample_period_s
+        times = np.arange(n + 1, dtype=np.float64) * self.sample_period_s
+        times.flags.writeable = False
+        return times
 
     @functools.cached_property
     def grid(self) -> ReferenceSamples:

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -106,6 +107,8 @@ def load_experiment(path: str | Path) -> Experiment:
     >>> experiment.spec.controller.pose, f"{experiment.reference.duration_s:.1f} s"
     ('mpc', '26.6 s')
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise ConfigError("load_experiment", "path", f"expected a str or a Path (got {type(path).__name__})")
     path = Path(path)
     spec = build(ExperimentSpec, load_toml(path), source=str(path))
     return experiment_from_spec(dataclasses.replace(spec, source=str(path)))
