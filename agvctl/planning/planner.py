@@ -18,6 +18,7 @@ naming the file too from :func:`plan`.
 
 from __future__ import annotations
 
+import bisect
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Literal
@@ -42,6 +43,7 @@ __all__ = ["MAX_DURATION_S", "plan", "plan_file", "plan_segments", "plan_waypoin
 
 Join = Literal["smooth", "stop"]
 _Part = tuple[int, float, float, float | None]  # segment index, distance, curvature, speed cap
+_Designed = dict[tuple[float, float, float, float | None, float], JoinWindow | None]  # joins designed in one plan
 
 
 def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = False) -> Reference:
@@ -223,6 +225,7 @@ def _segments_reference(
     half_b = 0.5 * separation_m
     pose = start_pose if start_pose is not None else Pose(0.0, 0.0, 0.0)
     solver = _Solver()
+    designed: _Designed = {}
     motions: list[Motion] = []
     t, deviation = 0.0, 0.0
     for kind, direction, parts in _groups(segments, join):
@@ -230,7 +233,7 @@ def _segments_reference(
             if kind == "spin":
                 new = [_spin(parts, direction, pose, t, limits, half_b, solver)]
             else:
-                new, dev = _paths(parts, direction, pose, t, limits, half_b, solver)
+                new, dev = _paths(parts, direction, pose, t, limits, half_b, solver, designed)
                 deviation = max(deviation, dev)
         except PlanFailure:
             raise
@@ -295,58 +298,99 @@ MIN_JOIN_WINDOW_M = 1e-6
 curvature polynomial (coefficients over powers of its length) overflows, and no vehicle drives it."""
 
 
-def _windows(parts: list[_Part], limits: WheelLimits, half_b: float) -> list[JoinWindow | None | bool]:
-    """The smooth join after each part: ``None`` where the curvature does not change (and after the last),
-    ``False`` where the segments are too short for a join worth driving (the reference stops there)."""
-    joins = [parts[k][2] != parts[k + 1][2] for k in range(len(parts) - 1)] + [False]
-    out: list[JoinWindow | None | bool] = []
-    for k, has in enumerate(joins):
-        if not has:
-            out.append(None)
-            continue
-        a, b = parts[k], parts[k + 1]
-        jump = abs(b[2] - a[2])
-        # a segment with joins at both ends shares its length between them in proportion to their jumps
-        room_a = a[1] * (jump / (jump + abs(a[2] - parts[k - 1][2])) if k > 0 and joins[k - 1] else 1.0)
-        room_b = b[1] * (jump / (jump + abs(parts[k + 2][2] - b[2])) if joins[k + 1] else 1.0)
-        speeds = [limits.wheel_speed_m_s / (1.0 + abs(p[2]) * half_b) for p in (a, b)]
-        caps = [p[3] for p in (a, b) if p[3] is not None]
-        cap = min(caps) if caps else None
-        speed = min(speeds + caps)
-        if 2.0 * min(room_a, room_b) < MIN_JOIN_WINDOW_M:
-            out.append(False)
-            continue
+def _window(
+    parts: list[_Part], k: int, left: bool, right: bool, limits: WheelLimits, half_b: float, designed: _Designed
+) -> JoinWindow | bool:
+    """The smooth join between parts k and k + 1 (their curvatures differ), or ``False`` where the segments are too
+    short for a join worth driving (the reference stops there). ``left``/``right``: whether part k has a join on
+    its left and part k + 1 one on its right, in the run being planned (then it shares its length between them
+    in proportion to their jumps)."""
+    a, b = parts[k], parts[k + 1]
+    jump = abs(b[2] - a[2])
+    room_a = a[1] * (jump / (jump + abs(a[2] - parts[k - 1][2])) if left else 1.0)
+    room_b = b[1] * (jump / (jump + abs(parts[k + 2][2] - b[2])) if right else 1.0)
+    speeds = [limits.wheel_speed_m_s / (1.0 + abs(p[2]) * half_b) for p in (a, b)]
+    caps = [p[3] for p in (a, b) if p[3] is not None]
+    cap = min(caps) if caps else None
+    speed = min(speeds + caps)
+    if 2.0 * min(room_a, room_b) < MIN_JOIN_WINDOW_M:
+        return False
+    key = (a[2], b[2], speed, cap, 2.0 * min(room_a, room_b))
+    if key not in designed:  # a path that repeats a corner designs it once
         try:
-            w = design_join(
-                a[2],
-                b[2],
-                speed_m_s=speed,
-                cap_m_s=cap,
-                limits=limits,
-                half_b_m=half_b,
-                max_length_m=2.0 * min(room_a, room_b),
+            designed[key] = design_join(
+                a[2], b[2], speed_m_s=speed, cap_m_s=cap, limits=limits, half_b_m=half_b, max_length_m=key[4]
             )
         except ValueError:
-            out.append(False)
+            designed[key] = None
+    w = designed[key]
+    if w is None:
+        return False
+    kappa_max = max(abs(a[2]), abs(b[2]))
+    return w if _worth_driving(w, speed, cap, kappa_max, limits, half_b) else False
+
+
+def _runs(
+    parts: list[_Part], limits: WheelLimits, half_b: float, designed: _Designed
+) -> list[tuple[int, int, list[JoinWindow | None]]]:
+    """The motions of a run of lines and arcs as ``(first part, end part, join after each part)``: one motion, or
+    several where a join is not worth driving (the reference stops after the part before it).
+
+    A run is split at its first join not worth driving; the joins next to the cut are designed again (a part
+    at the cut no longer shares its length with a join there), then each side is split the same way. A join
+    depends only on its two parts and whether each neighbour has another join, so each is designed at most
+    four times and the work grows linearly with the parts.
+    """
+    n = len(parts)
+    joins = [parts[k][2] != parts[k + 1][2] for k in range(n - 1)]
+    cache: dict[tuple[int, bool, bool], JoinWindow | bool] = {}
+
+    def at(k: int, lo: int, hi: int) -> JoinWindow | bool | None:
+        """The join after part k in the motion of parts lo … hi - 1 (None: no join)."""
+        if k >= hi - 1 or not joins[k]:
+            return None
+        key = (k, k > lo and joins[k - 1], k + 2 < hi and joins[k + 1])
+        if key not in cache:
+            cache[key] = _window(parts, k, key[1], key[2], limits, half_b, designed)
+        return cache[key]
+
+    refused = [k for k in range(n - 1) if at(k, 0, n) is False]  # away from a cut, a join is the same
+    out: list[tuple[int, int, list[JoinWindow | None]]] = []
+    stack = [(0, n)]
+    while stack:
+        lo, hi = stack.pop()
+        first = [k for k in (lo, hi - 2) if lo <= k and at(k, lo, hi) is False]
+        i = bisect.bisect_right(refused, lo)
+        if i < len(refused) and refused[i] < hi - 2:
+            first.append(refused[i])
+        if first:
+            cut = min(first) + 1
+            stack += [(cut, hi), (lo, cut)]  # the earlier side first
             continue
-        kappa_max = max(abs(a[2]), abs(b[2]))
-        out.append(w if _worth_driving(w, speed, cap, kappa_max, limits, half_b) else False)
+        windows = [at(k, lo, hi) for k in range(lo, hi)]
+        out.append((lo, hi, [w if isinstance(w, JoinWindow) else None for w in windows]))
     return out
 
 
 def _paths(
-    parts: list[_Part], direction: int, pose: Pose, t: float, limits: WheelLimits, half_b: float, solver: _Solver
+    parts: list[_Part],
+    direction: int,
+    pose: Pose,
+    t: float,
+    limits: WheelLimits,
+    half_b: float,
+    solver: _Solver,
+    designed: _Designed,
 ) -> tuple[list[Motion], float]:
     """The motions of a run of lines and arcs: one, or several where a join is not worth driving."""
-    windows = _windows(parts, limits, half_b)
-    if False in windows:
-        k = windows.index(False) + 1
-        first, dev_a = _paths(parts[:k], direction, pose, t, limits, half_b, solver)
-        rest, dev_b = _paths(parts[k:], direction, first[-1].end_pose, first[-1].t_end_s, limits, half_b, solver)
-        return first + rest, max(dev_a, dev_b)
-    return _path(
-        parts, [w if isinstance(w, JoinWindow) else None for w in windows], direction, pose, t, limits, half_b, solver
-    )
+    motions: list[Motion] = []
+    deviation = 0.0
+    for lo, hi, windows in _runs(parts, limits, half_b, designed):
+        new, dev = _path(parts[lo:hi], windows, direction, pose, t, limits, half_b, solver)
+        motions += new
+        deviation = max(deviation, dev)
+        pose, t = new[-1].end_pose, new[-1].t_end_s
+    return motions, deviation
 
 
 def _path(
