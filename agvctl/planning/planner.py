@@ -27,7 +27,7 @@ import numpy as np
 
 from agvctl.errors import ConfigError, PlanningError, expect_instance
 from agvctl.params import VehicleParams, load_vehicle
-from agvctl.planning.arguments import MAX_DURATION_S, check_arguments, check_reference
+from agvctl.planning.arguments import MAX_DURATION_S, check_arguments, check_extent, check_reference
 from agvctl.planning.curve import Curve
 from agvctl.planning.geometry import Pose, segment_kinematics
 from agvctl.planning.joins import JoinWindow, design_join
@@ -86,6 +86,14 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
         expect_instance(vehicle, VehicleParams, "plan", "vehicle")
     vehicle = vehicle if vehicle is not None else load_vehicle()
     limits = resolve_limits(spec, vehicle, force=force)
+    check_extent(
+        spec.segments,
+        spec.waypoints,
+        limits,
+        vehicle.wheels.separation_m,
+        vehicle.control.sample_period_s,
+        spec.source,
+    )
     common = {
         "limits": limits,
         "separation_m": vehicle.wheels.separation_m,
@@ -198,6 +206,8 @@ def plan_segments(
         One line naming the segment (``segments[i]: …``) if a motion cannot be planned.
     """
     check_arguments(segments, join, separation_m, sample_period_s)
+    expect_instance(limits, WheelLimits, "plan_segments", "limits")
+    check_extent(segments, (), limits, separation_m, sample_period_s, "plan_segments")
     reference = _segments_reference(
         segments,
         limits=limits,
