@@ -31,6 +31,7 @@ the controllers (or takes yours) and runs the closed loop::
 from __future__ import annotations
 
 import dataclasses
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -97,7 +98,8 @@ def load_experiment(path: str | Path) -> Experiment:
     ------
     ConfigError
         A one-line message naming the file and key: a missing or unreadable file, an unknown or misspelt key, a
-        value out of range, a path that cannot be planned.
+        value out of range, a path that cannot be planned; or naming ``load_experiment: path`` for an argument that
+        is not a file name (bytes, a number).
 
     Examples
     --------
@@ -105,6 +107,8 @@ def load_experiment(path: str | Path) -> Experiment:
     >>> experiment.spec.controller.pose, f"{experiment.reference.duration_s:.1f} s"
     ('mpc', '26.6 s')
     """
+    if not isinstance(path, (str, os.PathLike)) or not isinstance(os.fspath(path), str):
+        raise ConfigError("load_experiment", "path", f"expected a file name, str or Path (got {path!r:.80})")
     path = Path(path)
     spec = build(ExperimentSpec, load_toml(path), source=str(path))
     return experiment_from_spec(dataclasses.replace(spec, source=str(path)))
@@ -130,6 +134,7 @@ def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
         A file it names that is missing or invalid, or a path that cannot be planned, naming the experiment file
         and key.
     """
+    expect_instance(spec, ExperimentSpec, "experiment_from_spec", "spec")
     src = spec.source
     vehicle_path = None if spec.vehicle == "default" else spec.resolve(spec.vehicle)
     if vehicle_path is not None and not vehicle_path.exists():
