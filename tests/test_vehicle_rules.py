@@ -160,7 +160,10 @@ def test_the_shipped_vehicle_keeps_every_rule_with_a_margin() -> None:
         (lambda: dataclasses.replace(VEHICLE.da, min_v=6.0), "DAParams: min_v: must be below max_v"),
         (lambda: load_vehicle(overrides=[(1, 2)]), '--set: (1, 2): expected "KEY=VALUE" or a (key, value) pair'),
         (lambda: load_vehicle(overrides=[("k",)]), "--set: ('k',): expected \"KEY=VALUE\" or a (key, value) pair"),
-        (lambda: load_vehicle(b"vehicle.toml"), "load_vehicle: path: expected a str or a Path (got bytes)"),
+        (
+            lambda: load_vehicle(b"vehicle.toml"),
+            "load_vehicle: path: expected a file name as a str or a Path (got bytes)",
+        ),
     ],
 )
 def test_the_api_refuses_what_a_file_is_refused(make: Any, line: str) -> None:
@@ -177,7 +180,7 @@ def test_numpy_scalars_are_accepted_where_python_numbers_are() -> None:
 def test_load_experiment_refuses_bytes_in_one_line() -> None:
     from agvctl.scenario import load_experiment
 
-    with pytest.raises(ConfigError, match="^load_experiment: path: expected a str or a Path"):
+    with pytest.raises(ConfigError, match="^load_experiment: path: expected a file name as a str or a Path"):
         load_experiment(b"experiments/line.toml")  # type: ignore[arg-type]
 
 

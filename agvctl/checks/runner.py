@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import hashlib
 import os
 import time
 from collections.abc import Callable, Sequence
@@ -151,9 +152,36 @@ def monte_carlo_samples(prepared: Experiment) -> list[Overrides]:
 # -- running ----------------------------------------------------------------------------------------------------
 
 
-@functools.lru_cache(maxsize=16)
+_PREPARED_KEEP = 16
+"""Experiments a worker keeps loaded between runs (each with the fingerprint of the files it was loaded from)."""
+_prepared_by_path: dict[str, tuple[tuple[tuple[str, str], ...], Experiment]] = {}
+
+
+def _fingerprint(files: Sequence[Path]) -> tuple[tuple[str, str], ...]:
+    """Each file with the SHA-256 of its content (``"-"`` for one that is gone or not a regular file)."""
+    out = []
+    for f in files:
+        try:
+            digest = hashlib.sha256(f.read_bytes()).hexdigest() if f.is_file() else "-"
+        except OSError:
+            digest = "-"
+        out.append((str(f), digest))
+    return tuple(out)
+
+
 def _prepared(path: str) -> Experiment:
-    return load_experiment(path)
+    """The experiment at ``path``, loaded again whenever the content of a file it reads (the experiment, its
+    path, vehicles and settings files) differs from when it was loaded: a file edited between two checks in one
+    process is checked as it is now."""
+    kept = _prepared_by_path.get(path)
+    if kept is not None and _fingerprint([Path(f) for f, _ in kept[0]]) == kept[0]:
+        return kept[1]
+    exp = load_experiment(path)
+    _prepared_by_path.pop(path, None)
+    while len(_prepared_by_path) >= _PREPARED_KEEP:
+        del _prepared_by_path[next(iter(_prepared_by_path))]
+    _prepared_by_path[path] = (_fingerprint(list(exp.input_files)), exp)
+    return exp
 
 
 def run_task(task: RunTask, render: RunRender | None = None) -> RunOutcome:

@@ -344,8 +344,10 @@ def load_vehicle(
     >>> print(f"{vehicle.derived.accel_limit_m_s2:.3f} m/s²")
     0.652 m/s²
     """
-    if path is not None and not isinstance(path, (str, os.PathLike)):
-        raise ConfigError("load_vehicle", "path", f"expected a str or a Path (got {type(path).__name__})")
+    if path is not None and (not isinstance(path, (str, os.PathLike)) or not isinstance(os.fspath(path), str)):
+        raise ConfigError(
+            "load_vehicle", "path", f"expected a file name as a str or a Path (got {type(path).__name__})"
+        )
     if path is None or str(path) == "default":
         path = default_vehicle_path()
     raw = load_toml(path)

@@ -179,6 +179,24 @@ class Curve:
             curvature_accel_1_m3=polyval_rows(self._ddk[p], sigma),
         )
 
+    def curvatures(self, s_m: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """κ, dκ/ds and d²κ/ds² at arc lengths ``s_m`` (clamped to [0, length_m]), without the pose.
+
+        Parameters
+        ----------
+        s_m : array_like
+            Arc lengths, m.
+
+        Returns
+        -------
+        tuple of ndarray
+            κ (1/m), dκ/ds (1/m²), d²κ/ds² (1/m³).
+        """
+        s = np.clip(np.atleast_1d(np.asarray(s_m, dtype=float)).ravel(), 0.0, self.length_m)
+        p = self.piece_at(s)
+        sigma = np.minimum(s - self.s0_m[p], self.lengths_m[p])
+        return polyval_rows(self._k[p], sigma), polyval_rows(self._dk[p], sigma), polyval_rows(self._ddk[p], sigma)
+
     def end_pose(self) -> Pose:
         """The pose at the end of the curve."""
         e = self.evaluate([self.length_m])

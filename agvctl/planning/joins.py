@@ -22,6 +22,7 @@ segments allow (:func:`~agvctl.planning.speed.section_limits`) can be kept, with
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -137,10 +138,18 @@ class JoinWindow:
         k0, k1_max, k2_max = (float(b) for b in window.piece_bounds()[0])
         self.bounds = (k0, k1_max, k2_max)
         """max |κ| (1/m), |dκ/ds| (1/m²), |d²κ/ds²| (1/m³) over the window."""
-        corner = Curve(Pose(0.0, 0.0, 0.0), [0.5 * length_m] * 2, [[k1], [k2]])
-        s = np.linspace(0.0, length_m, 65)
-        a, b = window.evaluate(s), corner.evaluate(s)
-        self.deviation_m = float(np.max(np.hypot(a.x_m - b.x_m, a.y_m - b.y_m)))
+        self._window = window
+        self._corner = (k1, k2)
+
+    @functools.cached_property
+    def deviation_m(self) -> float:
+        """The largest distance between the window and the corner it replaces, m (computed when first asked: only
+        the window chosen is)."""
+        k1, k2 = self._corner
+        corner = Curve(Pose(0.0, 0.0, 0.0), [0.5 * self.length_m] * 2, [[k1], [k2]])
+        s = np.linspace(0.0, self.length_m, 65)
+        a, b = self._window.evaluate(s), corner.evaluate(s)
+        return float(np.max(np.hypot(a.x_m - b.x_m, a.y_m - b.y_m)))
 
 
 def design_join(

@@ -26,10 +26,11 @@ import numpy as np
 
 from agvctl.errors import ConfigError, PlanningError, expect_instance
 from agvctl.params import VehicleParams, load_vehicle
-from agvctl.planning.arguments import MAX_DURATION_S, check_arguments, check_reference
+from agvctl.planning.arguments import MAX_DURATION_S, check_arguments, check_extent, check_reference
 from agvctl.planning.curve import Curve
 from agvctl.planning.geometry import Pose, segment_kinematics
-from agvctl.planning.joins import JoinWindow, design_join
+from agvctl.planning.join_runs import _Designed, _Part, _runs
+from agvctl.planning.joins import JoinWindow
 from agvctl.planning.limits import resolve_limits
 from agvctl.planning.motion import PlanFailure, motion_starts, path_motion
 from agvctl.planning.profile import _Solver, rest_to_rest
@@ -41,7 +42,6 @@ from agvctl.planning.waypoint_plan import plan_waypoints
 __all__ = ["MAX_DURATION_S", "plan", "plan_file", "plan_segments", "plan_waypoints"]
 
 Join = Literal["smooth", "stop"]
-_Part = tuple[int, float, float, float | None]  # segment index, distance, curvature, speed cap
 
 
 def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = False) -> Reference:
@@ -84,6 +84,14 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
         expect_instance(vehicle, VehicleParams, "plan", "vehicle")
     vehicle = vehicle if vehicle is not None else load_vehicle()
     limits = resolve_limits(spec, vehicle, force=force)
+    check_extent(
+        spec.segments,
+        spec.waypoints,
+        limits,
+        vehicle.wheels.separation_m,
+        vehicle.control.sample_period_s,
+        spec.source,
+    )
     common = {
         "limits": limits,
         "separation_m": vehicle.wheels.separation_m,
@@ -196,6 +204,8 @@ def plan_segments(
         One line naming the segment (``segments[i]: …``) if a motion cannot be planned.
     """
     check_arguments(segments, join, separation_m, sample_period_s)
+    expect_instance(limits, WheelLimits, "plan_segments", "limits")
+    check_extent(segments, (), limits, separation_m, sample_period_s, "plan_segments")
     reference = _segments_reference(
         segments,
         limits=limits,
@@ -223,6 +233,7 @@ def _segments_reference(
     half_b = 0.5 * separation_m
     pose = start_pose if start_pose is not None else Pose(0.0, 0.0, 0.0)
     solver = _Solver()
+    designed: _Designed = {}
     motions: list[Motion] = []
     t, deviation = 0.0, 0.0
     for kind, direction, parts in _groups(segments, join):
@@ -230,7 +241,7 @@ def _segments_reference(
             if kind == "spin":
                 new = [_spin(parts, direction, pose, t, limits, half_b, solver)]
             else:
-                new, dev = _paths(parts, direction, pose, t, limits, half_b, solver)
+                new, dev = _paths(parts, direction, pose, t, limits, half_b, solver, designed)
                 deviation = max(deviation, dev)
         except PlanFailure:
             raise
@@ -278,75 +289,25 @@ def _spin(
     )
 
 
-def _worth_driving(
-    w: JoinWindow, speed: float, cap: float | None, kappa_max: float, limits: WheelLimits, half_b: float
-) -> bool:
-    """Whether crossing a window at its speed limit is quicker than driving the corner with a stop instead:
-    the window's length at ``speed`` plus what braking to rest and starting again add (speed/a + a/j with the
-    wheel limits divided by F = 1 + |κ| b/2 of the sharper neighbour)."""
-    lim = section_limits(w.length_m, w.bounds, cap, limits, half_b)
-    f = 1.0 + kappa_max * half_b
-    a, j = limits.wheel_accel_m_s2 / f, limits.wheel_jerk_m_s3 / f
-    return w.length_m / lim.speed_m_s <= w.length_m / speed + speed / a + a / j
-
-
-MIN_JOIN_WINDOW_M = 1e-6
-"""A join window has room for at least a micrometre, else the reference stops at the corner: a shorter window's
-curvature polynomial (coefficients over powers of its length) overflows, and no vehicle drives it."""
-
-
-def _windows(parts: list[_Part], limits: WheelLimits, half_b: float) -> list[JoinWindow | None | bool]:
-    """The smooth join after each part: ``None`` where the curvature does not change (and after the last),
-    ``False`` where the segments are too short for a join worth driving (the reference stops there)."""
-    joins = [parts[k][2] != parts[k + 1][2] for k in range(len(parts) - 1)] + [False]
-    out: list[JoinWindow | None | bool] = []
-    for k, has in enumerate(joins):
-        if not has:
-            out.append(None)
-            continue
-        a, b = parts[k], parts[k + 1]
-        jump = abs(b[2] - a[2])
-        # a segment with joins at both ends shares its length between them in proportion to their jumps
-        room_a = a[1] * (jump / (jump + abs(a[2] - parts[k - 1][2])) if k > 0 and joins[k - 1] else 1.0)
-        room_b = b[1] * (jump / (jump + abs(parts[k + 2][2] - b[2])) if joins[k + 1] else 1.0)
-        speeds = [limits.wheel_speed_m_s / (1.0 + abs(p[2]) * half_b) for p in (a, b)]
-        caps = [p[3] for p in (a, b) if p[3] is not None]
-        cap = min(caps) if caps else None
-        speed = min(speeds + caps)
-        if 2.0 * min(room_a, room_b) < MIN_JOIN_WINDOW_M:
-            out.append(False)
-            continue
-        try:
-            w = design_join(
-                a[2],
-                b[2],
-                speed_m_s=speed,
-                cap_m_s=cap,
-                limits=limits,
-                half_b_m=half_b,
-                max_length_m=2.0 * min(room_a, room_b),
-            )
-        except ValueError:
-            out.append(False)
-            continue
-        kappa_max = max(abs(a[2]), abs(b[2]))
-        out.append(w if _worth_driving(w, speed, cap, kappa_max, limits, half_b) else False)
-    return out
-
-
 def _paths(
-    parts: list[_Part], direction: int, pose: Pose, t: float, limits: WheelLimits, half_b: float, solver: _Solver
+    parts: list[_Part],
+    direction: int,
+    pose: Pose,
+    t: float,
+    limits: WheelLimits,
+    half_b: float,
+    solver: _Solver,
+    designed: _Designed,
 ) -> tuple[list[Motion], float]:
     """The motions of a run of lines and arcs: one, or several where a join is not worth driving."""
-    windows = _windows(parts, limits, half_b)
-    if False in windows:
-        k = windows.index(False) + 1
-        first, dev_a = _paths(parts[:k], direction, pose, t, limits, half_b, solver)
-        rest, dev_b = _paths(parts[k:], direction, first[-1].end_pose, first[-1].t_end_s, limits, half_b, solver)
-        return first + rest, max(dev_a, dev_b)
-    return _path(
-        parts, [w if isinstance(w, JoinWindow) else None for w in windows], direction, pose, t, limits, half_b, solver
-    )
+    motions: list[Motion] = []
+    deviation = 0.0
+    for lo, hi, windows in _runs(parts, limits, half_b, designed):
+        new, dev = _path(parts[lo:hi], windows, direction, pose, t, limits, half_b, solver)
+        motions += new
+        deviation = max(deviation, dev)
+        pose, t = new[-1].end_pose, new[-1].t_end_s
+    return motions, deviation
 
 
 def _path(

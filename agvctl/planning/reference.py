@@ -49,6 +49,9 @@ CSV_COLUMNS = (
 )
 """The columns of ``agvctl plan --out``, in order."""
 
+PEAK_CHUNK = 1 << 16
+"""Samples evaluated at once by :meth:`Reference.peaks`: a few megabytes of arrays, whatever the duration."""
+
 
 @document_fields
 @dataclass(frozen=True, eq=False)
@@ -326,18 +329,47 @@ class Reference:
 
     def peaks(self, dense_period_s: float = 1e-3) -> dict[str, float]:
         """Peaks of ``|wheel speed|``, ``|wheel accel|`` and ``|wheel jerk|`` (either wheel) over the reference, sampled
-        every ``dense_period_s`` and at every phase switch (where the accelerations peak)."""
-        t = np.unique(np.concatenate([np.arange(0.0, self.duration_s, dense_period_s), self._ph_t0, [self.duration_s]]))
-        s = self.sample(t)
+        every ``dense_period_s`` and at every phase switch (where the accelerations peak).
 
-        def peak(left: FloatArray, right: FloatArray) -> float:
-            return float(max(np.max(np.abs(left)), np.max(np.abs(right))))
-
+        The samples are taken :data:`PEAK_CHUNK` at a time and only the curvature is evaluated (not the pose), so the
+        memory stays bounded whatever the duration and the work grows linearly with it.
+        """
+        n_dense = math.ceil(self.duration_s / dense_period_s)
+        out = np.zeros(3)
+        for lo in range(0, n_dense, PEAK_CHUNK):
+            t = np.arange(lo, min(n_dense, lo + PEAK_CHUNK), dtype=np.float64) * dense_period_s
+            out = np.maximum(out, self._wheel_peaks(t[t < self.duration_s]))
+        for lo in range(0, len(self._ph_t0), PEAK_CHUNK):
+            out = np.maximum(out, self._wheel_peaks(self._ph_t0[lo : lo + PEAK_CHUNK]))
+        out = np.maximum(out, self._wheel_peaks(np.array([self.duration_s])))
         return {
-            "peak_wheel_speed_m_s": peak(s.wheel_speed_left_m_s, s.wheel_speed_right_m_s),
-            "peak_wheel_accel_m_s2": peak(s.wheel_accel_left_m_s2, s.wheel_accel_right_m_s2),
-            "peak_wheel_jerk_m_s3": peak(s.wheel_jerk_left_m_s3, s.wheel_jerk_right_m_s3),
+            "peak_wheel_speed_m_s": float(out[0]),
+            "peak_wheel_accel_m_s2": float(out[1]),
+            "peak_wheel_jerk_m_s3": float(out[2]),
         }
+
+    def _wheel_peaks(self, t_s: FloatArray) -> FloatArray:
+        """The largest ``|wheel speed|``, ``|wheel accel|``, ``|wheel jerk|`` (either wheel) at the times."""
+        if len(t_s) == 0:
+            return np.zeros(3)
+        _, q, qd, qdd, j, m = self._coordinate(t_s)
+        u, ud, uj = np.zeros(len(q)), np.zeros(len(q)), np.zeros(len(q))
+        w, wd, wj = np.empty(len(q)), np.empty(len(q)), np.empty(len(q))
+        for i in np.unique(m):
+            sel = m == i
+            mo = self.motions[i]
+            d = mo.direction
+            if mo.curve is None:  # spin in place
+                w[sel], wd[sel], wj[sel] = d * qd[sel], d * qdd[sel], d * j[sel]
+                continue
+            k, k1, k2 = mo.curve.curvatures(q[sel])
+            v, acc, jk = qd[sel], qdd[sel], j[sel]
+            u[sel], ud[sel], uj[sel] = d * v, d * acc, d * jk
+            w[sel] = k * v
+            wd[sel] = k * acc + k1 * v**2
+            wj[sel] = k * jk + 3.0 * k1 * v * acc + k2 * v**3
+        h = 0.5 * self.separation_m
+        return np.array([np.max(np.abs(a) + np.abs(b) * h) for a, b in ((u, w), (ud, wd), (uj, wj))])
 
     def summary(self) -> dict[str, object]:
         """The ``agvctl plan --json`` object."""

@@ -88,17 +88,26 @@ class StartPose:
         check_fields(self)
 
 
+MIN_LIMIT = 1e-3
+"""The smallest wheel limit or speed cap a path file may set, 1 mm/s (mm/s², mm/s³): slower still, a metre takes
+over a quarter of an hour, and the motion-profile solver's times grow past what it resolves."""
+
+
 @document_fields
 @dataclass(frozen=True)
 class PathLimits:
     """Per-wheel limits as written in a path file; ``None`` takes the vehicle's value
-    (:func:`~agvctl.planning.resolve_limits`)."""
+    (:func:`~agvctl.planning.resolve_limits`). Each is at least :data:`MIN_LIMIT`."""
 
-    wheel_speed_m_s: float | None = number(gt=0, default=None, doc="The largest ``|speed|`` of either wheel, m/s.")
-    wheel_accel_m_s2: float | None = number(
-        gt=0, default=None, doc="The largest ``|acceleration|`` of either wheel, m/s²."
+    wheel_speed_m_s: float | None = number(
+        ge=MIN_LIMIT, default=None, doc="The largest ``|speed|`` of either wheel, m/s."
     )
-    wheel_jerk_m_s3: float | None = number(gt=0, default=None, doc="The largest ``|jerk|`` of either wheel, m/s³.")
+    wheel_accel_m_s2: float | None = number(
+        ge=MIN_LIMIT, default=None, doc="The largest ``|acceleration|`` of either wheel, m/s²."
+    )
+    wheel_jerk_m_s3: float | None = number(
+        ge=MIN_LIMIT, default=None, doc="The largest ``|jerk|`` of either wheel, m/s³."
+    )
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -112,7 +121,7 @@ class WheelLimits:
     Raises
     ------
     ConfigError
-        ``WheelLimits: <argument>: must be finite and > 0``.
+        ``WheelLimits: <argument>: must be finite and >= 0.001`` (:data:`MIN_LIMIT`).
     """
 
     wheel_speed_m_s: float
@@ -128,9 +137,9 @@ class WheelLimits:
             if (
                 isinstance(value, bool)
                 or not isinstance(value, (int, float))
-                or not (math.isfinite(value) and value > 0)
+                or not (math.isfinite(value) and value >= MIN_LIMIT)
             ):
-                raise ConfigError("WheelLimits", f.name, f"must be finite and > 0 (got {value!r})")
+                raise ConfigError("WheelLimits", f.name, f"must be finite and >= {MIN_LIMIT:g} (got {value!r})")
 
 
 def _nonzero(value: float, source: str, prefix: str, key: str) -> None:
@@ -147,7 +156,7 @@ class LineSegment:
     """A straight line along the current heading."""
 
     length_m: float = number(doc="Its length, not zero; negative drives in reverse, m.")
-    speed_m_s: float | None = number(gt=0, default=None, doc=_SPEED_CAP)
+    speed_m_s: float | None = number(ge=MIN_LIMIT, default=None, doc=_SPEED_CAP)
     type: Literal["line"] = "line"
     """The segment's kind, as the file's ``type`` key names it."""
 
@@ -165,7 +174,7 @@ class TurnSegment:
 
     angle_deg: float = number(doc="The angle turned, not zero; positive is counter-clockwise, °.")
     speed_m_s: float | None = number(
-        gt=0, default=None, doc="A cap on the wheel speed ω b/2 (None: the wheel limits alone), m/s."
+        ge=MIN_LIMIT, default=None, doc="A cap on the wheel speed ω b/2 (None: the wheel limits alone), m/s."
     )
     type: Literal["turn"] = "turn"
     """The segment's kind, as the file's ``type`` key names it."""
@@ -186,7 +195,7 @@ class ArcSegment:
         ge=1e-3, doc='Its radius, at least 1 mm: a smaller one is a turn in place (``type = "turn"``), m.'
     )
     angle_deg: float = number(doc="The angle turned along it, not zero; positive is a left turn, °.")
-    speed_m_s: float | None = number(gt=0, default=None, doc=_SPEED_CAP)
+    speed_m_s: float | None = number(ge=MIN_LIMIT, default=None, doc=_SPEED_CAP)
     type: Literal["arc"] = "arc"
     """The segment's kind, as the file's ``type`` key names it."""
 

@@ -8,8 +8,8 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.errors import ConfigError
-from agvctl.planning.arguments import check_geometry, check_reference
+from agvctl.errors import ConfigError, expect_instance
+from agvctl.planning.arguments import check_extent, check_geometry, check_reference
 from agvctl.planning.curve import Curve
 from agvctl.planning.motion import PlanFailure, path_motion
 from agvctl.planning.profile import _Solver
@@ -72,6 +72,8 @@ def plan_waypoints(
             raise ConfigError(source, f"waypoints[{i}]", f"expected a Waypoint (got {point!r})")
     check_waypoints(waypoints, source)
     check_geometry(source, separation_m, sample_period_s)
+    expect_instance(limits, WheelLimits, source, "limits")
+    check_extent((), waypoints, limits, separation_m, sample_period_s, source)
     curve, s_i, deviation = waypoint_curve(waypoints, source=source)
     sections, owners = _sections(curve, s_i, limits, 0.5 * separation_m)
     try:

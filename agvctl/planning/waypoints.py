@@ -22,7 +22,9 @@ from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import sparse
 from scipy.interpolate import BSpline
+from scipy.sparse.linalg import splu
 
 from agvctl.errors import ConfigError
 from agvctl.planning.curve import Curve
@@ -42,28 +44,42 @@ _NODES = 8  # Hermite pieces per knot span
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
 
 
-def _basis(t: FloatArray, u: FloatArray, nu: int) -> FloatArray:
-    """Values (nu = 0) or derivatives of every B-spline basis function at u: shape (len(u), n)."""
-    n = len(t) - _K - 1
-    spline = BSpline(t, np.eye(n), _K, extrapolate=False)
-    out = spline(u) if nu == 0 else spline.derivative(nu)(u)
-    values: FloatArray = np.nan_to_num(np.asarray(out, dtype=float))
-    return values
+def _basis(t: FloatArray, u: FloatArray, nu: int) -> sparse.csr_matrix:
+    """Values (nu = 0) or derivatives of every B-spline basis function at u: a sparse (len(u), n) matrix.
+
+    Each row has at most ``_K + 1`` nonzeros (a B-spline's support is ``_K + 1`` knot spans); a derivative is the
+    basis of degree ``_K - nu`` on the inner knots times ``nu`` differencing matrices (de Boor's derivative rule).
+    """
+    ops: list[sparse.spmatrix] = []
+    knots = t
+    for d in range(nu):
+        k = _K - d
+        m = len(knots) - k - 1  # coefficients at degree k
+        scale = k / (knots[k + 1 : k + m] - knots[1:m])
+        ops.append(sparse.diags([-scale, scale], [0, 1], shape=(m - 1, m)))
+        knots = knots[1:-1]
+    out = sparse.csr_matrix(BSpline.design_matrix(u, knots, _K - nu, extrapolate=False))
+    for op in reversed(ops):
+        out = out @ op
+    return sparse.csr_matrix(out)
 
 
-def _gram(t: FloatArray, nu: int) -> FloatArray:
-    """∫ B^(nu)ᵀ B^(nu) du over the knot spans (Gauss-Legendre, exact for these degrees)."""
+def _gram(t: FloatArray, nu: int) -> sparse.csr_matrix:
+    """∫ B^(nu)ᵀ B^(nu) du over the knot spans (Gauss-Legendre, exact for these degrees): banded, sparse."""
     edges = np.unique(t)
     a, b = edges[:-1, None], edges[1:, None]
     u = (0.5 * (b - a) * (_GL_X + 1.0) + a).ravel()
     w = (0.5 * (b - a) * _GL_W).ravel()
     d = _basis(t, u, nu)
-    gram: FloatArray = np.einsum("ki,kj->ij", d * w[:, None], d)  # einsum: no BLAS threads, small product
-    return gram
+    return sparse.csr_matrix(d.T @ sparse.diags(w) @ d)
 
 
 def _fit(points: FloatArray, headings: Sequence[float | None]) -> tuple[BSpline, FloatArray]:
-    """The spline through ``points`` (see the module docstring) and the waypoints' parameters u_i."""
+    """The spline through ``points`` (see the module docstring) and the waypoints' parameters u_i.
+
+    The optimality conditions are a sparse, banded system (each B-spline overlaps ``2 _K + 1`` others), solved
+    by a sparse LU factorisation: work and memory grow linearly with the number of waypoints.
+    """
     u_i = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))))
     steps = np.linspace(0.0, 1.0, _SPANS + 1)[1:-1]
     interior = np.concatenate([u_i[1:-1], (u_i[:-1, None] + np.diff(u_i)[:, None] * steps).ravel()])
@@ -76,10 +92,10 @@ def _fit(points: FloatArray, headings: Sequence[float | None]) -> tuple[BSpline,
     if given:
         rows.append(_basis(t, u_i[given], 1))
         rhs.append(np.array([[math.cos(headings[i] or 0.0), math.sin(headings[i] or 0.0)] for i in given]))
-    a, b = np.vstack(rows), np.vstack(rhs)
-    n, m = energy.shape[0], a.shape[0]
-    kkt = np.block([[energy, a.T], [a, np.zeros((m, m))]])
-    sol = np.linalg.solve(kkt, np.vstack([np.zeros((n, 2)), b]))
+    a, b = sparse.vstack(rows), np.vstack(rhs)
+    n = energy.shape[0]
+    kkt = sparse.bmat([[energy, a.T], [a, None]], format="csc")
+    sol = np.asarray(splu(kkt).solve(np.vstack([np.zeros((n, 2)), b])))
     return BSpline(t, sol[:n], _K), u_i
 
 

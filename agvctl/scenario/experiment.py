@@ -99,7 +99,8 @@ def load_experiment(path: str | Path) -> Experiment:
     ------
     ConfigError
         A one-line message naming the file and key: a missing or unreadable file, an unknown or misspelt key, a
-        value out of range, a path that cannot be planned.
+        value out of range, a path that cannot be planned; or naming ``load_experiment: path`` for an argument that
+        is not a file name (bytes, a number).
 
     Examples
     --------
@@ -107,8 +108,10 @@ def load_experiment(path: str | Path) -> Experiment:
     >>> experiment.spec.controller.pose, f"{experiment.reference.duration_s:.1f} s"
     ('mpc', '26.6 s')
     """
-    if not isinstance(path, (str, os.PathLike)):
-        raise ConfigError("load_experiment", "path", f"expected a str or a Path (got {type(path).__name__})")
+    if not isinstance(path, (str, os.PathLike)) or not isinstance(os.fspath(path), str):
+        raise ConfigError(
+            "load_experiment", "path", f"expected a file name as a str or a Path (got {type(path).__name__})"
+        )
     path = Path(path)
     spec = build(ExperimentSpec, load_toml(path), source=str(path))
     return experiment_from_spec(dataclasses.replace(spec, source=str(path)))
@@ -146,6 +149,7 @@ def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
         A file it names that is missing or invalid, or a path that cannot be planned, naming the experiment file
         and key.
     """
+    expect_instance(spec, ExperimentSpec, "experiment_from_spec", "spec")
     src = spec.source
     vehicle_path = None if spec.vehicle == "default" else spec.resolve(spec.vehicle)
     if vehicle_path is not None and not vehicle_path.exists():

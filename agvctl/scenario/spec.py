@@ -31,7 +31,7 @@ from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
 from agvctl.evaluation.limits import LimitsSpec
 from agvctl.planning.spec import StartPose
 from agvctl.scenario.pose_settings import load_pose_settings, merged_settings
-from agvctl.sim.loop import ComputeDelay
+from agvctl.sim.loop import MAX_INITIAL_POSE, ComputeDelay
 
 __all__ = ["ControllerSpec", "ExperimentSpec", "PlantSpec", "RobustnessSpec", "Spread"]
 
@@ -62,6 +62,8 @@ class PlantSpec:
         if not isinstance(sets, Mapping):
             raise ConfigError(source, join_key(prefix, "set"), "expected a table of dotted vehicle keys")
         pose = data.get("initial_pose")
+        if pose is not None:
+            _check_initial_pose(pose, source, join_key(prefix, "initial_pose"))
         seed = convert_value(int, data.get("sensor_seed", 0), source, join_key(prefix, "sensor_seed"), {"ge": 0})
         return cls(
             sensor_seed=seed,
@@ -75,6 +77,17 @@ class PlantSpec:
         """The true start pose (x_m, y_m, theta_rad); None: the reference's start."""
         pose = self.initial_pose
         return None if pose is None else (pose.x_m, pose.y_m, math.radians(pose.theta_deg))
+
+
+def _check_initial_pose(pose: Any, source: str, key: str) -> None:
+    """Refuse an initial pose beyond :data:`~agvctl.sim.loop.MAX_INITIAL_POSE` (m; rad for the heading), naming
+    its key, before the run is set up."""
+    pose = build(StartPose, pose, source=source, prefix=key)
+    for name, value in (("x_m", pose.x_m), ("y_m", pose.y_m), ("theta_deg", math.radians(pose.theta_deg))):
+        if abs(value) > MAX_INITIAL_POSE:
+            bound = f"{math.degrees(MAX_INITIAL_POSE):.6g}°" if name == "theta_deg" else f"{MAX_INITIAL_POSE:g} m"
+            shown = getattr(pose, name)
+            raise ConfigError(source, f"{key}.{name}", f"must be within ±{bound} (got {shown:g})")
 
 
 def _choice(value: str, choices: Mapping[str, Any], source: str, key: str) -> None:

@@ -47,7 +47,18 @@ from agvctl.sim.records import (
 )
 from agvctl.sim.stepper import PlantStepper
 
-__all__ = ["CONTROL_LOG_COLUMNS", "SENSOR_NAN_COLUMNS", "ClosedLoopResult", "ComputeDelay", "run_closed_loop"]
+__all__ = [
+    "CONTROL_LOG_COLUMNS",
+    "MAX_INITIAL_POSE",
+    "SENSOR_NAN_COLUMNS",
+    "ClosedLoopResult",
+    "ComputeDelay",
+    "run_closed_loop",
+]
+
+MAX_INITIAL_POSE = 1e4
+"""The largest ``|x_m|``, ``|y_m|`` (m) and ``|theta_rad|`` of a run's initial pose: ten kilometres from the origin,
+beyond any hall, and a heading still resolved to a micro-radian in double precision."""
 
 ComputeDelay = Literal["none", "one_sample"]
 
@@ -187,8 +198,10 @@ def _check_run(
         pose = tuple(float(v) for v in initial_pose)  # type: ignore[attr-defined]
     except (TypeError, ValueError):
         raise ConfigError("run_closed_loop", "initial_pose", "expected (x_m, y_m, theta_rad)") from None
-    if len(pose) != 3 or not all(math.isfinite(v) and abs(v) <= 1e4 for v in pose):
-        raise ConfigError("run_closed_loop", "initial_pose", f"expected 3 finite numbers within ±1e4 (got {pose})")
+    if len(pose) != 3 or not all(math.isfinite(v) and abs(v) <= MAX_INITIAL_POSE for v in pose):
+        raise ConfigError(
+            "run_closed_loop", "initial_pose", f"expected 3 finite numbers within ±{MAX_INITIAL_POSE:g} (got {pose})"
+        )
     return (pose[0], pose[1], pose[2])
 
 

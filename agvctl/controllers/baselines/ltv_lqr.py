@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 
 from agvctl.config import check_fields, document_fields, number
 from agvctl.controllers.baselines.unicycle import UnicycleTracker
+from agvctl.controllers.ranges import MAX_DISTANCE_M, MAX_WHEEL_SPEED_M_S, MIN_WHEEL_SPEED_M_S
 from agvctl.errors import expect_instance
 from agvctl.params import VehicleParams
 
@@ -51,16 +52,34 @@ MIN_LINEARISATION_SPEED_M_S = 1e-4
 @document_fields
 @dataclass(frozen=True)
 class LtvLqrConfig:
-    """Settings of the LTV unicycle controller, as in an experiment file's ``[controller]`` table."""
+    """Settings of the LTV unicycle controller, as in an experiment file's ``[controller]`` table.
 
-    tolerance_x_m: float = number(gt=0, default=0.0625, doc="Largest wanted error ahead (Q = 1/tol²), m.")
-    tolerance_y_m: float = number(gt=0, default=0.125, doc="Largest wanted error to the side, m.")
-    tolerance_heading_rad: float = number(gt=0, default=2.0, doc="Largest wanted heading error, rad.")
-    effort_speed_m_s: float = number(gt=0, default=1.0, doc="Largest wanted speed correction (R = 1/effort²), m/s.")
-    effort_yaw_rate_rad_s: float = number(gt=0, default=2.0, doc="Largest wanted yaw-rate correction, rad/s.")
-    schedule_step_m_s: float = number(gt=0, default=0.01, doc="Spacing of the gain schedule in v_d, m/s.")
+    The tolerances and efforts are at least 10⁻⁴ (Q = 1/tol², R = 1/effort² stay below 10⁸, within what the
+    Riccati solver resolves); :mod:`agvctl.controllers.ranges` gives the other ranges' reasons."""
+
+    tolerance_x_m: float = number(
+        ge=1e-4, le=MAX_DISTANCE_M, default=0.0625, doc="Largest wanted error ahead (Q = 1/tol²), m."
+    )
+    tolerance_y_m: float = number(ge=1e-4, le=MAX_DISTANCE_M, default=0.125, doc="Largest wanted error to the side, m.")
+    tolerance_heading_rad: float = number(ge=1e-4, le=10.0, default=2.0, doc="Largest wanted heading error, rad.")
+    effort_speed_m_s: float = number(
+        ge=1e-4, le=MAX_WHEEL_SPEED_M_S, default=1.0, doc="Largest wanted speed correction (R = 1/effort²), m/s."
+    )
+    effort_yaw_rate_rad_s: float = number(
+        ge=1e-4, le=100.0, default=2.0, doc="Largest wanted yaw-rate correction, rad/s."
+    )
+    schedule_step_m_s: float = number(
+        ge=MIN_WHEEL_SPEED_M_S,
+        le=1.0,
+        default=0.01,
+        doc="Spacing of the gain schedule in v_d, at least 1 mm/s (one Riccati solution per step up to the top "
+        "speed), m/s.",
+    )
     max_wheel_speed_m_s: float | None = number(
-        gt=0, default=None, doc="The wheel-speed limit of the setpoints (None: the vehicle's max speed), m/s."
+        ge=MIN_WHEEL_SPEED_M_S,
+        le=MAX_WHEEL_SPEED_M_S,
+        default=None,
+        doc="The wheel-speed limit of the setpoints (None: the vehicle's max speed), m/s.",
     )
 
     def __post_init__(self) -> None:

@@ -26,6 +26,7 @@ import numpy as np
 
 from agvctl.config import check_fields, document_fields, number
 from agvctl.controllers.baselines.unicycle import UnicycleTracker
+from agvctl.controllers.ranges import MAX_WEIGHT, MAX_WHEEL_SPEED_M_S, MIN_WHEEL_SPEED_M_S
 from agvctl.errors import expect_instance
 from agvctl.params import VehicleParams
 
@@ -37,10 +38,15 @@ __all__ = ["RamseteConfig", "RamseteController", "ramsete_law"]
 class RamseteConfig:
     """Settings of the Ramsete law, as in an experiment file's ``[controller]`` table."""
 
-    b_rad2_m2: float = number(gt=0, default=2.0, doc="b, the convergence gain on the lateral error, rad²/m².")
+    b_rad2_m2: float = number(
+        gt=0, le=MAX_WEIGHT, default=2.0, doc="b, the convergence gain on the lateral error (at most 10⁶), rad²/m²."
+    )
     zeta: float = number(gt=0, le=1, default=0.7, doc="ζ, the damping ratio of the error dynamics.")
     max_wheel_speed_m_s: float | None = number(
-        gt=0, default=None, doc="The wheel-speed limit of the setpoints (None: the vehicle's max speed), m/s."
+        ge=MIN_WHEEL_SPEED_M_S,
+        le=MAX_WHEEL_SPEED_M_S,
+        default=None,
+        doc="The wheel-speed limit of the setpoints (None: the vehicle's max speed), m/s.",
     )
 
     def __post_init__(self) -> None:

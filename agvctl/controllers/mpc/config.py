@@ -12,6 +12,17 @@ from typing import Literal
 from agvctl.config import check_fields, document_fields, number
 from agvctl.controllers.mpc.docking import DockingConfig
 from agvctl.controllers.mpc.rest import RestConfig
+from agvctl.controllers.ranges import (
+    MAX_ACCEL_M_S2,
+    MAX_DISTANCE_M,
+    MAX_SCALE,
+    MAX_SOLVE_TIME_S,
+    MAX_WEIGHT,
+    MAX_WHEEL_SPEED_M_S,
+    MIN_ACCEL_M_S2,
+    MIN_SOLVE_TIME_S,
+    MIN_WHEEL_SPEED_M_S,
+)
 from agvctl.params import VehicleParams
 
 __all__ = [
@@ -35,34 +46,47 @@ class MpcConfig:
     """Settings of the MPC pose controllers, as in an experiment file's ``[controller]`` table (SI units).
 
     Weights are per squared unit of their quantity: position 1/m², heading 1/rad², input and input rate
-    1/(m/s)²; the reversal weight, a linear cost, per m/s. Only their ratios matter.
+    1/(m/s)²; the reversal weight, a linear cost, per m/s. Only their ratios matter. Every number has a range
+    (:mod:`agvctl.controllers.ranges` gives each one's reason): weights at most 10⁶, limits from 1 mm/s (mm/s²)
+    to 10 m/s (100 m/s²), time budgets and τ from 0.1 ms to 10 s, at most 10⁶ iterations (a tracking step needs
+    tens, the hardest over a thousand).
     """
 
     horizon: int = number(
         ge=1, le=500, default=20, doc="N, the prediction and control horizon in samples (at most 500: 20 s at 40 ms)."
     )
-    weight_position: float = number(ge=0, default=1.0e3, doc="The weight on each predicted position error, 1/m².")
+    weight_position: float = number(
+        ge=0, le=MAX_WEIGHT, default=1.0e3, doc="The weight on each predicted position error, 1/m²."
+    )
     along_track_share: float = number(ge=0, le=1, default=0.4)
     """The along-path share of ``weight_position``: in the path frame, the along-path error is weighted
     ``along_track_share`` × ``weight_position`` and the cross-path error ``weight_position``; below 1, being on the
     path counts more than keeping time (the reference governor bounds the lag). The world frame weighs both axes
     alike."""
-    turn_in_place_position_scale: float = number(ge=0, default=3.0)
+    turn_in_place_position_scale: float = number(ge=0, le=MAX_SCALE, default=3.0)
     """The scale of the position weight where the reference turns in place. There the path is the turning point,
     and any translation is off it: the LTV MPC weighs the position error this much more there, alike in every
     direction, so that a wheel at its current limit cannot slide the vehicle off the point
     (``docs/decisions/0004-path-frame-weights.md``)."""
-    weight_heading: float = number(ge=0, default=30.0, doc="The weight on each predicted heading error, 1/rad².")
+    weight_heading: float = number(
+        ge=0, le=MAX_WEIGHT, default=30.0, doc="The weight on each predicted heading error, 1/rad²."
+    )
     weight_terminal_scale: float = number(
-        ge=0, default=1.0, doc="The factor on the position and heading weights at k = N (the terminal cost)."
+        ge=0,
+        le=MAX_SCALE,
+        default=1.0,
+        doc="The factor on the position and heading weights at k = N (the terminal cost).",
     )
     weight_input: float = number(
-        ge=0, default=0.1, doc="w_u, the weight on each setpoint minus its feed-forward, 1/(m/s)²."
+        ge=0, le=MAX_WEIGHT, default=0.1, doc="w_u, the weight on each setpoint minus its feed-forward, 1/(m/s)²."
     )
     weight_input_rate: float = number(
-        ge=0, default=10.0, doc="w_Δ, the weight on each setpoint's change from the sample before, 1/(m/s)²."
+        ge=0,
+        le=MAX_WEIGHT,
+        default=10.0,
+        doc="w_Δ, the weight on each setpoint's change from the sample before, 1/(m/s)².",
     )
-    weight_reversal: float = number(ge=0, default=3.0)
+    weight_reversal: float = number(ge=0, le=MAX_WEIGHT, default=3.0)
     """w_r, the LTV MPC's weight on each setpoint's speed against its wheel's direction along the reference (the
     feed-forward's), 1/(m/s): a linear cost, zero on the reference, so that a small start-up correction blends into
     driving off instead of turning a wheel backwards while a large one still turns it. 0: none (the QP then has no
@@ -70,24 +94,28 @@ class MpcConfig:
     prediction_model: PredictionModel = "kinematic+wheel_loop"
     """The prediction model: the kinematics of eqs 39-43 driven by the setpoints directly (``"kinematic"``), or
     through the first-order lag v̇ = (s − v)/τ that stands for the closed wheel loops (``"kinematic+wheel_loop"``)."""
-    wheel_loop_time_constant_s: float | None = number(gt=0, default=None)
+    wheel_loop_time_constant_s: float | None = number(ge=MIN_SOLVE_TIME_S, le=MAX_SOLVE_TIME_S, default=None)
     """τ of the closed wheel loop's lag in the ``"kinematic+wheel_loop"`` model, s. None (default): in an experiment,
     the best first-order fit to its own PI wheel loops; for a controller built directly,
     :data:`DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S`."""
     error_frame: ErrorFrame = "path"
     """The LTV MPC's error coordinates: along/across the reference heading (``path``) or x/y (``world``)."""
     max_wheel_speed_m_s: float | None = number(
-        gt=0, default=None, doc="v_max, the largest setpoint of either wheel (None: the vehicle's max speed), m/s."
+        ge=MIN_WHEEL_SPEED_M_S,
+        le=MAX_WHEEL_SPEED_M_S,
+        default=None,
+        doc="v_max, the largest setpoint of either wheel (None: the vehicle's max speed), m/s.",
     )
     max_wheel_accel_m_s2: float | None = number(
-        gt=0,
+        ge=MIN_ACCEL_M_S2,
+        le=MAX_ACCEL_M_S2,
         default=None,
         doc=(
             "a_lim, the largest change of a setpoint per sample over T_s (None: the reference's own acceleration limit"
             " plus what the planner leaves to the feedback, at most the vehicle's eq-5 limit), m/s²."
         ),
     )
-    max_solve_time_s: float | None = number(gt=0, default=None)
+    max_solve_time_s: float | None = number(ge=MIN_SOLVE_TIME_S, le=MAX_SOLVE_TIME_S, default=None)
     """The solver's wall-time limit per step, s. None (default): no wall-clock limit, so a simulation gives the
     same result on any machine and under any load; the solve time is still measured and checked
     (``solve_time_p99_ms``, ``deadline_misses``). Set it to emulate a real-time budget: then a solve that runs out
@@ -107,21 +135,31 @@ class MpcConfig:
     """Slow the reference's clock down while the vehicle lags behind it (graceful lag:
     :mod:`~agvctl.controllers.mpc.governor`)."""
     governor_lag_start_m: float = number(
-        gt=0, default=0.04, doc="The lag behind the reference at which the governor starts to slow its clock, m."
+        gt=0,
+        le=MAX_DISTANCE_M,
+        default=0.04,
+        doc="The lag behind the reference at which the governor starts to slow its clock, m.",
     )
     governor_lag_stop_m: float = number(
-        gt=0, default=0.10, doc="The lag behind the reference at which the governor holds its clock, m."
+        gt=0,
+        le=MAX_DISTANCE_M,
+        default=0.10,
+        doc="The lag behind the reference at which the governor holds its clock, m.",
     )
     governor_catch_up: float = number(ge=1, le=2, default=1.5)
     """The largest rate of the governed clock while it catches up: behind the loop's clock and within
     ``governor_lag_start_m`` of the reference, the governed clock runs up to this much faster than time (the
     reference's speed along the path scaled alike), so a delay is made up."""
-    max_iterations: int = number(ge=1, default=4000)
+    max_iterations: int = number(ge=1, le=1_000_000, default=4000)
     """The solver's iteration limit per step (OSQP's own default): a tracking step needs tens, the first steps from
     a far-off start several hundred, and a step with both wheels at their limits on a path planned with little
     headroom over a thousand; a step that reaches the limit falls back and counts as a solver failure."""
     tolerance: float = number(
-        gt=0, default=1.0e-3, doc="The solver's tolerance (OSQP's eps_abs and eps_rel, IPOPT's tol)."
+        ge=1e-10,
+        le=1.0,
+        default=1.0e-3,
+        doc="The solver's tolerance (OSQP's eps_abs and eps_rel, IPOPT's tol): at least 10⁻¹⁰, near the rounding of "
+        "the residuals, at most 1, which accepts any answer.",
     )
 
     def __post_init__(self) -> None:

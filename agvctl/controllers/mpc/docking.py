@@ -24,6 +24,13 @@ from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
 from agvctl.config import check_fields, document_fields, number
+from agvctl.controllers.ranges import (
+    MAX_ACCEL_M_S2,
+    MAX_DISTANCE_M,
+    MAX_WHEEL_SPEED_M_S,
+    MIN_ACCEL_M_S2,
+    MIN_WHEEL_SPEED_M_S,
+)
 from agvctl.params import VehicleParams
 from agvctl.planning import PathLimits, PathSpec, StartPose, plan
 from agvctl.planning.reference import Reference
@@ -41,23 +48,31 @@ class DockingConfig:
     """Stopped beside the end of the path, back up and come in again."""
     tolerance_m: float = number(
         gt=0,
+        le=MAX_DISTANCE_M,
         default=0.008,
         doc="The error at rest across the path's last drive (where the path ends with turns in place, the distance "
         "from its end point) beyond which to dock, m.",
     )
-    speed_m_s: float = number(gt=0, default=0.15, doc="The wheel-speed limit the manoeuvre is planned at, m/s.")
+    speed_m_s: float = number(
+        ge=MIN_WHEEL_SPEED_M_S,
+        le=MAX_WHEEL_SPEED_M_S,
+        default=0.15,
+        doc="The wheel-speed limit the manoeuvre is planned at, m/s.",
+    )
     accel_m_s2: float = number(
-        gt=0,
+        ge=MIN_ACCEL_M_S2,
+        le=MAX_ACCEL_M_S2,
         default=0.3,
         doc="The wheel-acceleration limit the manoeuvre is planned at (at most the path's own), m/s².",
     )
     max_deviation_m: float = number(
         gt=0,
+        le=MAX_DISTANCE_M,
         default=0.01,
         doc="δ, the largest distance from the arc of a curved final segment that backing up straight may reach, m.",
     )
-    attempts: int = number(ge=0, default=2, doc="The most manoeuvres in one run (0: never dock).")
-    uncertainty_sigmas: float = number(ge=0, default=2.0)
+    attempts: int = number(ge=0, le=100, default=2, doc="The most manoeuvres in one run (0: never dock; at most 100).")
+    uncertainty_sigmas: float = number(ge=0, le=10.0, default=2.0)
     """The standard deviations of the pose estimate counted against the tolerance. On an estimated pose, the error
     that decides is the estimated one plus this many standard deviations of the estimate along the same direction: a
     vehicle docks when it may be beyond ``tolerance_m``, not only when its estimate says so (an estimate 2σ off is

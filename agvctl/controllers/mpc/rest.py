@@ -27,6 +27,7 @@ from scipy.special import chdtri
 
 from agvctl.angles import wrap_angle
 from agvctl.config import check_fields, document_fields, number
+from agvctl.controllers.ranges import MAX_DISTANCE_M, MAX_WHEEL_SPEED_M_S
 from agvctl.planning.reference import Reference
 
 __all__ = ["Rest", "RestConfig"]
@@ -46,8 +47,12 @@ class RestConfig:
 
     enabled: bool = True
     """Hold the wheels at the end when the error is within the estimate's uncertainty."""
-    tolerance_m: float = number(gt=0, default=0.001, doc="The position tolerance of a perfect estimate, m.")
-    heading_tolerance_rad: float = number(gt=0, default=0.003, doc="The heading tolerance of a perfect estimate, rad.")
+    tolerance_m: float = number(
+        gt=0, le=MAX_DISTANCE_M, default=0.001, doc="The position tolerance of a perfect estimate, m."
+    )
+    heading_tolerance_rad: float = number(
+        gt=0, le=math.pi, default=0.003, doc="The heading tolerance of a perfect estimate, rad."
+    )
     enter_probability: float = number(
         gt=0, le=0.999999, default=0.5, doc="The probability whose quantile the error must be within to start holding."
     )
@@ -58,10 +63,16 @@ class RestConfig:
         doc="The probability whose quantile the error must leave to let go (at least ``enter_probability``).",
     )
     stopped_m_s: float = number(
-        gt=0, default=0.01, doc="The wheel speed below which both wheels count as stopped, to start holding, m/s."
+        gt=0,
+        le=MAX_WHEEL_SPEED_M_S,
+        default=0.01,
+        doc="The wheel speed below which both wheels count as stopped, to start holding, m/s.",
     )
     max_error_m: float = number(
-        gt=0, default=0.005, doc="The largest estimated position error from the end to hold at, whatever P, m."
+        gt=0,
+        le=MAX_DISTANCE_M,
+        default=0.005,
+        doc="The largest estimated position error from the end to hold at, whatever P, m.",
     )
 
     def __post_init__(self) -> None:
