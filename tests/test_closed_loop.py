@@ -10,7 +10,8 @@ import pytest
 
 from agvctl.checks.summary import run_summary
 from agvctl.evaluation.limits import LIMITS, LimitsSpec, evaluate_limits
-from agvctl.evaluation.metrics import Reduction, closed_loop_metrics
+from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.evaluation.signals import Reduction
 from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
 from agvctl.sim.loop import SENSOR_NAN_COLUMNS
 

@@ -40,7 +40,8 @@ from typing import Any, Literal
 
 from agvctl.config import check_fields, convert_value, did_you_mean, document_fields, join_key
 from agvctl.errors import ConfigError
-from agvctl.evaluation.metrics import METRICS, Metric, RunRecord, closed_loop_metrics
+from agvctl.evaluation.metrics import METRICS, RunRecord, closed_loop_metrics
+from agvctl.evaluation.signals import Metric
 from agvctl.feasibility import torque_accel_limit_m_s2
 from agvctl.log import SimLog
 from agvctl.params import VehicleParams
@@ -237,7 +238,7 @@ class LimitResult:
 
 def _times(key: str, log: SimLog, bound: float, sample_period_s: float) -> tuple[float | None, float | None]:
     """(worst, first past the bound) of a limit's signal, as its metric's reduction says
-    (:meth:`~agvctl.evaluation.metrics.Reduction.worst`, :meth:`~agvctl.evaluation.metrics.Reduction.first_past`)."""
+    (:meth:`~agvctl.evaluation.signals.Reduction.worst`, :meth:`~agvctl.evaluation.signals.Reduction.first_past`)."""
     metric = LIMITS[key].metric
     t, values = metric.series(log, sample_period_s)
     worst = metric.reduction.worst(values)
@@ -309,7 +310,7 @@ def evaluate_limits(
     """Check every limit of the default gate and every limit ``limits`` sets (which replaces the default of its key).
 
     Each limit's value, worst time and first time past its bound come from its metric's samples
-    (:class:`~agvctl.evaluation.metrics.Metric`), so a breach always has a first time.
+    (:class:`~agvctl.evaluation.signals.Metric`), so a breach always has a first time.
 
     Parameters
     ----------
