@@ -143,6 +143,6 @@ def write_run_outputs(
             experiment.controller_vehicle,
             out_dir,
             title=exp.name,
-            wheel_accel_bound_m_s2=gate.get("wheel_accel_m_s2"),
+            wheel_accel_bound_m_s2=gate.get("peak_wheel_accel_m_s2"),
         )
     return written

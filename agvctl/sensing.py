@@ -73,8 +73,6 @@ class Measurements:
     """The sample k."""
     t_s: float
     """Its time t_k = k·T_s, s."""
-    true_pose: FloatArray
-    """The true pose, x (m), y (m), heading (rad): a perfect pose sensor, used only by the ``truth`` estimator."""
     wheel_speed_m_s: FloatArray
     """The rim speeds (left, right) the wheel loops measured (exact, or estimated from the counts), m/s."""
     encoder_counts: NDArray[np.int64]
@@ -166,7 +164,6 @@ class Sensors:
         return Measurements(
             sample=k,
             t_s=k * self.sample_period_s,
-            true_pose=np.array(pose, dtype=float),
             wheel_speed_m_s=wheel_speed_m_s,
             encoder_counts=encoder_counts,
             gyro_rate_rad_s=gyro,

@@ -80,3 +80,26 @@ def test_no_module_or_function_too_long() -> None:
                 if length > MAX_FUNCTION_LINES:
                     long_functions.append(f"{name}.{node.name}: {length} lines")
     assert not long_modules and not long_functions, long_modules + long_functions
+
+
+def test_the_loop_probes_no_component_for_hidden_attributes() -> None:
+    # the optional parts of controllers and estimators are protocols, checked once at set-up
+    for module in ("sim/loop.py", "sim/records.py", "estimation/base.py"):
+        tree = ast.parse((PACKAGE / module).read_text(encoding="utf-8"))
+        probes = [
+            node.lineno
+            for node in ast.walk(tree)
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in ("getattr", "hasattr")
+        ]
+        assert not probes, f"{module}: getattr/hasattr at lines {probes}"
+
+
+def test_estimators_receive_what_a_real_one_would() -> None:
+    import dataclasses
+    import inspect
+
+    from agvctl.estimation.base import WheelSpeedEstimator
+    from agvctl.sensing import Measurements
+
+    assert not [f.name for f in dataclasses.fields(Measurements) if f.name.startswith("true")]
+    assert list(inspect.signature(WheelSpeedEstimator.update).parameters) == ["self", "encoder_counts"]

@@ -29,7 +29,7 @@ def test_impossible_limit_fails_with_junit_failure(capsys, tmp_path):
     root = ET.parse(junit).getroot()
     assert root.tag == "testsuites" and root.get("failures") == "1"
     cases = {c.get("name"): c for c in root.iter("testcase")}
-    assert {"tracking_error_max_m", "motor_current_a", "wheel_accel_m_s2"} <= set(cases)
+    assert {"tracking_error_max_m", "peak_motor_current_a", "peak_wheel_accel_m_s2"} <= set(cases)
     assert {"final_position_error_m", "cross_track_error_max_m", "non_finite_commands"} <= set(
         cases
     )  # the default gate's limits too
@@ -39,7 +39,7 @@ def test_impossible_limit_fails_with_junit_failure(capsys, tmp_path):
     assert (
         "tracking_error_max_m" in msg and "1e-06" in msg and "worst at t = " in msg and "first exceeded at t = " in msg
     )
-    assert cases["motor_current_a"].find("failure") is None
+    assert cases["peak_motor_current_a"].find("failure") is None
     data = json.loads(js.read_text())
     (exp,) = data["experiments"]
     verdict = next(v for v in exp["limits"] if v["limit"] == "tracking_error_max_m")

@@ -15,13 +15,6 @@ ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "tests" / "data"
 EXPERIMENTS = [DATA / "line_impossible.toml", DATA / "line_mc_impossible.toml", ROOT / "experiments" / "line.toml"]
 
-# the metric behind each limit whose name is not a metric's
-METRIC_OF = {
-    "wheel_speed_m_s": "peak_wheel_speed_m_s",
-    "wheel_accel_m_s2": "peak_wheel_accel_m_s2",
-    "motor_current_a": "peak_motor_current_a",
-}
-
 
 @pytest.fixture(scope="module")
 def checked(tmp_path_factory):
@@ -88,14 +81,13 @@ def test_monte_carlo_report_names_the_worst_sample(checked):
     samples = exp["metrics"]
     assert exp["runs"] == len(samples) == 4
     for verdict in exp["limits"]:
-        metric = METRIC_OF.get(verdict["limit"], verdict["limit"])
-        values = [s[metric] for s in samples]
+        values = [s[verdict["limit"]] for s in samples]
         if verdict["limit"] == "non_finite_commands":  # the default gate: no sample commanded NaN or infinity
             assert verdict["default"] and verdict["passed"] and values == [0] * 4
             continue
         if verdict["default"] and len(set(values)) == 1:
             continue  # a default no sample comes near (e.g. no solver failure in any): nothing to rank
-        assert len(set(values)) == len(values), f"{metric}: the samples must differ to tell worst from best"
+        assert len(set(values)) == len(values), f"{verdict['limit']}: the samples must differ to tell worst from best"
         worst = max(range(len(values)), key=values.__getitem__)
         assert verdict["sample"] == samples[worst]["sample"] == worst, verdict["limit"]
         assert verdict["value"] == max(values)

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from agvctl.checks.summary import run_summary
+from agvctl.evaluation.limits import LIMITS, LimitsSpec, evaluate_limits
 from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.evaluation.signals import Reduction
 from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
 from agvctl.sim.loop import SENSOR_NAN_COLUMNS
 
@@ -27,6 +29,48 @@ def with_controller(exp: Experiment, **changes) -> Experiment:
     """``exp`` with some ``[controller]`` fields changed (those the run reads; not the wheel-loop design)."""
     controller = dataclasses.replace(exp.spec.controller, **changes)
     return dataclasses.replace(exp, spec=dataclasses.replace(exp.spec, controller=controller))
+
+
+WORST = {
+    Reduction.MAX: np.max,
+    Reduction.FINAL: lambda v: v[-1],
+    Reduction.RMS: lambda v: np.sqrt(np.mean(v**2)),
+    Reduction.MEAN: np.mean,
+    Reduction.COUNT: np.count_nonzero,
+    Reduction.P99: lambda v: np.percentile(v, 99),
+}
+"""The scalar each kind of limit judges, from its series: the worst sample, the last, the RMS, the share, the count
+of flagged samples, the 99th percentile."""
+
+
+def assert_each_limit_is_its_series(prepared: Experiment, result) -> None:
+    """Every limit's value in the summary is the worst (as its kind says) of the series the limit reports its times
+    from, and a bound just under a non-zero value is a breach with a first time inside the run."""
+    metrics = closed_loop_metrics(result)
+    log, ts = result.log, result.sample_period_s
+    for key, limit in LIMITS.items():
+        t, values = limit.metric.series(log, ts)
+        assert len(t) == len(values) >= len(log) - 1, key
+        assert metrics[key] == pytest.approx(WORST[limit.metric.reduction](values), rel=1e-12, abs=1e-15), key
+        value = float(metrics[key])
+        if value <= 0:
+            continue
+        bound = value - 1 if limit.values == "count" else value * (1 - 1e-6)
+        (verdict,) = [
+            r for r in evaluate_limits(LimitsSpec({key: bound}), log, prepared.controller_vehicle, ts) if r.limit == key
+        ]
+        assert not verdict.passed and verdict.value == pytest.approx(value, rel=1e-12), key
+        assert verdict.first_time_s is not None and t[0] <= verdict.first_time_s <= t[-1], key
+        assert verdict.worst_time_s is not None and t[0] <= verdict.worst_time_s <= t[-1], key
+        if limit.metric.reduction is Reduction.MAX:  # the first sample past the bound, the worst one at the peak
+            first = int(np.searchsorted(t, verdict.first_time_s))
+            assert values[first] > bound and np.all(values[:first] <= bound), key
+            assert values[int(np.searchsorted(t, verdict.worst_time_s))] == value, key
+
+
+def test_each_limit_is_the_worst_of_its_series_and_a_breach_has_a_first_time():
+    prepared = load_experiment(EXPERIMENTS / "line.toml")
+    assert_each_limit_is_its_series(prepared, run_experiment(prepared))
 
 
 @pytest.mark.slow
@@ -47,6 +91,7 @@ def test_every_shipped_experiment_runs_and_passes_its_limits(path):
     np.testing.assert_allclose(log["motor_voltage_left_v"], gain * alpha * log["da_code_left"], atol=1e-12)
     assert np.all(np.abs(log["current_peak_left_a"]) <= 5.5 + 1e-9)
     assert summary["passed"], [r["message"] for r in summary["limits"] if not r["passed"]]
+    assert_each_limit_is_its_series(prepared, result)
 
 
 @pytest.mark.slow

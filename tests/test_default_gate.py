@@ -41,7 +41,7 @@ def test_a_users_first_file_passes_the_default_gate(tmp_path: Path, path: str, p
     summary = run_summary(experiment, run_experiment(experiment))
     limits = {r["limit"]: r for r in summary["limits"]}
     assert all(r["default"] for r in limits.values())  # no [limits]: the default gate alone
-    assert {"final_position_error_m", "cross_track_error_max_m", "wheel_accel_m_s2"} <= limits.keys()
+    assert {"final_position_error_m", "cross_track_error_max_m", "peak_wheel_accel_m_s2"} <= limits.keys()
     assert summary["passed"], [r["message"] for r in limits.values() if not r["passed"]]
 
 
@@ -79,7 +79,7 @@ def test_wheel_loops_with_four_times_their_gains_fail_on_acceleration_alone(tmp_
     _, wheel_controller = faults().FAULTS["wheel-loop gains x4"](experiment)
     summary = run_summary(experiment, run_experiment(experiment, wheel_controller=wheel_controller))
     failed = {r["limit"] for r in summary["limits"] if not r["passed"]}
-    assert failed == {"wheel_accel_m_s2"}  # on the path, but slamming the wheels from limit to limit
+    assert failed == {"peak_wheel_accel_m_s2"}  # on the path, but slamming the wheels from limit to limit
     assert load_vehicle().derived.accel_limit_m_s2 < 1.3  # the bound is the torque limit, twice eq 5's a_lim
 
 

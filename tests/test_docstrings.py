@@ -17,6 +17,7 @@ documentation is the parser.
 from __future__ import annotations
 
 import doctest
+import enum
 import importlib
 import inspect
 import io
@@ -101,7 +102,10 @@ PUBLIC = public_definitions()
 
 
 def signature_parameters(obj: Any) -> list[str]:
-    """What a caller passes: a class's constructor's parameters, without ``self``, ``*args`` and ``**kwargs``."""
+    """What a caller passes: a class's constructor's parameters, without ``self``, ``*args`` and ``**kwargs``; none
+    for an enumeration (its members, each documented, are what a caller names)."""
+    if inspect.isclass(obj) and issubclass(obj, enum.Enum):
+        return []
     try:
         signature = inspect.signature(obj)
     except ValueError:  # a class whose constructor is a builtin one, e.g. a Warning's: nothing of its own

@@ -16,7 +16,6 @@ import pytest
 from agvctl.checks.report import TIMING_METRICS
 from agvctl.cli import main
 from agvctl.evaluation.limits import evaluate_limits
-from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.fuzz.generate import generate_scenario, scenario_files
 from agvctl.fuzz.report import FuzzOutcome, FuzzReport, FuzzTask
 from agvctl.fuzz.run import fuzz, fuzz_tasks, run_fuzz_task
@@ -302,7 +301,5 @@ def test_kept_generated_cases_pass_their_limits(path: Path) -> None:
         warnings.simplefilter("ignore")
         exp = load_experiment(path)
     result = run_experiment(exp)
-    verdicts = evaluate_limits(
-        exp.spec.limits, result.log, closed_loop_metrics(result), exp.controller_vehicle, result.sample_period_s
-    )
+    verdicts = evaluate_limits(exp.spec.limits, result.log, exp.controller_vehicle, result.sample_period_s)
     assert all(v.passed for v in verdicts if not v.default), [v.message for v in verdicts if not v.passed]

@@ -202,3 +202,19 @@ def test_a_loop_held_below_its_limit_for_the_other_wheel_does_not_wind_up(vehicl
     for _ in range(50):
         volts = ctrl.motor_voltages_v(np.array([40.0, 38.0]), np.array([0.0, 0.0]))
     assert ctrl.loops[1].integrator_v <= volts[1] + 1e-12
+
+
+def test_a_wheel_at_rest_is_released_to_stiction_until_it_is_asked_to_move(vehicle):
+    """A stopped motor draws no armature current at 0 V (eq 1 with ω = 0), and stiction holds it at any torque below
+    its break-away: at rest the loop releases the wheel, whatever its speed estimate wanders, and resumes from its
+    integrator when the setpoint leaves zero."""
+    loop = PISpeedLoop(
+        GAINS, vehicle.motor.left, current_limit_a=I_MAX, voltage_min_v=-10.0, voltage_max_v=10.0, standstill_rad_s=0.1
+    )
+    for _ in range(20):  # driving, then braking to a stop: the integrator holds what friction needed
+        loop.update(5.0, 4.0)
+    held = loop.integrator_v
+    assert held != 0.0 and loop.update(0.0, 0.05) == 0.0  # stopped with a zero setpoint: released
+    assert all(loop.update(0.0, w) == 0.0 for w in (0.4, -0.4, 0.2))  # an estimate's wander is not motion
+    assert loop.integrator_v == held
+    assert loop.update(1.0, 0.0) == pytest.approx(GAINS.kp * 1.0 + held + GAINS.ki * T_S * 1.0, rel=1e-12)

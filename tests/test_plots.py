@@ -50,7 +50,12 @@ def two_panels(vehicle) -> Callable[[int], bytes]:
     # estimate off the truth and a bound just above the errors (on the log axis, or the linear one a new axes starts
     # with, a bound line widens the limits or not)
     runs = [
-        (log, {"tracking_error_max_m": 1e-6, "motor_current_a": 5.5}, 1.5, "tracking_error_max_m: worst at t = 1.50 s"),
+        (
+            log,
+            {"tracking_error_max_m": 1e-6, "peak_motor_current_a": 5.5},
+            1.5,
+            "tracking_error_max_m: worst at t = 1.50 s",
+        ),
         (apart, {"tracking_error_max_m": 1.2 * float(np.max(apart["position_error_m"]))}, None, ""),
     ]
 

@@ -1,5 +1,5 @@
 """Rest when done: at the end of the figure-8 on the EKF the vehicle holds still instead of chasing each fix's
-correction of the estimate, and the true final error stays small; the wheel loops rest on stiction."""
+correction of the estimate, and the true final error stays small; the wheel loops release the wheels to stiction."""
 
 import dataclasses
 from pathlib import Path
@@ -35,6 +35,17 @@ def test_at_the_end_of_the_figure8_on_the_ekf_the_vehicle_rests_close_to_the_end
     end = np.array([log["ref_x_m"][-1], log["ref_y_m"][-1]])
     assert np.hypot(*(np.array([log["x_m"][-1], log["y_m"][-1]]) - end)) <= 0.01
     assert np.all(log["omega_motor_left_rad_s"][-25:] == 0.0) and np.all(log["omega_motor_right_rad_s"][-25:] == 0.0)
+    # stiction holds the stopped wheels: no current holds them against friction or each other
+    assert np.all(np.abs(log["current_left_a"][-25:]) <= 0.05) and np.all(np.abs(log["current_right_a"][-25:]) <= 0.05)
+
+
+def test_at_the_end_of_a_path_the_wheels_draw_no_current_and_stay_where_they_stopped():
+    log = run_experiment(load_experiment(EXPERIMENTS / "line.toml")).log
+    last = log["t_s"] >= log["t_s"][-1] - 1.0
+    for side in ("left", "right"):
+        assert np.all(log[f"omega_motor_{side}_rad_s"][last] == 0.0)
+        assert np.mean(np.abs(log[f"current_{side}_a"][last])) <= 0.05
+    assert np.hypot(log["x_m"][-1] - log["ref_x_m"][-1], log["y_m"][-1] - log["ref_y_m"][-1]) <= 0.002
 
 
 def test_without_rest_the_controller_chases_every_fix_at_standstill():

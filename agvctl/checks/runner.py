@@ -35,8 +35,7 @@ from agvctl.checks.executors import (
 from agvctl.checks.report import CheckReport, ExperimentReport, Overrides, RunOutcome, RunTask, worst_run_verdicts
 from agvctl.config import check_key, document_fields, to_dict
 from agvctl.errors import ConfigError, caused_by_interrupt, exception_line
-from agvctl.evaluation.limits import LimitResult, evaluate_limits
-from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.evaluation.limits import LimitResult, judge_run
 from agvctl.params import SIDES, VehicleParams
 from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
 from agvctl.sim.loop import ClosedLoopResult
@@ -231,12 +230,9 @@ def _run(task: RunTask, t0: float, render: RunRender | None) -> RunOutcome:
         plant_spec = dataclasses.replace(spec.plant, sensor_seed=spec.plant.sensor_seed + 1 + task.sample)
         prepared = dataclasses.replace(prepared, spec=dataclasses.replace(spec, plant=plant_spec))
     result = run_experiment(prepared)
-    metrics = closed_loop_metrics(result)
-    limits = evaluate_limits(
-        prepared.spec.limits, result.log, metrics, prepared.controller_vehicle, result.sample_period_s
-    )
-    figures = render(prepared, result, limits) if render is not None else {}
-    return RunOutcome(task, metrics, tuple(limits), time.perf_counter() - t0, figures=figures)
+    verdict = judge_run(result, prepared.spec.limits, prepared.controller_vehicle)
+    figures = render(prepared, result, verdict.limits) if render is not None else {}
+    return RunOutcome(task, verdict.metrics, verdict.limits, time.perf_counter() - t0, figures=figures)
 
 
 @document_fields

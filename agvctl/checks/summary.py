@@ -5,8 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from agvctl.estimation.calibration import calibration_summary
-from agvctl.evaluation.limits import all_passed, evaluate_limits
-from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.evaluation.limits import judge_run
 from agvctl.fileio import json_safe
 from agvctl.scenario.experiment import Experiment
 from agvctl.sim.loop import ClosedLoopResult
@@ -52,19 +51,18 @@ def run_summary(experiment: Experiment, result: ClosedLoopResult) -> dict[str, A
         odometry calibration its ``calibration`` against the plant's truth
         (:func:`~agvctl.estimation.calibration.calibration_summary`).
     """
-    metrics = closed_loop_metrics(result)
     exp = experiment.spec
-    limits = evaluate_limits(exp.limits, result.log, metrics, experiment.controller_vehicle, result.sample_period_s)
-    ordered = {k: metrics[k] for k in SUMMARY_METRICS}
-    ordered.update({k: v for k, v in metrics.items() if k not in ordered})
+    verdict = judge_run(result, exp.limits, experiment.controller_vehicle)
+    ordered = {k: verdict.metrics[k] for k in SUMMARY_METRICS}
+    ordered.update({k: v for k, v in verdict.metrics.items() if k not in ordered})
     calibration = calibration_summary(result.log, experiment.controller_vehicle, experiment.plant_vehicle)
     return {
         "experiment": exp.name,
-        "passed": all_passed(limits),
+        "passed": verdict.passed,
         "metrics": json_safe(ordered),
         "wall_time_s": result.wall_time_s,
         "setup_time_s": result.setup_time_s,
         "simulated_s": result.n_samples * result.sample_period_s,
-        "limits": [r.as_dict() for r in limits],
+        "limits": [r.as_dict() for r in verdict.limits],
         **({"calibration": {k: json_safe(v) for k, v in calibration.items()}} if calibration is not None else {}),
     }

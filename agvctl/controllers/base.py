@@ -12,7 +12,7 @@ They command DA voltages; the actuator chain does the rest.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal, Protocol
+from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,8 +21,10 @@ from agvctl.config import document_fields
 from agvctl.planning.reference import Reference
 
 __all__ = [
+    "LimitReporting",
     "PoseCommand",
     "PoseController",
+    "PoseCovarianceObserver",
     "SolveStatus",
     "WheelSpeedController",
 ]
@@ -65,9 +67,7 @@ class PoseController(Protocol):
 class WheelSpeedController(Protocol):
     """Per-motor speed loops: motor-speed setpoints and measurements in rad/s, DA voltage commands out.
 
-    A wheel controller may also say, in a ``limited`` attribute (left, right), whether its last output was clamped to
-    what the amplifier and the DA converter give. The closed loop logs it, and the default gate holds the wheels to
-    their setpoints only where it was not (``wheel_speed_error_max_m_s``); a controller without it is not judged there.
+    A wheel controller may also be a :class:`LimitReporting` one.
     """
 
     def reset(self) -> None:
@@ -75,4 +75,28 @@ class WheelSpeedController(Protocol):
 
     def update(self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]) -> NDArray[np.float64]:
         """DA voltage commands (left, right) in V for one sample."""
+        ...
+
+
+@runtime_checkable
+class PoseCovarianceObserver(Protocol):
+    """A pose controller that wants to know how good its pose is (optional; the closed loop checks it once, at
+    set-up). Given an estimator with a covariance
+    (:class:`~agvctl.estimation.base.PoseCovarianceEstimator`), the loop hands it the estimate's covariance every
+    sample, before :meth:`PoseController.update`."""
+
+    def observe_pose_covariance(self, covariance: NDArray[np.float64]) -> None:
+        """The pose estimate's 3×3 covariance (m², m rad, rad²) at this sample."""
+
+
+@runtime_checkable
+class LimitReporting(Protocol):
+    """A wheel controller that says whether its last output was clamped to what the amplifier and the DA converter
+    give (optional; the closed loop checks it once, at set-up). The loop logs it (``wheel_loop_limited_*``), and the
+    default gate holds the wheels to their setpoints only where it was not (``wheel_speed_error_max_m_s``); a wheel
+    controller that does not say is not judged there."""
+
+    @property
+    def limited(self) -> tuple[bool, bool]:
+        """Whether each wheel's (left, right) last output was clamped."""
         ...

@@ -2,17 +2,20 @@
 
 Every sample the closed loop hands the pose estimator the :class:`~agvctl.sensing.Measurements` of the true
 vehicle's sensors (latched encoder counts, the gyro, the position fixes arriving, the rim speeds the wheel loops
-measured, and the true pose: a perfect pose sensor, for the ``truth`` estimator only), and the wheel-speed estimator
-the latched counts. An estimator that also has a ``pose_covariance`` (3×3) and a ``last_nis`` attribute is checked
-for consistency (NEES, NIS) in the log, as :class:`~agvctl.estimation.ekf.PoseEkf` is; one that also has a
-``calibration`` and a ``calibration_sigma`` (ε_l, ε_r, ε_b) and a ``fix_counts`` has them logged too
-(:data:`CALIBRATION_COLUMNS`, :func:`calibration_readout`).
+measured), and the wheel-speed estimator the latched counts: what a real one would receive. The truth stays on
+the simulator's side; only a component that declares itself a perfect sensor (:class:`TruthSensor`: the ``exact``
+wheel speeds and the ``truth`` localization) is handed it, and the loop checks that once, at set-up.
+
+The optional parts are small protocols of their own, checked once at set-up too: an estimator with a covariance
+(:class:`PoseCovarianceEstimator`) is checked for consistency (NEES, NIS) in the log, as
+:class:`~agvctl.estimation.ekf.PoseEkf` is; one that learns the odometry calibration (:class:`CalibrationEstimator`)
+has it logged (:data:`CALIBRATION_COLUMNS`).
 """
 
 from __future__ import annotations
 
 import math
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,7 +23,15 @@ from numpy.typing import NDArray
 from agvctl.angles import wrap_angle
 from agvctl.sensing import Measurements
 
-__all__ = ["CALIBRATION_COLUMNS", "PoseEstimator", "WheelSpeedEstimator", "calibration_readout", "consistency"]
+__all__ = [
+    "CALIBRATION_COLUMNS",
+    "CalibrationEstimator",
+    "PoseCovarianceEstimator",
+    "PoseEstimator",
+    "TruthSensor",
+    "WheelSpeedEstimator",
+    "consistency",
+]
 
 CALIBRATION_COLUMNS = (
     "est_radius_error_left",
@@ -53,12 +64,12 @@ class PoseEstimator(Protocol):
 
 
 class WheelSpeedEstimator(Protocol):
-    """Motor speeds (left, right) in rad/s at t_k, from the latched counts (and the true speeds, for ``exact``)."""
+    """Motor speeds (left, right) in rad/s at t_k, from the latched counts."""
 
     def reset(self) -> None:
         """Forget the past (the vehicle starts at rest)."""
 
-    def update(self, encoder_counts: NDArray[np.int64], true_omega_rad_s: FloatArray) -> FloatArray:
+    def update(self, encoder_counts: NDArray[np.int64]) -> FloatArray:
         """The speeds at this sample."""
         ...
 
@@ -66,7 +77,42 @@ class WheelSpeedEstimator(Protocol):
         """The DA voltage command (left, right, V) held over the coming sample."""
 
 
-def consistency(estimator: object, estimate: FloatArray, true_pose: FloatArray) -> tuple[float, ...]:
+@runtime_checkable
+class TruthSensor(Protocol):
+    """A perfect sensor in an estimator's place (``wheel_speed = "exact"``, ``localization = "truth"``): the
+    simulator hands it the true state every sample, before the estimator's ``update``. Only a component that declares
+    this method is handed the truth; a real estimator never is."""
+
+    def observe_truth(self, pose: FloatArray, omega_motor_rad_s: FloatArray) -> None:
+        """The true pose (x_m, y_m, theta_rad) and motor speeds (left, right, rad/s) at this sample."""
+
+
+@runtime_checkable
+class PoseCovarianceEstimator(Protocol):
+    """A pose estimator that knows its uncertainty: logged as σ, NEES and NIS (:func:`consistency`), and handed to a
+    pose controller that observes it (:class:`~agvctl.controllers.base.PoseCovarianceObserver`)."""
+
+    @property
+    def pose_covariance(self) -> FloatArray:
+        """The pose's 3×3 covariance (m², m rad, rad²) after the latest update."""
+        ...
+
+    @property
+    def last_nis(self) -> float:
+        """The NIS of the last fix arriving at the latest update (NaN when none did)."""
+        ...
+
+
+@runtime_checkable
+class CalibrationEstimator(Protocol):
+    """A pose estimator that learns the odometry calibration: logged every sample (:data:`CALIBRATION_COLUMNS`)."""
+
+    def readout(self) -> tuple[float, ...]:
+        """The values of :data:`CALIBRATION_COLUMNS` at this sample, as plain floats."""
+        ...
+
+
+def consistency(estimator: PoseCovarianceEstimator, estimate: FloatArray, true_pose: FloatArray) -> tuple[float, ...]:
     """How consistent a pose estimator's covariance is with its actual error, at one sample.
 
     NEES is eᵀP⁻¹e with e the estimate's error against the truth (heading wrapped), 3 degrees of freedom; NIS the
@@ -75,8 +121,8 @@ def consistency(estimator: object, estimate: FloatArray, true_pose: FloatArray) 
 
     Parameters
     ----------
-    estimator : object
-        The pose estimator; one with a ``pose_covariance`` (and ``last_nis``) is judged.
+    estimator : PoseCovarianceEstimator
+        The pose estimator, with its covariance.
     estimate : ndarray
         Its estimate: x (m), y (m), heading (rad).
     true_pose : ndarray
@@ -85,12 +131,9 @@ def consistency(estimator: object, estimate: FloatArray, true_pose: FloatArray) 
     Returns
     -------
     tuple of float
-        (σ_x in m, σ_y in m, σ_θ in rad, NEES, NIS); all NaN for an estimator without a covariance.
+        (σ_x in m, σ_y in m, σ_θ in rad, NEES, NIS).
     """
-    cov = getattr(estimator, "pose_covariance", None)
-    if cov is None:
-        return (math.nan,) * 5
-    (a, b, c), (_, d, e), (_, _, f) = np.asarray(cov, dtype=float).tolist()
+    (a, b, c), (_, d, e), (_, _, f) = np.asarray(estimator.pose_covariance, dtype=float).tolist()
     x, y, t = (np.asarray(estimate, dtype=float) - true_pose).tolist()
     t = wrap_angle(t)
     # adj(P) of P = [[a b c] [b d e] [c e f]], and det P
@@ -98,34 +141,5 @@ def consistency(estimator: object, estimate: FloatArray, true_pose: FloatArray) 
     D, E, F = a * f - c * c, b * c - a * e, a * d - b * b
     det = a * A + b * B + c * C
     nees = (A * x * x + D * y * y + F * t * t + 2 * (B * x * y + C * x * t + E * y * t)) / det
-    nis = float(getattr(estimator, "last_nis", math.nan))
+    nis = float(estimator.last_nis)
     return (math.sqrt(a), math.sqrt(d), math.sqrt(f), nees, nis)
-
-
-def calibration_readout(estimator: object) -> tuple[float, ...]:
-    """The values of :data:`CALIBRATION_COLUMNS` for an estimator, at one sample.
-
-    Parameters
-    ----------
-    estimator : object
-        The pose estimator: its own ``readout()`` when it has one (it runs every sample), else its
-        ``calibration``, ``calibration_sigma`` and ``fix_counts`` (:class:`~agvctl.estimation.ekf.PoseEkf`).
-
-    Returns
-    -------
-    tuple of float
-        One value per column, in order; all NaN for an estimator that learns no calibration.
-    """
-    readout = getattr(estimator, "readout", None)
-    if readout is not None:
-        return tuple(readout())
-    cal = getattr(estimator, "calibration", None)
-    if cal is None:
-        return (math.nan,) * len(CALIBRATION_COLUMNS)
-    counts = getattr(estimator, "fix_counts", {})
-    sigma = getattr(estimator, "calibration_sigma", np.full(3, math.nan))
-    return (
-        *np.asarray(cal, dtype=float).tolist(),
-        *np.asarray(sigma, dtype=float).tolist(),
-        *(float(counts.get(k, math.nan)) for k in ("rejected", "dropped", "reordered")),
-    )

@@ -17,7 +17,8 @@ FloatArray = NDArray[np.float64]
 
 
 class TruthEstimator:
-    """The true pose (``localization = "truth"``).
+    """The true pose (``localization = "truth"``): a perfect sensor, handed the truth by the simulator
+    (:class:`~agvctl.estimation.base.TruthSensor`).
 
     Parameters
     ----------
@@ -27,12 +28,17 @@ class TruthEstimator:
 
     def __init__(self, vehicle: VehicleParams) -> None:
         del vehicle  # the truth needs no model
+        self._pose = np.zeros(3)
 
     def reset(self, pose: FloatArray) -> None:
-        del pose
+        self._pose = np.array(pose, dtype=float)
+
+    def observe_truth(self, pose: FloatArray, omega_motor_rad_s: FloatArray) -> None:
+        del omega_motor_rad_s
+        self._pose = np.array(pose, dtype=float)
 
     def update(self, measurements: Measurements) -> FloatArray:
-        return measurements.true_pose
+        return self._pose
 
 
 class OdometryEstimator:

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from agvctl.angles import wrap_angle
 from agvctl.config import MAX_LOG_BYTES, read_text
 from agvctl.errors import ConfigError, expect_instance
-from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator
+from agvctl.estimation.base import PoseEstimator, TruthSensor, WheelSpeedEstimator
 from agvctl.estimation.ekf import CALIBRATION_STATES, EkfSettings, PoseEkf
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
 from agvctl.log import SimLog
@@ -237,10 +237,14 @@ def estimate_log(log: SimLog, vehicle: VehicleParams, localization: str | PoseEs
     counts, fixes = log_encoder_counts(log), log_fixes(log, vehicle.control.sample_period_s)
     poses = np.column_stack([log["x_m"], log["y_m"], log["theta_rad"]])
     wheel = _pair(log, "measured_omega_motor_{}_rad_s") * rim_per_motor
+    true_omega = _pair(log, "omega_motor_{}_rad_s")
+    truth = estimator if isinstance(estimator, TruthSensor) else None  # a perfect sensor reads the log's truth
     t, gyro = log["t_s"], log["gyro_rate_rad_s"]
     est = np.empty((len(log), 3))
     for k in range(len(log)):
-        meas = Measurements(k, float(t[k]), poses[k], wheel[k], counts[k], float(gyro[k]), fixes[k])
+        if truth is not None:
+            truth.observe_truth(poses[k], true_omega[k])
+        meas = Measurements(k, float(t[k]), wheel[k], counts[k], float(gyro[k]), fixes[k])
         est[k] = estimator.update(meas)
     return SimLog({"t_s": np.array(t), "est_x_m": est[:, 0], "est_y_m": est[:, 1], "est_theta_rad": est[:, 2]})
 
@@ -265,10 +269,14 @@ def wheel_speeds_log(log: SimLog, vehicle: VehicleParams, wheel_speed: str | Whe
     speeds = WHEEL_SPEED_ESTIMATORS[wheel_speed](vehicle) if isinstance(wheel_speed, str) else wheel_speed
     speeds.reset()
     counts, true_omega = log_encoder_counts(log), _pair(log, "omega_motor_{}_rad_s")
+    poses = np.column_stack([log["x_m"], log["y_m"], log["theta_rad"]])
+    truth = speeds if isinstance(speeds, TruthSensor) else None  # a perfect sensor reads the log's truth
     commands = _pair(log, "da_command_{}_v")
     omega = np.empty((len(log), 2))
     for k in range(len(log)):
-        omega[k] = speeds.update(counts[k], true_omega[k])
+        if truth is not None:
+            truth.observe_truth(poses[k], true_omega[k])
+        omega[k] = speeds.update(counts[k])
         speeds.applied(commands[k])
     return SimLog(
         {"t_s": np.array(log["t_s"]), "omega_motor_left_rad_s": omega[:, 0], "omega_motor_right_rad_s": omega[:, 1]}

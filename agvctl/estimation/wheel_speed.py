@@ -1,7 +1,8 @@
 """Wheel-speed estimators: the motor speeds the wheel loops (and the pose controller) see each sample
 (``[controller] wheel_speed``).
 
-* ``exact``: the true motor speeds at t_k (no encoder model; the default, as before sensors were modelled).
+* ``exact``: the true motor speeds at t_k (no encoder model; the default, as before sensors were modelled): a
+  perfect sensor (:class:`~agvctl.estimation.base.TruthSensor`) that the simulator hands the truth.
 * ``count_difference``: the encoder count difference over the last sample, Δn·q/T_s: the mean speed over
   [t_k−1, t_k], half a sample late and quantised to q/T_s.
 * ``kalman``: a steady-state Kalman filter per motor on the decoupled model of eqs 60-61,
@@ -37,7 +38,8 @@ FloatArray = NDArray[np.float64]
 
 
 class ExactSpeed:
-    """The true motor speeds (``wheel_speed = "exact"``).
+    """The true motor speeds (``wheel_speed = "exact"``): a perfect sensor, handed the truth by the simulator
+    (:class:`~agvctl.estimation.base.TruthSensor`).
 
     Parameters
     ----------
@@ -47,12 +49,17 @@ class ExactSpeed:
 
     def __init__(self, vehicle: VehicleParams) -> None:
         del vehicle
+        self._omega = np.zeros(2)
 
     def reset(self) -> None:
-        pass
+        self._omega = np.zeros(2)
 
-    def update(self, encoder_counts: NDArray[np.int64], true_omega_rad_s: FloatArray) -> FloatArray:
-        return true_omega_rad_s
+    def observe_truth(self, pose: FloatArray, omega_motor_rad_s: FloatArray) -> None:
+        del pose
+        self._omega = omega_motor_rad_s
+
+    def update(self, encoder_counts: NDArray[np.int64]) -> FloatArray:
+        return self._omega
 
     def applied(self, da_command_v: FloatArray) -> None:
         del da_command_v
@@ -75,7 +82,7 @@ class CountDifference:
     def reset(self) -> None:
         self._previous = None
 
-    def update(self, encoder_counts: NDArray[np.int64], true_omega_rad_s: FloatArray) -> FloatArray:
+    def update(self, encoder_counts: NDArray[np.int64]) -> FloatArray:
         previous, self._previous = self._previous, encoder_counts
         if previous is None:
             return np.zeros(2)
@@ -150,7 +157,7 @@ class KalmanWheelSpeed:
         self._x = None
         self._u = [0.0, 0.0]
 
-    def update(self, encoder_counts: NDArray[np.int64], true_omega_rad_s: FloatArray) -> FloatArray:
+    def update(self, encoder_counts: NDArray[np.int64]) -> FloatArray:
         y = ((float(encoder_counts[0]) + 0.5) * self.count_rad, (float(encoder_counts[1]) + 0.5) * self.count_rad)
         if self._x is None:
             self._x = [[y[0], 0.0, 0.0], [y[1], 0.0, 0.0]]

@@ -1,8 +1,12 @@
-"""The limits a run is judged by: one table (name → metric → series → unit), an experiment's ``[limits]``, the
-default limits of a healthy run, and their evaluation on a run (value, pass/fail, worst and first times).
+"""The limits a run is judged by: one table (the name of a metric of :data:`~agvctl.evaluation.metrics.METRICS`
+→ the values a file may give), an experiment's ``[limits]``, the default limits of a healthy run, and their
+evaluation on a run (value, pass/fail, worst and first times).
 
-Adding a limit is one entry in :data:`LIMITS`: the experiment loader validates ``[limits]`` against it, and
-:func:`evaluate_limits` and the messages of ``run`` and ``check`` read it.
+A limit bounds a metric, under the metric's name: the metric's per-sample signal gives the times reported, its
+reduction (the worst sample, the final one, a share, a count, ...) the value, so the two cannot disagree. Adding a
+limit is one entry in :data:`LIMITS` for a metric of :data:`~agvctl.evaluation.metrics.METRICS`: the experiment
+loader validates ``[limits]`` against it, and :func:`evaluate_limits` and the messages of ``run`` and ``check`` read
+it. :func:`judge_run` gives a run's metrics and verdicts together, as ``run``, ``check`` and ``fuzz`` report them.
 
 **The default gate** (:func:`default_limits`): whatever an experiment's ``[limits]`` leaves out is judged against
 what every healthy run of a planned path keeps, derived from the vehicle and the run's start:
@@ -13,7 +17,7 @@ what every healthy run of a planned path keeps, derived from the vehicle and the
   never faces against it (``path_heading_error_max_deg`` 90°);
 * every controller step succeeds (``solver_failures`` 0);
 * no wheel accelerates over a sample faster than the motors' torque at the current limit can drive it in any
-  manoeuvre (``wheel_accel_m_s2``, :func:`~agvctl.feasibility.torque_accel_limit_m_s2`, eqs 47-49 and 58-59: 1.31
+  manoeuvre (``peak_wheel_accel_m_s2``, :func:`~agvctl.feasibility.torque_accel_limit_m_s2`, eqs 47-49 and 58-59: 1.31
   m/s² for the IAU AGV, twice eq 5's a_lim, which assumes both wheels driving alike against friction). Only friction
   helping a wheel brake in a turn in place takes it further; tracking a planned path never needs that, while a wheel
   loop slammed from limit to limit does;
@@ -30,22 +34,14 @@ from stiction jumps for a few milliseconds whatever the controller does.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal
 
-import numpy as np
-from numpy.typing import NDArray
-
 from agvctl.config import check_fields, convert_value, did_you_mean, document_fields, join_key
 from agvctl.errors import ConfigError
-from agvctl.evaluation.metrics import (
-    NON_FINITE_COMMAND_STATUS,
-    estimate_heading_error_rad,
-    estimate_position_error_m,
-    sample_wheel_accel_m_s2,
-    wheel_speed_error_m_s,
-)
+from agvctl.evaluation.metrics import METRICS, RunRecord, closed_loop_metrics
+from agvctl.evaluation.signals import Metric
 from agvctl.feasibility import torque_accel_limit_m_s2
 from agvctl.log import SimLog
 from agvctl.params import VehicleParams
@@ -56,125 +52,60 @@ __all__ = [
     "Limit",
     "LimitResult",
     "LimitsSpec",
+    "RunVerdict",
     "all_passed",
     "default_limits",
     "evaluate_limits",
     "format_limit_message",
+    "judge_run",
 ]
-
-Series = Callable[[SimLog, float], NDArray[np.float64]]
 
 
 @document_fields
 @dataclass(frozen=True)
 class Limit:
-    """One limit: an upper bound on a metric of :func:`~agvctl.evaluation.metrics.closed_loop_metrics`."""
+    """One limit: an upper bound on a metric of :data:`~agvctl.evaluation.metrics.METRICS`, under its name."""
 
-    metric: str
-    """The metric the bound applies to."""
-    unit: str
-    """The metric's unit as printed after the value (``" m"``, ``"°"``; empty for fractions and counts)."""
-    series: Series
-    """The per-sample signal behind the metric, from the log and T_s in s: its worst sample and the first one past
-    the bound are reported. For ``events`` limits, the per-sample flags counted or averaged."""
-    timing: Literal["peak", "rms", "final", "events"]
-    """How the times are reported: ``peak`` (worst = the signal's peak), ``rms`` (no first exceedance: the bound
-    is on a whole-run statistic), ``final`` (both at the end), ``events`` (both at the first flagged sample)."""
+    metric: Metric
+    """The metric the bound applies to: its signal's samples give the worst time and the first time past the
+    bound, its reduction the value."""
     values: Literal["positive", "fraction", "count"]
     """What the file may give: a number > 0, a fraction in [0, 1], or an integer >= 0."""
 
-
-def _both(log: SimLog, name: str) -> NDArray[np.float64]:
-    return np.maximum(log[name.format("left")], log[name.format("right")])
-
-
-def _position_error(log: SimLog, ts: float) -> NDArray[np.float64]:
-    return np.asarray(log["position_error_m"])
+    @property
+    def unit(self) -> str:
+        """The metric's unit as printed after a value (``" m"``, ``"°"``; empty for fractions and counts)."""
+        return self.metric.unit
 
 
-LIMITS: dict[str, Limit] = {
-    "wheel_speed_m_s": Limit(
-        "peak_wheel_speed_m_s",
-        " m/s",
-        lambda log, ts: np.maximum(np.abs(log["wheel_speed_left_m_s"]), np.abs(log["wheel_speed_right_m_s"])),
-        "peak",
-        "positive",
-    ),
-    "wheel_accel_m_s2": Limit("peak_wheel_accel_m_s2", " m/s²", sample_wheel_accel_m_s2, "peak", "positive"),
-    "wheel_speed_error_max_m_s": Limit("wheel_speed_error_max_m_s", " m/s", wheel_speed_error_m_s, "peak", "positive"),
-    "motor_current_a": Limit(
-        "peak_motor_current_a", " A", lambda log, ts: _both(log, "current_peak_{}_a"), "peak", "positive"
-    ),
-    "current_limited_fraction": Limit(
-        "current_limited_fraction",
-        "",
-        lambda log, ts: np.asarray((log["current_limited_left"] > 0) | (log["current_limited_right"] > 0)),
-        "events",
-        "fraction",
-    ),
-    "da_saturation_fraction": Limit(
-        "da_saturation_fraction",
-        "",
-        lambda log, ts: np.asarray((log["da_clipped_left"] > 0) | (log["da_clipped_right"] > 0)),
-        "events",
-        "fraction",
-    ),
-    "tracking_error_max_m": Limit("tracking_error_max_m", " m", _position_error, "peak", "positive"),
-    "tracking_error_rms_m": Limit("tracking_error_rms_m", " m", _position_error, "rms", "positive"),
-    "heading_error_max_deg": Limit(
-        "heading_error_max_deg", "°", lambda log, ts: np.degrees(np.abs(log["heading_error_rad"])), "peak", "positive"
-    ),
-    "final_position_error_m": Limit("final_position_error_m", " m", _position_error, "final", "positive"),
-    "final_heading_error_deg": Limit(
-        "final_heading_error_deg",
-        "°",
-        lambda log, ts: np.degrees(np.abs(log["heading_error_rad"])),
-        "final",
-        "positive",
-    ),
-    "cross_track_error_max_m": Limit(
-        "cross_track_error_max_m", " m", lambda log, ts: np.asarray(log["cross_track_error_m"]), "peak", "positive"
-    ),
-    "cross_track_error_rms_m": Limit(
-        "cross_track_error_rms_m", " m", lambda log, ts: np.asarray(log["cross_track_error_m"]), "rms", "positive"
-    ),
-    "along_track_lag_max_m": Limit(
-        "along_track_lag_max_m", " m", lambda log, ts: np.abs(log["along_track_lag_m"]), "peak", "positive"
-    ),
-    "path_heading_error_max_deg": Limit(
-        "path_heading_error_max_deg",
-        "°",
-        lambda log, ts: np.degrees(np.abs(log["path_heading_error_rad"])),
-        "peak",
-        "positive",
-    ),
-    "estimate_error_rms_m": Limit("estimate_error_rms_m", " m", estimate_position_error_m, "rms", "positive"),
-    "estimate_error_max_m": Limit("estimate_error_max_m", " m", estimate_position_error_m, "peak", "positive"),
-    "heading_estimate_error_max_deg": Limit(
-        "heading_estimate_error_max_deg",
-        "°",
-        lambda log, ts: np.degrees(estimate_heading_error_rad(log, ts)),
-        "peak",
-        "positive",
-    ),
-    "solve_time_p99_ms": Limit(
-        "solve_time_p99_ms", " ms", lambda log, ts: log["solve_time_s"] * 1e3, "peak", "positive"
-    ),
-    "deadline_misses": Limit(
-        "deadline_misses", "", lambda log, ts: np.asarray(log["solve_time_s"] > ts), "events", "count"
-    ),
-    "solver_failures": Limit(
-        "solver_failures", "", lambda log, ts: np.asarray(log["solver_status"] > 0), "events", "count"
-    ),
-    "non_finite_commands": Limit(
-        "non_finite_commands",
-        "",
-        lambda log, ts: np.asarray(log["solver_status"] == NON_FINITE_COMMAND_STATUS),
-        "events",
-        "count",
-    ),
+_LIMIT_VALUES: dict[str, Literal["positive", "fraction", "count"]] = {
+    "peak_wheel_speed_m_s": "positive",
+    "peak_wheel_accel_m_s2": "positive",
+    "wheel_speed_error_max_m_s": "positive",
+    "peak_motor_current_a": "positive",
+    "current_limited_fraction": "fraction",
+    "da_saturation_fraction": "fraction",
+    "tracking_error_max_m": "positive",
+    "tracking_error_rms_m": "positive",
+    "heading_error_max_deg": "positive",
+    "final_position_error_m": "positive",
+    "final_heading_error_deg": "positive",
+    "cross_track_error_max_m": "positive",
+    "cross_track_error_rms_m": "positive",
+    "along_track_lag_max_m": "positive",
+    "path_heading_error_max_deg": "positive",
+    "estimate_error_rms_m": "positive",
+    "estimate_error_max_m": "positive",
+    "heading_estimate_error_max_deg": "positive",
+    "solve_time_p99_ms": "positive",
+    "deadline_misses": "count",
+    "solver_failures": "count",
+    "non_finite_commands": "count",
 }
-"""Every limit an experiment's ``[limits]`` table may set, in the order they are reported."""
+
+LIMITS: dict[str, Limit] = {name: Limit(METRICS[name], values) for name, values in _LIMIT_VALUES.items()}
+"""Every limit an experiment's ``[limits]`` table may set, by the name of the metric it bounds, in the order they
+are reported."""
 
 _VALUES: dict[str, tuple[type, dict[str, float]]] = {
     "positive": (float, {"gt": 0.0}),
@@ -306,19 +237,13 @@ class LimitResult:
 
 
 def _times(key: str, log: SimLog, bound: float, sample_period_s: float) -> tuple[float | None, float | None]:
-    """(worst, first past the bound) of a limit's series, as its table entry's ``timing`` says."""
-    t = log["t_s"]
-    limit = LIMITS[key]
-    series = limit.series(log, sample_period_s)
-    if limit.timing == "final":
-        return float(t[-1]), float(t[-1])
-    if limit.timing == "events":
-        idx = np.nonzero(series)[0]
-        first = float(t[idx[0]]) if idx.size else None
-        return first, first
-    above = np.nonzero(series > bound)[0]
-    first = float(t[above[0]]) if above.size else None
-    return float(t[int(np.argmax(series))]), (None if limit.timing == "rms" else first)
+    """(worst, first past the bound) of a limit's signal, as its metric's reduction says
+    (:meth:`~agvctl.evaluation.signals.Reduction.worst`, :meth:`~agvctl.evaluation.signals.Reduction.first_past`)."""
+    metric = LIMITS[key].metric
+    t, values = metric.series(log, sample_period_s)
+    worst = metric.reduction.worst(values)
+    first = metric.reduction.first_past(values, bound * (1 + 1e-12))
+    return (None if worst is None else float(t[worst])), (None if first is None else float(t[first]))
 
 
 @document_fields
@@ -362,7 +287,7 @@ def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimi
         corridor = DefaultLimit(CORRIDOR_M, "stays within 10 cm of the path")
     torque = torque_accel_limit_m_s2(vehicle)
     defaults = {
-        "wheel_accel_m_s2": DefaultLimit(
+        "peak_wheel_accel_m_s2": DefaultLimit(
             torque, "what the motors' torque at the current limit gives a wheel, eqs 58-59"
         ),
         "wheel_speed_error_max_m_s": DefaultLimit(
@@ -380,9 +305,12 @@ def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimi
 
 
 def evaluate_limits(
-    limits: LimitsSpec, log: SimLog, metrics: dict[str, float], vehicle: VehicleParams, sample_period_s: float
+    limits: LimitsSpec, log: SimLog, vehicle: VehicleParams, sample_period_s: float
 ) -> list[LimitResult]:
     """Check every limit of the default gate and every limit ``limits`` sets (which replaces the default of its key).
+
+    Each limit's value, worst time and first time past its bound come from its metric's samples
+    (:class:`~agvctl.evaluation.signals.Metric`), so a breach always has a first time.
 
     Parameters
     ----------
@@ -390,8 +318,6 @@ def evaluate_limits(
         The experiment's ``[limits]``.
     log : SimLog
         The run's log.
-    metrics : dict of str to float
-        Its :func:`~agvctl.evaluation.metrics.closed_loop_metrics`.
     vehicle : VehicleParams
         The controller's vehicle, from which the defaults are derived (:func:`default_limits`).
     sample_period_s : float
@@ -410,7 +336,7 @@ def evaluate_limits(
         if key not in bounds:
             continue
         bound, default = bounds[key]
-        value = float(metrics[LIMITS[key].metric])
+        value = LIMITS[key].metric.value(log, sample_period_s)
         passed = value <= bound * (1 + 1e-12)
         worst, first = _times(key, log, bound, sample_period_s)
         results.append(
@@ -426,6 +352,43 @@ def evaluate_limits(
             )
         )
     return results
+
+
+@document_fields
+@dataclass(frozen=True)
+class RunVerdict:
+    """A closed-loop run judged: its metrics and its limits' verdicts."""
+
+    metrics: dict[str, float]
+    """Its :func:`~agvctl.evaluation.metrics.closed_loop_metrics`, each in the unit of its name."""
+    limits: tuple[LimitResult, ...]
+    """Each limit checked (:func:`evaluate_limits`), in the order of :data:`LIMITS`."""
+
+    @property
+    def passed(self) -> bool:
+        """Whether every limit passes (:func:`all_passed`)."""
+        return all_passed(list(self.limits))
+
+
+def judge_run(result: RunRecord, limits: LimitsSpec, vehicle: VehicleParams) -> RunVerdict:
+    """A closed-loop run's metrics and every limit's verdict: what ``run``, ``check`` and ``fuzz`` report.
+
+    Parameters
+    ----------
+    result : ClosedLoopResult
+        The run (:func:`~agvctl.scenario.experiment.run_experiment`).
+    limits : LimitsSpec
+        The experiment's ``[limits]``.
+    vehicle : VehicleParams
+        The controller's vehicle, from which the default gate is derived.
+
+    Returns
+    -------
+    RunVerdict
+        The metrics and the verdicts.
+    """
+    metrics = closed_loop_metrics(result)
+    return RunVerdict(metrics, tuple(evaluate_limits(limits, result.log, vehicle, result.sample_period_s)))
 
 
 def all_passed(results: list[LimitResult]) -> bool:

@@ -10,9 +10,11 @@ from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
 from agvctl.errors import ConfigError
+from agvctl.evaluation.signals import Metric, Reduction, Signal
 from agvctl.log import SimLog
 
 __all__ = [
+    "METRICS",
     "NON_FINITE_COMMAND_STATUS",
     "closed_loop_metrics",
     "sample_wheel_accel_m_s2",
@@ -171,34 +173,124 @@ JOINED_M = 0.02
 """How near the path (m) a vehicle that started off it counts as having joined it."""
 
 
-def _joined_peak(cross: np.ndarray, threshold_m: float) -> float:
-    """max ``|cross|`` from the first sample within ``threshold_m`` of the path (all samples if none is)."""
-    on = np.nonzero(np.abs(cross) <= threshold_m)[0]
-    return _peak_abs(cross if on.size == 0 else cross[int(on[0]) :])
+def _either(log: SimLog, column: str) -> NDArray[np.float64]:
+    """The larger ``|value|`` of the left and right wheels' ``column`` (``{}`` for the side) at each sample."""
+    return np.asarray(np.maximum(np.abs(log[column.format("left")]), np.abs(log[column.format("right")])))
 
 
-def _peak_abs(values: np.ndarray) -> float:
-    """max ``|values|``; NaN if any value is NaN (a run that diverged), never a silently smaller number."""
-    return float(np.max(np.abs(values))) if len(values) else 0.0
+def _abs(column: str, scale: float = 1.0) -> Signal:
+    """``|column|`` at each sample, times ``scale``."""
+    return lambda log, ts: np.abs(np.asarray(log[column])) * scale
+
+
+def _joined_cross_track_m(log: SimLog, ts: float) -> NDArray[np.float64]:
+    """``|cross-track error|`` from the first sample within :data:`JOINED_M` of the path on (0 before it; every
+    sample if none is)."""
+    cross = np.abs(np.asarray(log["cross_track_error_m"]))
+    on = np.nonzero(cross <= JOINED_M)[0]
+    if on.size:
+        cross[: int(on[0])] = 0.0
+    return cross
+
+
+def _flags(mask: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """1.0 where ``mask`` holds, else 0.0."""
+    return mask.astype(np.float64)
+
+
+def _clipped(log: SimLog, ts: float) -> NDArray[np.float64]:
+    """1 where the DA converter clipped either wheel's command, else 0."""
+    return _flags((log["da_clipped_left"] > 0) | (log["da_clipped_right"] > 0))
+
+
+def _current_limited(log: SimLog, ts: float) -> NDArray[np.float64]:
+    """The larger share of either wheel's hold interval spent at the current limit."""
+    return _either(log, "current_limited_fraction_{}")
+
+
+def _solve_time_ms(log: SimLog, ts: float) -> NDArray[np.float64]:
+    """The pose controller's computation time at each step, ms."""
+    return np.asarray(log["solve_time_s"]) * 1e3
+
+
+_DEG = math.degrees(1.0)
+
+METRICS: dict[str, Metric] = {
+    m.name: m
+    for m in (
+        Metric("tracking_error_rms_m", " m", _abs("position_error_m"), Reduction.RMS),
+        Metric("tracking_error_max_m", " m", _abs("position_error_m"), Reduction.MAX),
+        Metric("heading_error_max_deg", "°", _abs("heading_error_rad", _DEG), Reduction.MAX),
+        Metric("final_position_error_m", " m", _abs("position_error_m"), Reduction.FINAL),
+        Metric("final_heading_error_deg", "°", _abs("heading_error_rad", _DEG), Reduction.FINAL),
+        Metric("cross_track_error_max_m", " m", _abs("cross_track_error_m"), Reduction.MAX),
+        Metric("cross_track_error_rms_m", " m", _abs("cross_track_error_m"), Reduction.RMS),
+        Metric("cross_track_error_max_joined_m", " m", _joined_cross_track_m, Reduction.MAX),
+        Metric("along_track_lag_max_m", " m", _abs("along_track_lag_m"), Reduction.MAX),
+        Metric("path_heading_error_max_deg", "°", _abs("path_heading_error_rad", _DEG), Reduction.MAX),
+        Metric("peak_wheel_speed_m_s", " m/s", lambda log, ts: _either(log, "wheel_speed_{}_m_s"), Reduction.MAX),
+        Metric("peak_wheel_accel_m_s2", " m/s²", lambda log, ts: sample_wheel_accel_m_s2(log, ts), Reduction.MAX),
+        Metric("wheel_speed_error_max_m_s", " m/s", lambda log, ts: wheel_speed_error_m_s(log, ts), Reduction.MAX),
+        Metric(
+            "peak_wheel_accel_instant_m_s2",
+            " m/s²",
+            lambda log, ts: _either(log, "wheel_accel_peak_{}_m_s2"),
+            Reduction.MAX,
+        ),
+        Metric("peak_motor_current_a", " A", lambda log, ts: _either(log, "current_peak_{}_a"), Reduction.MAX),
+        Metric("da_saturation_fraction", "", _clipped, Reduction.MEAN, "intervals"),
+        Metric("current_limited_fraction", "", _current_limited, Reduction.MEAN, "intervals"),
+        Metric("solve_time_p50_ms", " ms", _solve_time_ms, Reduction.P50),
+        Metric("solve_time_p99_ms", " ms", _solve_time_ms, Reduction.P99),
+        Metric("deadline_misses", "", lambda log, ts: _flags(log["solve_time_s"] > ts), Reduction.COUNT),
+        Metric("solver_failures", "", lambda log, ts: _flags(log["solver_status"] > 0), Reduction.COUNT),
+        Metric(
+            "non_finite_commands",
+            "",
+            lambda log, ts: _flags(log["solver_status"] == NON_FINITE_COMMAND_STATUS),
+            Reduction.COUNT,
+        ),
+        Metric("estimate_error_rms_m", " m", lambda log, ts: estimate_position_error_m(log), Reduction.RMS),
+        Metric("estimate_error_max_m", " m", lambda log, ts: estimate_position_error_m(log), Reduction.MAX),
+        Metric(
+            "heading_estimate_error_max_deg",
+            "°",
+            lambda log, ts: estimate_heading_error_rad(log) * _DEG,
+            Reduction.MAX,
+        ),
+    )
+}
+"""Every metric defined by a per-sample signal and a reduction, by name. Each limit of
+:data:`~agvctl.evaluation.limits.LIMITS` is one of them, under the same name."""
+
+_ESTIMATE_METRICS = ("estimate_error_rms_m", "estimate_error_max_m", "heading_estimate_error_max_deg")
+
+
+def _scalar(metric: Metric, log: SimLog, sample_period_s: float) -> float:
+    """The metric's value; a count as an integer (unless NaN)."""
+    value = metric.value(log, sample_period_s)
+    return int(value) if metric.reduction is Reduction.COUNT and math.isfinite(value) else value
 
 
 def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
     """Tracking, actuator and computation figures of a run (SI units, names carry them).
 
-    ``peak_wheel_accel_m_s2`` is the largest mean rim acceleration over a sample
-    (:func:`sample_wheel_accel_m_s2`), ``peak_wheel_accel_instant_m_s2`` the largest within one. Besides the
-    time-indexed tracking error ``|p(t) − p_d(t)|``, the errors against the reference's path separate being off
-    the path from being behind the clock (:mod:`agvctl.evaluation.path_metrics`): ``cross_track_error_*_m``
-    (distance to the path), ``along_track_lag_max_m`` (the largest ``|lag|`` along the path, behind or ahead) and
-    ``path_heading_error_max_deg`` (heading against the path's at the nearest point). ``wheel_speed_error_max_m_s`` is
-    how far a wheel stays from its setpoint where its loop has authority (:func:`wheel_speed_error_m_s`).
-    ``non_finite_commands`` counts the samples whose pose-controller command was NaN or infinite (also counted in
-    ``solver_failures``).
-    ``cross_track_error_max_joined_m`` is the largest cross-track error once the vehicle is on the path: after it
-    first comes within :data:`JOINED_M` of it (over the whole run if it never does), so that an off-path start does
-    not hide what follows. ``completion_time_s`` is the first time after which the vehicle stays within 2 cm of the
-    reference's final position (inf if it never does), against the reference's ``reference_duration_s`` (for a run
-    with a reference).
+    Each metric of :data:`METRICS` is its signal's reduction. ``peak_wheel_accel_m_s2`` is the largest mean rim
+    acceleration over a sample (:func:`sample_wheel_accel_m_s2`), ``peak_wheel_accel_instant_m_s2`` the largest
+    within one. Besides the time-indexed tracking error ``|p(t) − p_d(t)|``, the errors against the reference's path
+    separate being off the path from being behind the clock (:mod:`agvctl.evaluation.path_metrics`):
+    ``cross_track_error_*_m`` (distance to the path), ``along_track_lag_max_m`` (the largest ``|lag|`` along the
+    path, behind or ahead) and ``path_heading_error_max_deg`` (heading against the path's at the nearest point).
+    ``wheel_speed_error_max_m_s`` is how far a wheel stays from its setpoint where its loop has authority
+    (:func:`wheel_speed_error_m_s`). ``da_saturation_fraction`` and ``current_limited_fraction`` are shares of the
+    run's hold intervals; the solve times, ``deadline_misses``, ``solver_failures`` and ``non_finite_commands``
+    (the samples whose pose-controller command was NaN or infinite, also counted in ``solver_failures``) are over
+    every controller step. ``cross_track_error_max_joined_m`` is the largest cross-track error once the vehicle is
+    on the path: after it first comes within :data:`JOINED_M` of it (over the whole run if it never does), so that
+    an off-path start does not hide what follows. ``time_to_2cm_s`` is the first time after which the vehicle stays
+    within 2 cm of the reference; ``completion_time_s`` the first time after which it stays within 2 cm of the
+    reference's final position (inf if it never does), against the reference's ``reference_duration_s`` (for a
+    run with a reference).
 
     Parameters
     ----------
@@ -216,43 +308,12 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
         raise ConfigError(
             "closed_loop_metrics", "result", f"expected a closed-loop run with a log (got {result!r:.60})"
         )
-    log = result.log
-    err = log["position_error_m"]
-    cross = log["cross_track_error_m"]
-    solve_ms = log["solve_time_s"][:-1] * 1e3 if len(log) > 1 else log["solve_time_s"] * 1e3
-    clipped = (log["da_clipped_left"] > 0) | (log["da_clipped_right"] > 0)
-    limited = np.maximum(log["current_limited_fraction_left"], log["current_limited_fraction_right"])
-    return {
-        "tracking_error_rms_m": float(np.sqrt(np.mean(err**2))),
-        "tracking_error_max_m": float(np.max(err)),
-        "heading_error_max_deg": float(np.degrees(np.max(np.abs(log["heading_error_rad"])))),
-        "final_position_error_m": float(err[-1]),
-        "final_heading_error_deg": float(np.degrees(abs(log["heading_error_rad"][-1]))),
-        "cross_track_error_max_m": _peak_abs(cross),
-        "cross_track_error_rms_m": float(np.sqrt(np.mean(cross**2))),
-        "cross_track_error_max_joined_m": _joined_peak(cross, JOINED_M),
-        "along_track_lag_max_m": _peak_abs(log["along_track_lag_m"]),
-        "path_heading_error_max_deg": float(np.degrees(_peak_abs(log["path_heading_error_rad"]))),
-        "peak_wheel_speed_m_s": float(
-            max(np.max(np.abs(log["wheel_speed_left_m_s"])), np.max(np.abs(log["wheel_speed_right_m_s"])))
-        ),
-        "peak_wheel_accel_m_s2": _peak_abs(sample_wheel_accel_m_s2(log, result.sample_period_s)),
-        "wheel_speed_error_max_m_s": _peak_abs(wheel_speed_error_m_s(log, result.sample_period_s)),
-        "peak_wheel_accel_instant_m_s2": float(
-            max(log.peak_abs("wheel_accel_peak_left_m_s2"), log.peak_abs("wheel_accel_peak_right_m_s2"))
-        ),
-        "peak_motor_current_a": float(max(log.peak_abs("current_peak_left_a"), log.peak_abs("current_peak_right_a"))),
-        "da_saturation_fraction": float(np.mean(clipped[:-1])) if len(log) > 1 else 0.0,
-        "current_limited_fraction": float(np.mean(limited[:-1])) if len(log) > 1 else 0.0,
-        "solve_time_p50_ms": float(np.percentile(solve_ms, 50)),
-        "solve_time_p99_ms": float(np.percentile(solve_ms, 99)),
-        "deadline_misses": int(np.sum(solve_ms > result.sample_period_s * 1e3)),
-        "solver_failures": int(result.solver_failures),
-        "non_finite_commands": int(np.sum(log["solver_status"] == NON_FINITE_COMMAND_STATUS)),
-        "time_to_2cm_s": time_to_converge_s(log["t_s"], err, 0.02),
-        **_completion(log, getattr(result, "reference", None)),
-        **estimate_metrics(log),
+    log, ts = result.log, result.sample_period_s
+    out: dict[str, float] = {
+        name: _scalar(metric, log, ts) for name, metric in METRICS.items() if name not in _ESTIMATE_METRICS
     }
+    out["time_to_2cm_s"] = time_to_converge_s(log["t_s"], log["position_error_m"], 0.02)
+    return {**out, **_completion(log, getattr(result, "reference", None)), **estimate_metrics(log)}
 
 
 def _completion(log: SimLog, reference: Any) -> dict[str, float]:
@@ -283,12 +344,7 @@ def estimate_metrics(log: SimLog) -> dict[str, float]:
         freedom) and mean NIS over the fixes; with one that gates its fixes the fixes rejected, dropped (older
         than it keeps) and applied out of order over the run.
     """
-    est = estimate_position_error_m(log)
-    out = {
-        "estimate_error_rms_m": float(np.sqrt(np.mean(est**2))),
-        "estimate_error_max_m": float(np.max(est)),
-        "heading_estimate_error_max_deg": float(np.degrees(np.max(estimate_heading_error_rad(log)))),
-    }
+    out = {name: METRICS[name].value(log, 0.0) for name in _ESTIMATE_METRICS}
     if np.any(np.isfinite(log["nees"])):
         out["nees_mean"] = float(np.nanmean(log["nees"]))
         nis = log["nis"][np.isfinite(log["nis"])]

@@ -36,8 +36,7 @@ import numpy as np
 from agvctl.checks.executors import ExecutorKind, execute, open_executor, resolved_jobs
 from agvctl.config import document_fields
 from agvctl.errors import ConfigError, caused_by_interrupt, exception_line
-from agvctl.evaluation.limits import LimitResult, evaluate_limits
-from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.evaluation.limits import LimitResult, judge_run
 from agvctl.fuzz.generate import generate_scenario, scenario_files
 from agvctl.fuzz.report import FuzzOutcome, FuzzReport, FuzzTask
 from agvctl.fuzz.spec import FuzzSpec, check_against_vehicle
@@ -110,12 +109,8 @@ def run_fuzz_task(task: FuzzTask) -> FuzzOutcome:
             experiment = load_experiment(Path(tmp, task.files[-1][0]))
             result = run_experiment(experiment)
             simulated_s = result.n_samples * result.sample_period_s
-            metrics = closed_loop_metrics(result)
-            limits = tuple(
-                evaluate_limits(
-                    experiment.spec.limits, result.log, metrics, experiment.controller_vehicle, result.sample_period_s
-                )
-            )
+            verdict = judge_run(result, experiment.spec.limits, experiment.controller_vehicle)
+            metrics, limits = verdict.metrics, verdict.limits
             error = _non_finite(result.log, metrics)
         except Exception as exc:  # any crash of a run is a finding, reported with its scenario
             if caused_by_interrupt(exc):  # an interrupt that surfaced as another error stops the command

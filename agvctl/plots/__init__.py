@@ -66,7 +66,7 @@ def save_metric_histograms(report: CheckReport, out_dir: str | Path) -> list[Pat
     for exp in report.experiments:
         if not exp.monte_carlo:
             continue
-        limit_of = {LIMITS[v.limit].metric: v.bound for v in exp.verdicts if v.limit in LIMITS}
+        limit_of = {v.limit: v.bound for v in exp.verdicts if v.limit in LIMITS}
         completed = [o for o in exp.outcomes if o.error is None]
         for metric in completed[0].metrics if completed else ():
             values = np.array([o.metrics[metric] for o in completed], dtype=float)
@@ -136,7 +136,7 @@ def fuzz_figure(report: FuzzReport) -> Any:
 
     metrics = FUZZ_METRICS[:4]
     fig, axes = _subplots(2, 2, figsize=(11, 7.5))
-    bounds = {LIMITS[key].metric: bound for key, bound in report.spec.limits.items()}
+    bounds = dict(report.spec.limits.items())
     for ax, metric in zip(np.ravel(axes), metrics, strict=True):
         for i, c in enumerate(report.spec.controllers):
             values = np.array([o.value(metric) for o in report.runs(c)], dtype=float)

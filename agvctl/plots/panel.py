@@ -47,8 +47,8 @@ def render_run_panel(
         The figure's title.
     bounds : mapping of str to float
         The gate's bounds by limit name (:data:`~agvctl.evaluation.limits.LIMITS`): ``tracking_error_max_m`` and
-        ``cross_track_error_max_m`` are drawn on the errors, ``wheel_speed_m_s`` on the wheel speeds,
-        ``motor_current_a`` on the currents, ``wheel_accel_m_s2`` on the acceleration.
+        ``cross_track_error_max_m`` are drawn on the errors, ``peak_wheel_speed_m_s`` on the wheel
+        speeds, ``peak_motor_current_a`` on the currents, ``peak_wheel_accel_m_s2`` on the acceleration.
     mark_time_s : float or None
         The instant to mark (s): the vehicle's position then on the path, a vertical line on the other panels.
     mark_label : str
@@ -88,21 +88,21 @@ def _draw(
     a_err.set_yscale("log")  # a millimetre and a bound of ten centimetres both readable
     error_bounds_cm = [bounds[k] * 100 for k in ("cross_track_error_max_m", "tracking_error_max_m") if k in bounds]
     a_err.set_ylim(bottom=min([1e-3, *(b / 2 for b in error_bounds_cm)]))
-    speed_bound = bounds.get("wheel_speed_m_s")
+    speed_bound = bounds.get("peak_wheel_speed_m_s")
     for ax, side in ((a_left, "left"), (a_right, "right")):
         draw_wheel_speed(ax, log, side)
         if speed_bound is not None:
-            ax.axhline(speed_bound, color="r", ls="--", lw=1, label=f"wheel_speed_m_s {speed_bound:.3g}")
+            ax.axhline(speed_bound, color="r", ls="--", lw=1, label=f"peak_wheel_speed_m_s {speed_bound:.3g}")
             ax.axhline(-speed_bound, color="r", ls="--", lw=1)
     a_left.legend(fontsize=8)  # the same lines on the right: one legend for both
     i_max = vehicle.amplifier.current_limit_a
     draw_both_sides(a_cur, log, "current_{side}_a", i_max, "amplifier limit", "armature current [A]")
-    current_bound = bounds.get("motor_current_a")
+    current_bound = bounds.get("peak_motor_current_a")
     if current_bound is not None and current_bound != i_max:
-        a_cur.axhline(current_bound, color="r", ls="--", lw=1, label=f"motor_current_a {current_bound:.3g}")
+        a_cur.axhline(current_bound, color="r", ls="--", lw=1, label=f"peak_motor_current_a {current_bound:.3g}")
         a_cur.axhline(-current_bound, color="r", ls="--", lw=1)
         a_cur.legend(loc="best", fontsize=8)
-    draw_wheel_accel(a_acc, log, vehicle, bounds.get("wheel_accel_m_s2"))
+    draw_wheel_accel(a_acc, log, vehicle, bounds.get("peak_wheel_accel_m_s2"))
     for ax in (a_err, a_left, a_right):  # the same time range as the bottom row's: read there
         ax.tick_params(labelbottom=False)
         ax.set(xlabel="")

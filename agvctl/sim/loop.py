@@ -5,14 +5,19 @@ A plain loop over control ticks t_k = k·T_s (never t += dt). At each tick, foll
 1. measure: the sensors of the true vehicle (:mod:`agvctl.sensing`: encoder counts latched at t_k, gyro,
    position fixes arriving), the motor speeds (:mod:`agvctl.estimation.wheel_speed`: the true ones, or estimated
    from the counts) and estimate the pose (:mod:`agvctl.estimation`: the true pose, odometry from the counts with the
-   *controller's* belief of r and b, or the EKF);
+   *controller's* belief of r and b, or the EKF). The truth stays on this side: only a component declared a perfect
+   sensor (:class:`~agvctl.estimation.base.TruthSensor`, the ``exact`` speeds and the ``truth`` pose) is handed it;
 2. the pose controller computes wheel-speed setpoints from the pose, the measured wheel speeds and the
    reference (with ``compute_delay = "one_sample"`` the setpoints computed at t_k act from t_k+1);
 3. the wheel-speed loops turn setpoint and measured motor speed into DA voltage commands;
 4. the actuator chain (DA converter, amplifier) turns them into motor voltages, held over [t_k, t_k+1) while the
    full nonlinear plant is integrated with the *true* vehicle's parameters.
 
-The controllers know only the controller vehicle (the nominal model); the plant may differ (``[plant] set``).
+The controllers know only the controller vehicle (the nominal model); the plant may differ (``[plant] set``). The
+components' optional parts (:class:`~agvctl.controllers.base.PoseCovarianceObserver`,
+:class:`~agvctl.controllers.base.LimitReporting`, :class:`~agvctl.estimation.base.PoseCovarianceEstimator`,
+:class:`~agvctl.estimation.base.CalibrationEstimator`, :class:`~agvctl.estimation.base.TruthSensor`) are small
+protocols, checked once at set-up.
 """
 
 from __future__ import annotations
@@ -27,9 +32,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.config import document_fields
-from agvctl.controllers.base import PoseController, WheelSpeedController
+from agvctl.controllers.base import LimitReporting, PoseController, PoseCovarianceObserver, WheelSpeedController
 from agvctl.errors import ConfigError
-from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator
+from agvctl.estimation.base import PoseCovarianceEstimator, PoseEstimator, TruthSensor, WheelSpeedEstimator
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
 from agvctl.log import SimLog
 from agvctl.params import SIDES, VehicleParams
@@ -44,6 +49,7 @@ from agvctl.sim.records import (
     _closed_loop_log,
     _control_row,
     _ControlRow,
+    _estimator_readout,
 )
 from agvctl.sim.stepper import PlantStepper
 
@@ -156,17 +162,47 @@ def _estimators(
 def _estimate_step(
     estimator: PoseEstimator, pose_controller: PoseController
 ) -> Callable[[Measurements], NDArray[np.float64]]:
-    """The estimator's update, then, for a controller that wants to know how good its pose is (one with an
-    ``observe_pose_covariance``) and an estimator that knows (one with a ``pose_covariance``), the estimate's
-    covariance handed to the controller."""
-    observe = getattr(pose_controller, "observe_pose_covariance", None)
-    if observe is None or getattr(estimator, "pose_covariance", None) is None:
+    """The estimator's update, then, for a controller that wants to know how good its pose is
+    (:class:`~agvctl.controllers.base.PoseCovarianceObserver`) and an estimator that knows
+    (:class:`~agvctl.estimation.base.PoseCovarianceEstimator`), the estimate's covariance handed to the controller;
+    decided once, here."""
+    if not (isinstance(pose_controller, PoseCovarianceObserver) and isinstance(estimator, PoseCovarianceEstimator)):
         return estimator.update
+    observer, known = pose_controller, estimator
 
     def step(meas: Measurements) -> NDArray[np.float64]:
         est = estimator.update(meas)
-        observe(np.asarray(getattr(estimator, "pose_covariance"), dtype=np.float64))  # noqa: B009 - not in the protocol
+        observer.observe_pose_covariance(np.asarray(known.pose_covariance, dtype=np.float64))
         return est
+
+    return step
+
+
+def _truth_step(
+    estimator: PoseEstimator, speeds: WheelSpeedEstimator
+) -> Callable[[NDArray[np.float64], NDArray[np.float64]], None]:
+    """What hands the true pose and motor speeds (rad/s) to the components declared perfect sensors
+    (:class:`~agvctl.estimation.base.TruthSensor`), each sample before they update; decided once, here. A real
+    estimator is never handed the truth."""
+    perfect = [c for c in (estimator, speeds) if isinstance(c, TruthSensor)]
+
+    def step(pose: NDArray[np.float64], omega_motor_rad_s: NDArray[np.float64]) -> None:
+        for component in perfect:
+            component.observe_truth(pose, omega_motor_rad_s)
+
+    return step
+
+
+def _limited_step(wheel_controller: WheelSpeedController) -> Callable[[], tuple[float, float]]:
+    """Whether each wheel loop's output was just clamped (1.0 or 0.0), for a wheel controller that says
+    (:class:`~agvctl.controllers.base.LimitReporting`); NaN for one that does not. Decided once, here."""
+    if not isinstance(wheel_controller, LimitReporting):
+        return lambda: (math.nan, math.nan)
+    reporting = wheel_controller
+
+    def step() -> tuple[float, float]:
+        left, right = reporting.limited
+        return float(bool(left)), float(bool(right))
 
     return step
 
@@ -284,16 +320,6 @@ def run_closed_loop(
     return ClosedLoopResult(log, reference, wall, setup, failures, n, ts)
 
 
-def _limited(wheel_controller: WheelSpeedController) -> tuple[float, float]:
-    """Whether each wheel loop's output was just clamped (1.0 or 0.0), from its ``limited``; NaN for a wheel
-    controller that does not say."""
-    limited = getattr(wheel_controller, "limited", None)
-    if limited is None:
-        return math.nan, math.nan
-    left, right = (float(bool(x)) for x in limited)
-    return left, right
-
-
 def _run(
     plant: PlantStepper,
     sensors: Sensors,
@@ -311,15 +337,20 @@ def _run(
     ts = plant.sample_period_s
     rows: list[_ControlRow] = []
     estimate = _estimate_step(estimator, pose_controller)
+    truth = _truth_step(estimator, speeds)
+    limited_now = _limited_step(wheel_controller)
+    readout = _estimator_readout(estimator)
     failures, n, k = 0, length.samples, 0
     progress_every = max(1, int(round(1.0 / ts)))
     t0 = time.perf_counter()
     while True:
         angle = plant.motor_angle_rad  # 1. measure and estimate
         counts = sensors.encoder_counts(angle)
-        omega = speeds.update(counts, plant.measure())
+        pose = plant.pose
+        truth(pose, plant.measure())
+        omega = speeds.update(counts)
         wheel_meas = omega * rim_per_motor
-        meas = sensors.read(k, counts, plant.pose, wheel_meas)
+        meas = sensors.read(k, counts, pose, wheel_meas)
         est = estimate(meas)
         tc = time.perf_counter()  # 2. pose controller
         cmd = pose_controller.update(k * ts, est, wheel_meas)
@@ -330,13 +361,13 @@ def _run(
         setpoint = delay(commanded)
         sp_motor = setpoint / rim_per_motor
         da_cmd = wheel_controller.update(sp_motor, omega)  # 3. wheel-speed loops
-        limited = _limited(wheel_controller)
+        limited = limited_now()
         speeds.applied(da_cmd)
         if k < n:  # 4. actuator and plant; the final row holds the state at the end, the last input applied
             plant.step(da_cmd)
         else:
             plant.finish(da_cmd)
-        sample = (est, setpoint, sp_motor, da_cmd, solve, status, limited, angle, omega, counts, meas, estimator)
+        sample = (est, setpoint, sp_motor, da_cmd, solve, status, limited, angle, omega, counts, meas, pose, readout)
         rows.append(_control_row(*sample))
         if progress is not None and k % progress_every == 0:
             progress(k / n)

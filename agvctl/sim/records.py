@@ -10,6 +10,7 @@ more than the row.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -17,7 +18,13 @@ from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
 from agvctl.controllers.base import PoseCommand
-from agvctl.estimation.base import CALIBRATION_COLUMNS, PoseEstimator, calibration_readout, consistency
+from agvctl.estimation.base import (
+    CALIBRATION_COLUMNS,
+    CalibrationEstimator,
+    PoseCovarianceEstimator,
+    PoseEstimator,
+    consistency,
+)
 from agvctl.evaluation.metrics import NON_FINITE_COMMAND_STATUS
 from agvctl.evaluation.path_metrics import path_error_columns
 from agvctl.log import PLANT_LOG_COLUMNS, SimLog
@@ -129,6 +136,28 @@ def _checked_command(cmd: PoseCommand) -> tuple[int, NDArray[np.float64]]:
     return _STATUS_CODE.get(cmd.status, 2), np.array([left, right], dtype=np.float64)
 
 
+_EstimatorReadout = Callable[[NDArray[np.float64], NDArray[np.float64]], tuple[float, ...]]
+"""The estimator's consistency against the true pose and its calibration at one sample, from the estimate and the
+true pose: the values of the columns from ``est_sigma_x_m`` on."""
+
+_NO_CONSISTENCY = (math.nan,) * 5
+_NO_CALIBRATION = (math.nan,) * len(CALIBRATION_COLUMNS)
+
+
+def _estimator_readout(estimator: PoseEstimator) -> _EstimatorReadout:
+    """What the log records of ``estimator`` at each sample, decided once by the optional protocols it satisfies
+    (:class:`~agvctl.estimation.base.PoseCovarianceEstimator`,
+    :class:`~agvctl.estimation.base.CalibrationEstimator`): NaN for what it does not have."""
+    covariance = estimator if isinstance(estimator, PoseCovarianceEstimator) else None
+    calibration = estimator if isinstance(estimator, CalibrationEstimator) else None
+
+    def readout(est: NDArray[np.float64], true_pose: NDArray[np.float64]) -> tuple[float, ...]:
+        checks = _NO_CONSISTENCY if covariance is None else consistency(covariance, est, true_pose)
+        return (*checks, *(_NO_CALIBRATION if calibration is None else calibration.readout()))
+
+    return readout
+
+
 def _control_row(
     est: NDArray[np.float64],
     setpoint: NDArray[np.float64],
@@ -141,10 +170,11 @@ def _control_row(
     omega: NDArray[np.float64],
     counts: NDArray[np.int64],
     meas: Measurements,
-    estimator: PoseEstimator,
+    true_pose: NDArray[np.float64],
+    readout: _EstimatorReadout,
 ) -> _ControlRow:
-    """One sample's record, with the estimator's consistency and calibration."""
-    checks = (*consistency(estimator, est, meas.true_pose), *calibration_readout(estimator))
+    """One sample's record, with the estimator's consistency against ``true_pose`` and its calibration."""
+    checks = readout(est, true_pose)
     x, y, theta = np.asarray(est, dtype=np.float64).tolist()
     sp_l, sp_r = setpoint.tolist()
     spm_l, spm_r = sp_motor.tolist()

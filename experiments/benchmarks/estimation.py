@@ -72,7 +72,7 @@ def main() -> int:
             c = sensors.encoder_counts(angles[k])
             sensors.read(k, c, poses[k], np.zeros(2))
             t1 = time.perf_counter()
-            kf.update(c, np.zeros(2))
+            kf.update(c)
             kf.applied(da[k])
             t2 = time.perf_counter()
             sensor_times.append(t1 - t0)

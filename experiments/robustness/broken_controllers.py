@@ -37,8 +37,7 @@ from agvctl.controllers.base import PoseCommand, PoseController, WheelSpeedContr
 from agvctl.controllers.mpc.docking import DockingConfig
 from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.controllers.registry import POSE_CONTROLLERS
-from agvctl.evaluation.limits import evaluate_limits
-from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.evaluation.limits import judge_run
 from agvctl.feasibility import HeadroomWarning
 from agvctl.fuzz.generate import generate_scenario, scenario_files
 from agvctl.fuzz.spec import load_fuzz_config
@@ -252,10 +251,8 @@ def run_scenario(args: tuple[str, int, tuple[str, ...]]) -> list[dict[str, Any]]
                     dict(index=index, fault=fault, passed=False, failed=[f"error: {type(exc).__name__}"], differs=True)
                 )
                 continue
-            metrics = closed_loop_metrics(result)
-            limits = evaluate_limits(
-                experiment.spec.limits, result.log, metrics, experiment.controller_vehicle, result.sample_period_s
-            )
+            verdict = judge_run(result, experiment.spec.limits, experiment.controller_vehicle)
+            metrics, limits = verdict.metrics, verdict.limits
             pose = np.column_stack([result.log["x_m"], result.log["y_m"], result.log["theta_rad"]])
             if fault == "healthy":
                 healthy_pose = pose

@@ -29,9 +29,12 @@ the limit as soon as the error shrinks, since k_p exceeds k_e. The prediction ho
 the start of the sample; over the sample the speed moves towards the command, so ``|i|`` only decreases.
 
 Standstill: with the setpoint exactly zero and the measured speed below ``standstill_rad_s`` (one encoder count
-per sample, the resolution of the measurement), the wheel rests, held by stiction; the loop holds its last output
-and integrator, so that the speed estimate's sub-count wander cannot make the DA converter's last bit chatter (a
-pose controller that holds at the end of its path commands exactly zero).
+per sample, the resolution of the measurement), the wheel rests, held by stiction: the loop releases it (0 V, no
+armature current at a stopped motor, eq 1) and holds its integrator, so that no current holds the wheels against
+friction or each other where stiction holds them for free. It rests until the setpoint leaves zero: an estimated
+speed's wander at rest (a Kalman estimate re-learning its load torque once the current is gone) is not motion, and a
+pose controller that holds at the end of its path commands exactly zero until it wants the vehicle to move. When
+the wheel is asked to move again the loop resumes from its integrator.
 
 Steering priority (:class:`PIWheelController`). Each loop alone clamps its own output; when both ask past their
 windows the same way (both accelerating, or both braking, beyond what the amplifier gives), clamping each alone
@@ -112,7 +115,7 @@ class LoopDemand(NamedTuple):
     Parameters
     ----------
     voltage_v : float
-        The unclamped output k_p·e + I + u_ff (the held output at rest), V.
+        The unclamped output k_p·e + I + u_ff (0 at rest), V.
     integrator_v : float
         The integrator if this sample's error is integrated, V.
     feedforward_v : float
@@ -120,7 +123,7 @@ class LoopDemand(NamedTuple):
     window_v : tuple of float
         The usable motor-voltage window (:meth:`PISpeedLoop.usable_voltage_v`; unbounded without anti-windup), V.
     resting : bool
-        Whether the loop rests (holds its last output).
+        Whether the loop rests (releases the wheel to stiction, 0 V).
     """
 
     voltage_v: float
@@ -155,8 +158,8 @@ class PISpeedLoop:
     braking_limit_below_rad_s : float
         The braking limit applies only while ``|ω|`` is below this motor speed (inf: always), rad/s.
     standstill_rad_s : float
-        Below this measured motor speed, with a zero setpoint, the wheel rests and the output is held (0:
-        never), rad/s.
+        Below this measured motor speed, with a zero setpoint, the wheel rests and the loop releases it to
+        stiction, 0 V (0: never), rad/s.
 
     Raises
     ------
@@ -197,10 +200,11 @@ class PISpeedLoop:
         self.coulomb_feedforward = coulomb_feedforward
         self.anti_windup = anti_windup
         self.standstill_rad_s = standstill_rad_s
-        """Below this measured speed, with a zero setpoint, the wheel rests and the output is held (0: never)."""
+        """Below this measured speed, with a zero setpoint, the wheel rests: 0 V, held by stiction (0: never)."""
         self.integrator_v = 0.0
         """The integrator state I (V of motor voltage)."""
         self._last_v: float | None = None
+        self._resting = False
         self.limited = False
         """Whether the last :meth:`update` was clamped by the current window or the DA range."""
 
@@ -209,6 +213,7 @@ class PISpeedLoop:
         self.integrator_v = 0.0
         self.limited = False
         self._last_v = None
+        self._resting = False
 
     def predicted_current_a(self, motor_voltage_v: float, measured_rad_s: float) -> float:
         """Armature current of eq 1 at the start of the sample: ``(u − k_e ω)/R``."""
@@ -246,14 +251,15 @@ class PISpeedLoop:
         return self.tau_c * self.R / self.k_t * ramp
 
     def update(self, setpoint_rad_s: float, measured_rad_s: float) -> float:
-        """The motor voltage (V) for this sample (the last one, held, at standstill)."""
+        """The motor voltage (V) for this sample (0 at rest: the wheel released to stiction)."""
         demand = self.demand(setpoint_rad_s, measured_rad_s)
         return self.commit(demand, *demand.window_v)
 
     def demand(self, setpoint_rad_s: float, measured_rad_s: float) -> LoopDemand:
         """What the loop asks for this sample, before its output is clamped (advances nothing)."""
-        if setpoint_rad_s == 0.0 and abs(measured_rad_s) < self.standstill_rad_s and self._last_v is not None:
-            return LoopDemand(self._last_v, self.integrator_v, 0.0, (self._last_v, self._last_v), True)
+        stopped = self._resting or abs(measured_rad_s) < self.standstill_rad_s
+        if setpoint_rad_s == 0.0 and stopped and self._last_v is not None:
+            return LoopDemand(0.0, self.integrator_v, 0.0, (0.0, 0.0), True)
         g = self.gains
         e = setpoint_rad_s - measured_rad_s
         ff = self.feedforward_v(setpoint_rad_s)
@@ -264,6 +270,7 @@ class PISpeedLoop:
     def commit(self, demand: LoopDemand, lo_v: float, hi_v: float) -> float:
         """Apply ``demand`` with its output clamped to ``[lo_v, hi_v]`` (within its own window): the integrator
         stops where the clamp acts in its direction, and never alone asks for more than the clamped edge."""
+        self._resting = demand.resting
         if demand.resting:
             self.limited = False
             return demand.voltage_v
@@ -306,8 +313,8 @@ class PIWheelController:
     """Both wheels' PI loops: a :class:`~agvctl.controllers.base.WheelSpeedController`.
 
     ``update`` takes motor-speed setpoints and measurements (rad/s, left and right) and returns DA voltage
-    commands (V) = motor voltage / k_pow. Each loop rests (holds its output) with a zero setpoint and a measured
-    speed below one encoder count per sample (:class:`PISpeedLoop`'s ``standstill_rad_s``).
+    commands (V) = motor voltage / k_pow. Each loop rests (releases its wheel to stiction, 0 V) with a zero setpoint
+    and a measured speed below one encoder count per sample (:class:`PISpeedLoop`'s ``standstill_rad_s``).
 
     Parameters
     ----------
