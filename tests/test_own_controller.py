@@ -21,6 +21,7 @@ from agvctl.cli import main
 from agvctl.fuzz.report import FuzzReport
 from agvctl.fuzz.run import fuzz
 from agvctl.fuzz.spec import load_fuzz_config
+from agvctl.reports import resolved_experiment_toml
 from agvctl.scenario import load_experiment, run_experiment
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -91,9 +92,11 @@ def _fuzz_physical(report: FuzzReport) -> list[tuple[object, ...]]:
     ]
 
 
-def _check_on_jobs(capsys: pytest.CaptureFixture[str], experiment: Path, folder: Path) -> list[list[object]]:
+def _check_on_jobs(
+    capsys: pytest.CaptureFixture[str], experiment: Path, folder: Path, jobs_to_run: tuple[str, ...] = ("1", "2")
+) -> list[list[object]]:
     physical = []
-    for jobs in ("1", "2"):
+    for jobs in jobs_to_run:
         js = folder / f"check{jobs}.json"
         assert main(["check", str(experiment), "--jobs", jobs, "--json", str(js)]) == 0, capsys.readouterr()
         physical.append(_check_physical(js))
@@ -151,7 +154,7 @@ def test_an_installed_entry_point_names_the_same_controller(
     (info / "entry_points.txt").write_text(
         f"[agvctl.pose_controllers]\npure_pursuit = {MODULE}:PurePursuit\n", encoding="utf-8"
     )
-    by_reference = _check_on_jobs(capsys, _experiment(user_folder, f"{MODULE}:PurePursuit"), user_folder)[0]
+    by_reference = _check_on_jobs(capsys, _experiment(user_folder, f"{MODULE}:PurePursuit"), user_folder, ("1",))[0]
     by_name = _check_on_jobs(capsys, _experiment(user_folder, "pure_pursuit"), user_folder)
     assert by_name[0] == by_name[1] == by_reference
     spec = load_fuzz_config(_fuzz_file(user_folder, "pure_pursuit", scenarios=3))
@@ -167,6 +170,12 @@ def test_a_file_next_to_the_experiment_is_named_relative_to_it(user_folder: Path
     assert user_folder / "pursuit_here.py" in experiment.input_files  # never written over
     log = run_experiment(experiment).log
     assert abs(float(log["y_m"][-1]) - experiment.reference.final_pose.y_m) < 0.01  # the 2 cm start offset closed
+    # the resolved file a run writes names the same code from any folder
+    elsewhere = user_folder / "out" / "experiment.toml"
+    elsewhere.parent.mkdir()
+    elsewhere.write_text(resolved_experiment_toml(experiment), encoding="utf-8")
+    again = load_experiment(elsewhere)
+    assert again.spec.controller.pose_settings == experiment.spec.controller.pose_settings
 
 
 def test_tuning_the_users_settings_writes_its_settings_file(
