@@ -340,6 +340,8 @@ def _load(reference: str, base_dir: Path | None) -> Any:
             module = importlib.import_module(where)
     except _Unusable:
         raise
+    except ImportError as exc:  # a module not found: where it was looked for is importlib's, not the user's
+        raise _Unusable(f"cannot import {where!r}: {type(exc).__name__}: {exc}") from None
     except Exception as exc:  # the user's module: any error it raises on import is the reference's problem
         raise _Unusable(f"cannot import {where!r}: {exception_line(exc)}") from None
     obj: Any = module
