@@ -306,3 +306,58 @@ def test_misbehaviour_at_run_time_is_that_runs_error_and_the_others_still_run(
     if kind != "raises":
         assert f"{name}:Misbehaving" in (error.get("message") or "")
     sys.modules.pop(name, None)
+
+
+ESTIMATOR_AND_LOOPS = '''
+from dataclasses import dataclass
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ShiftSettings:
+    shift_m: float = 0.0
+
+
+class ShiftedTruth:
+    """The true pose, shifted to the world's left."""
+
+    Settings = ShiftSettings
+
+    def __init__(self, vehicle, settings):
+        self.shift = np.array([0.0, settings.shift_m, 0.0])
+
+    def reset(self, pose): ...
+
+    def update(self, measurements):
+        return measurements.true_pose + self.shift
+
+
+class ProportionalLoops:
+    """Wheel loops of a proportional gain on the motor-speed error, within the DA converter's range."""
+
+    def __init__(self, vehicle, settings):
+        self.low_v, self.high_v = vehicle.da.min_v, vehicle.da.max_v
+
+    def reset(self): ...
+
+    def update(self, setpoint_rad_s, measured_rad_s):
+        return np.clip(2.0 * (setpoint_rad_s - measured_rad_s), self.low_v, self.high_v)
+'''
+
+
+def test_a_users_estimator_and_wheel_loops_are_named_and_set_up_as_a_pose_controller_is(user_folder: Path) -> None:
+    (user_folder / "own_parts.py").write_text(ESTIMATOR_AND_LOOPS, encoding="utf-8")
+    path = user_folder / "parts.toml"
+    path.write_text(
+        'name = "parts"\ntrajectory = "line.toml"\nsettle_s = 1.0\n[controller]\npose = "mpc"\n'
+        'localization = "own_parts:ShiftedTruth"\nwheel_loops = "own_parts:ProportionalLoops"\n'
+        "[controller.localization_settings]\nshift_m = 0.02\n",
+        encoding="utf-8",
+    )
+    experiment = load_experiment(path)
+    assert experiment.spec.controller.localization_settings.shift_m == 0.02
+    log = run_experiment(experiment).log
+    # the controller puts its estimate on the path's end: the true vehicle ends 2 cm to the right of it
+    assert float(log["est_y_m"][-1]) - float(log["y_m"][-1]) == pytest.approx(0.02, abs=1e-12)
+    assert float(log["y_m"][-1]) == pytest.approx(experiment.reference.final_pose.y_m - 0.02, abs=0.005)
+    sys.modules.pop("own_parts", None)
