@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from agvctl.config import dump_toml, to_dict
+from agvctl.config.references import absolute_reference
 from agvctl.estimation.base import CALIBRATION_COLUMNS
 from agvctl.estimation.calibration import calibrated_vehicle
 from agvctl.fileio import write_text
@@ -68,8 +69,8 @@ def calibrated_vehicle_toml(experiment: Experiment, result: ClosedLoopResult) ->
 
 
 def resolved_experiment_toml(experiment: Experiment) -> str:
-    """The experiment's file as it was run: every key with its value, the trajectory and vehicle files by their
-    absolute paths, headed by the file it was resolved from.
+    """The experiment's file as it was run: every key with its value, the trajectory and vehicle files (and the
+    Python files it names code in) by their absolute paths, headed by the file it was resolved from.
 
     Parameters
     ----------
@@ -86,6 +87,8 @@ def resolved_experiment_toml(experiment: Experiment) -> str:
     resolved["trajectory"] = str(exp.resolve(exp.trajectory).resolve())
     if exp.vehicle != "default":
         resolved["vehicle"] = str(exp.resolve(exp.vehicle).resolve())
+    for key in ("pose", "wheel_loops", "localization", "wheel_speed"):
+        resolved["controller"][key] = absolute_reference(resolved["controller"][key], exp.base_dir)
     return dump_toml(resolved, header=f"resolved from {exp.source}")
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 from agvctl.checks.runner import resolved_jobs
 from agvctl.cli.outputs import Output, check_outputs, files_in, vehicle_input, writing
 from agvctl.cli.progress import ProgressBar
+from agvctl.config.references import plain_label
 from agvctl.errors import ConfigError
 from agvctl.fileio import atomic_open, write_text
 from agvctl.fuzz.spec import load_fuzz_config, override_fuzz_config
@@ -71,7 +72,7 @@ def run_pose(args: argparse.Namespace) -> int:
         raise ConfigError("--scheduler", "", "only with --executor dask")
     spec = override_fuzz_config(load_fuzz_config(args.pose), seed=args.seed, scenarios=args.scenarios)
     controller = args.controller or spec.controllers[0]
-    study_dir = Path(args.study) if args.study else Path("out") / "tune" / f"{spec.name}_{controller}"
+    study_dir = Path(args.study) if args.study else Path("out") / "tune" / f"{spec.name}_{plain_label(controller)}"
     out = Path(args.out) if args.out else study_dir / "settings.toml"
     resolved_jobs(args.jobs, args.executor, args.scheduler)
     outputs = [Output("--out", out), *files_in("--study", study_dir, STUDY_FILES)]

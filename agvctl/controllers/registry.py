@@ -1,21 +1,35 @@
-"""The controllers an experiment can name: the pose controllers by ``[controller] pose``, and the PI wheel loops.
+"""The controllers an experiment can name: the pose controllers by ``[controller] pose``, the wheel loops by
+``[controller] wheel_loops``.
 
-A new pose controller is one module — a class satisfying :class:`~agvctl.controllers.base.PoseController`,
-constructed as ``Controller(vehicle, settings)`` — and one line in :data:`POSE_CONTROLLERS`. The experiment loader
-builds the ``[controller]`` table's remaining keys strictly into the entry's settings dataclass, once; ``run``,
-``check`` and the documentation's list of names read the same table.
+Each is a :class:`~agvctl.config.references.Registry`: a built-in name (:data:`POSE_CONTROLLERS`,
+:data:`WHEEL_LOOPS`), the name an installed package registers under the entry-point group
+``agvctl.pose_controllers`` (``agvctl.wheel_loops``), or an import reference ``package.module:Name`` (or
+``file.py:Name``, relative to the file naming it). A user's ``Name`` is a class or a factory called as
+``Name(vehicle, settings)`` with the controller's vehicle; if it has a ``Settings`` dataclass attribute, the file's
+keys are built strictly into it (for a pose controller the ``[controller]`` table's remaining keys, for wheel loops
+the ``[controller.wheel_loops_settings]`` table), otherwise ``settings`` is None. What a user's controller returns
+is checked each sample (:class:`CheckedPoseController`, :class:`CheckedWheelController`): a command that is not one,
+or not finite, stops that run with a one-line error naming the controller. The built-in entries are not wrapped.
+
+``run``, ``check``, ``fuzz`` and ``tune`` resolve the same string in every process, so a worker builds the same
+controller from the file it reads.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from agvctl.config import document_fields
-from agvctl.controllers.base import PoseController
+from agvctl.config.references import Registry, checked_vector, describe_plugin, made_by, plugin_settings
+from agvctl.controllers.base import PoseCommand, PoseController, WheelSpeedController
 from agvctl.controllers.baselines.feedforward import FeedForwardPoseController
 from agvctl.controllers.baselines.ltv_lqr import LtvLqrConfig, LtvLqrController
 from agvctl.controllers.baselines.ramsete import RamseteConfig, RamseteController
@@ -30,11 +44,17 @@ from agvctl.params import VehicleParams
 
 __all__ = [
     "POSE_CONTROLLERS",
+    "WHEEL_LOOPS",
+    "CheckedPoseController",
+    "CheckedWheelController",
     "PoseControllerKind",
     "WheelLoopDesign",
+    "WheelLoopKind",
     "WheelLoops",
     "default_pi_gains",
     "design_wheel_loops",
+    "pose_controllers",
+    "wheel_loops",
 ]
 
 
@@ -69,7 +89,76 @@ POSE_CONTROLLERS: dict[str, PoseControllerKind] = {
         lambda vehicle, settings: FeedForwardPoseController(), None, "the reference's feed-forward only"
     ),
 }
-"""The pose controllers by the name an experiment's ``[controller] pose`` gives."""
+"""The built-in pose controllers by the name an experiment's ``[controller] pose`` gives (entries of
+:data:`pose_controllers`)."""
+
+
+class CheckedPoseController:
+    """A user's pose controller, each command it returns checked: a :class:`~agvctl.controllers.base.PoseCommand`
+    with finite float wheel speeds, or the run stops with a one-line error naming the controller and what it
+    returned. Every other attribute is the controller's own.
+
+    Parameters
+    ----------
+    inner : PoseController
+        The user's controller.
+    name : str
+        Its name or reference, as the file gives it.
+    """
+
+    def __init__(self, inner: PoseController, name: str) -> None:
+        self.inner = inner
+        self.name = name
+
+    def __getattr__(self, attribute: str) -> Any:
+        return getattr(self.inner, attribute)
+
+    def reset(self, reference: Any) -> None:
+        """The controller's own ``reset``."""
+        self.inner.reset(reference)
+
+    def update(self, t_s: float, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]) -> PoseCommand:
+        """The controller's own command, checked."""
+        command = self.inner.update(t_s, pose, wheel_speed_m_s)
+        if not isinstance(command, PoseCommand):
+            shape = f" of shape {np.shape(command)}" if isinstance(command, np.ndarray) else ""
+            raise TypeError(
+                f"pose controller {self.name!r} returned a {type(command).__name__}{shape} at t = {t_s:.2f} s, "
+                "not a PoseCommand"
+            )
+        for field in ("wheel_speed_left_m_s", "wheel_speed_right_m_s"):
+            value = getattr(command, field)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                shape = f" of shape {np.shape(value)}" if isinstance(value, np.ndarray) else ""
+                raise TypeError(
+                    f"pose controller {self.name!r} returned {field} = a {type(value).__name__}{shape} at "
+                    f"t = {t_s:.2f} s, not a float"
+                )
+            if not math.isfinite(value):
+                raise ValueError(f"pose controller {self.name!r} returned {field} = {value} at t = {t_s:.2f} s")
+        return command
+
+
+_POSE_METHODS = ("reset", "update")
+
+
+def _pose_kind(obj: Any, name: str) -> PoseControllerKind:
+    """The entry for a user's pose controller (or a package's own :class:`PoseControllerKind`)."""
+    if isinstance(obj, PoseControllerKind):
+        return obj
+    settings = plugin_settings(obj, _POSE_METHODS, "PoseController")
+
+    def make(vehicle: VehicleParams, s: Any) -> PoseController:
+        return CheckedPoseController(made_by(obj, vehicle, s, name, _POSE_METHODS), name)
+
+    return PoseControllerKind(make, settings, describe_plugin(obj, name))
+
+
+pose_controllers: Registry[PoseControllerKind] = Registry(
+    "agvctl.pose_controllers", "a pose controller", POSE_CONTROLLERS, _pose_kind
+)
+"""Every pose controller an experiment's ``[controller] pose`` or a fuzz file's ``controllers`` can name: the
+built-in ones, installed packages' (entry-point group ``agvctl.pose_controllers``) and import references."""
 
 
 @document_fields
@@ -157,3 +246,76 @@ def design_wheel_loops(
     return WheelLoops(
         design, settings.coulomb_feedforward or coulomb_feedforward, symmetric_braking, gentle_stop, steering_priority
     )
+
+
+@document_fields
+@dataclass(frozen=True)
+class WheelLoopKind:
+    """One entry of :data:`wheel_loops`."""
+
+    make: Callable[[VehicleParams, Any, WheelLoops], WheelSpeedController]
+    """``make(vehicle, settings, designed)``: the wheel-speed loops on the controller's vehicle (``designed``: the
+    experiment's PI design, which the built-in loops use)."""
+    settings: type | None
+    """The dataclass ``[controller.wheel_loops_settings]`` is built into (None: the loops take none)."""
+    description: str
+    """What the loops are, in a few words."""
+
+
+class CheckedWheelController:
+    """A user's wheel-speed loops, each output checked: two finite DA voltages (left, right), or the run stops
+    with a one-line error naming the loops and what they returned. Every other attribute is the loops' own.
+
+    Parameters
+    ----------
+    inner : WheelSpeedController
+        The user's loops.
+    name : str
+        Their name or reference, as the file gives it.
+    """
+
+    def __init__(self, inner: WheelSpeedController, name: str) -> None:
+        self.inner = inner
+        self.name = name
+
+    def __getattr__(self, attribute: str) -> Any:
+        return getattr(self.inner, attribute)
+
+    def reset(self) -> None:
+        """The loops' own ``reset``."""
+        self.inner.reset()
+
+    def update(self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The loops' own DA voltages, checked."""
+        return checked_vector(self.inner.update(setpoint_rad_s, measured_rad_s), 2, f"wheel loops {self.name!r}")
+
+
+_WHEEL_METHODS = ("reset", "update")
+
+
+def _wheel_kind(obj: Any, name: str) -> WheelLoopKind:
+    """The entry for a user's wheel loops."""
+    if isinstance(obj, WheelLoopKind):
+        return obj
+    settings = plugin_settings(obj, _WHEEL_METHODS, "WheelSpeedController")
+
+    def make(vehicle: VehicleParams, s: Any, designed: WheelLoops) -> WheelSpeedController:
+        del designed
+        return CheckedWheelController(made_by(obj, vehicle, s, name, _WHEEL_METHODS), name)
+
+    return WheelLoopKind(make, settings, describe_plugin(obj, name))
+
+
+WHEEL_LOOPS: dict[str, WheelLoopKind] = {
+    "pi": WheelLoopKind(
+        lambda vehicle, settings, designed: designed.controller(vehicle),
+        None,
+        "PI speed loops per motor (gains designed, or from [controller] pi_gains)",
+    ),
+}
+"""The built-in wheel loops by the name an experiment's ``[controller] wheel_loops`` gives (entries of
+:data:`wheel_loops`)."""
+
+wheel_loops: Registry[WheelLoopKind] = Registry("agvctl.wheel_loops", "wheel loops", WHEEL_LOOPS, _wheel_kind)
+"""Every wheel-speed loop ``[controller] wheel_loops`` can name: the built-in ``pi``, installed packages' (group
+``agvctl.wheel_loops``) and import references."""

@@ -28,11 +28,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from agvctl.config import document_fields, dump_toml
+from agvctl.config.references import absolute_reference, plain_label
 from agvctl.errors import ConfigError
 from agvctl.fuzz.spec import FuzzSpec, PathGenSpec, keep_stiction_above_coulomb, nominal_value
 from agvctl.params import VehicleParams
@@ -186,10 +188,16 @@ def scenario_files(spec: FuzzSpec, scenario: Scenario, controller: str) -> dict[
         runs the scenario.
     """
     path_name = f"{scenario.name}.path.toml"
-    exp_name = f"{scenario.name}_{controller}.toml"
+    label = plain_label(controller)
+    exp_name = f"{scenario.name}_{label}.toml"
+    base_dir = Path(spec.source).parent
     origin = f"fuzz scenario {scenario.index} of seed {scenario.seed} ({spec.source})"
+    table = {**merged_settings(spec.pose_settings.get(controller, {}), spec.controller), **scenario.estimators}
+    for key in ("wheel_loops", "localization", "wheel_speed"):  # code it names, from any folder
+        if isinstance(table.get(key), str):
+            table[key] = absolute_reference(table[key], base_dir)
     experiment: dict[str, Any] = {
-        "name": f"{spec.name}_{scenario.name}_{controller}",
+        "name": f"{spec.name}_{scenario.name}_{label}",
         "trajectory": path_name,
         "vehicle": spec.vehicle,
         "settle_s": spec.settle_s,
@@ -198,11 +206,7 @@ def scenario_files(spec: FuzzSpec, scenario: Scenario, controller: str) -> dict[
             "initial_pose": dict(scenario.initial_pose),
             "sensor_seed": scenario.sensor_seed,
         },
-        "controller": {
-            "pose": controller,
-            **merged_settings(spec.pose_settings.get(controller, {}), spec.controller),
-            **scenario.estimators,
-        },
+        "controller": {"pose": absolute_reference(controller, base_dir), **table},
         "limits": spec.limits.to_file(),
     }
     return {

@@ -4,7 +4,7 @@
 name = "acceptance"                 # optional (default: the file's stem); a plain name: out/fuzz/<name>
 seed = 10                           # scenario i of seed s depends on (s, i) alone
 scenarios = 500
-controllers = ["mpc", "ramsete"]    # names of agvctl.controllers.registry.POSE_CONTROLLERS; the first is compared
+controllers = ["mpc", "ramsete"]    # pose controllers (names or "package.module:Name"); the first is compared
 vehicle = "default"                 # or a vehicle TOML (relative to this file): the controllers' nominal model
 settle_s = 3.0                      # each run's time after the reference ends
 
@@ -32,7 +32,7 @@ heading_max_deg = 5.0
 coulomb_feedforward = true
 
 [estimators]                        # optional: each scenario draws one of each list (uniformly)
-localization = ["ekf"]              # names of agvctl.estimation.registry.ESTIMATORS
+localization = ["ekf"]              # pose estimators (names or references)
 wheel_speed = ["kalman", "count_difference"]
 
 [limits]                            # experiment-file limit keys, each replacing the default gate's bound of its key
@@ -41,6 +41,11 @@ cross_track_error_max_m = 0.05
 [pose_settings]                     # optional: a controller's settings file (``agvctl tune --pose --out``)
 ramsete = "tuned/ramsete.toml"
 ```
+
+A controller, like an estimator, is named as in an experiment file (:mod:`agvctl.config.references`): a built-in
+name, an installed package's entry-point name, or a reference ``"package.module:Name"`` (``"mine.py:Name"``
+relative to this file). Each run's experiment file names the same code (a file reference by its absolute path), and
+every worker resolves it again.
 
 ``[search]`` and ``[objective]`` are read by ``agvctl tune --pose`` (:mod:`agvctl.tuning`), which searches the
 controllers' settings over this distribution; ``agvctl fuzz`` leaves them be.
@@ -76,8 +81,10 @@ from agvctl.config import (
     load_toml,
     number,
 )
-from agvctl.controllers.registry import POSE_CONTROLLERS
+from agvctl.config.references import Registry, is_reference
+from agvctl.controllers.registry import pose_controllers
 from agvctl.errors import ConfigError
+from agvctl.estimation.registry import pose_estimators, wheel_speed_estimators
 from agvctl.evaluation.limits import LimitsSpec
 from agvctl.fuzz.tables import (
     DEFAULT_ENVELOPE,
@@ -124,8 +131,8 @@ class FuzzSpec:
     seed: int = number(ge=0, doc="The seed: scenario i of seed s depends on (s, i) alone.")
     scenarios: int = number(ge=1, le=1_000_000, doc="How many scenarios to draw.")
     controllers: tuple[str, ...] = ("mpc",)
-    """Names of :data:`~agvctl.controllers.registry.POSE_CONTROLLERS`, each once; the first is compared with the
-    others."""
+    """Pose controllers of :data:`~agvctl.controllers.registry.pose_controllers` (names or references), each once;
+    the first is compared with the others."""
     name: str = ""
     """A plain name, for ``out/fuzz/<name>`` (``""``: the file's stem)."""
     vehicle: str = "default"
@@ -194,9 +201,11 @@ class FuzzSpec:
         if not self.controllers:
             raise ConfigError(source, key, "give at least one pose controller")
         for i, name in enumerate(self.controllers):
-            if name not in POSE_CONTROLLERS:
-                names = ", ".join(map(repr, POSE_CONTROLLERS))
-                raise ConfigError(source, f"{key}[{i}]", f"must be one of {names} (got {name!r})")
+            if not isinstance(name, str) or not (name in pose_controllers or is_reference(name)):
+                names = ", ".join(map(repr, pose_controllers.names()))
+                raise ConfigError(
+                    source, f"{key}[{i}]", f"must be one of {names} or a reference package.module:Name (got {name!r})"
+                )
             if name in self.controllers[:i]:
                 raise ConfigError(source, f"{key}[{i}]", f"{name!r} is listed twice")
 
@@ -248,9 +257,14 @@ def check_against_vehicle(spec: FuzzSpec, vehicle: VehicleParams) -> None:
     for key, _choices in spec.estimators.items():
         if key in spec.controller:
             raise ConfigError(src, f"controller.{key}", f"drawn by [estimators] {key}; remove it here")
-    for name in spec.controllers:
+    for i, name in enumerate(spec.controllers):
         keys = merged_settings(spec.pose_settings.get(name, {}), spec.controller)
+        pose_controllers.resolve(name, source=src, key=f"controllers[{i}]")
         ControllerSpec.from_file({"pose": name, **keys}, source=src, prefix="controller")
+    registries: dict[str, Registry[Any]] = {"localization": pose_estimators, "wheel_speed": wheel_speed_estimators}
+    for key, choices in spec.estimators.items():
+        for i, choice in enumerate(choices):
+            registries[key].resolve(choice, source=src, key=f"estimators.{key}[{i}]")
 
 
 def load_fuzz_config(path: str | Path) -> FuzzSpec:

@@ -9,8 +9,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from agvctl.config import check_fields, document_fields, join_key, number
+from agvctl.config.references import is_reference
 from agvctl.errors import ConfigError
-from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
+from agvctl.estimation.registry import pose_estimators, wheel_speed_estimators
 from agvctl.params import VehicleParams
 
 __all__ = [
@@ -141,21 +142,23 @@ class EstimatorsSpec:
     """
 
     localization: tuple[str, ...] = ()
-    """Names of :data:`~agvctl.estimation.registry.ESTIMATORS`."""
+    """Pose estimators of :data:`~agvctl.estimation.registry.pose_estimators` (names or references)."""
     wheel_speed: tuple[str, ...] = ()
-    """Names of :data:`~agvctl.estimation.registry.WHEEL_SPEED_ESTIMATORS`."""
+    """Wheel-speed estimators of :data:`~agvctl.estimation.registry.wheel_speed_estimators`."""
 
     def __post_init__(self) -> None:
         check_fields(self)
         self.validate(source=type(self).__name__, prefix="")
 
     def validate(self, *, source: str, prefix: str) -> None:
-        for name, table in (("localization", ESTIMATORS), ("wheel_speed", WHEEL_SPEED_ESTIMATORS)):
+        for name, registry in (("localization", pose_estimators), ("wheel_speed", wheel_speed_estimators)):
             for i, value in enumerate(getattr(self, name)):
-                if value not in table:
-                    allowed = ", ".join(map(repr, table))
+                if not isinstance(value, str) or not (value in registry or is_reference(value)):
+                    allowed = ", ".join(map(repr, registry.names()))
                     raise ConfigError(
-                        source, f"{join_key(prefix, name)}[{i}]", f"must be one of {allowed} (got {value!r})"
+                        source,
+                        f"{join_key(prefix, name)}[{i}]",
+                        f"must be one of {allowed} or a reference package.module:Name (got {value!r})",
                     )
 
     def items(self) -> list[tuple[str, tuple[str, ...]]]:

@@ -10,10 +10,11 @@ set = { "wheels.right.radius_m" = 0.1005, "motor.coulomb_friction_n_m" = 0.08, "
 initial_pose = { x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }
 sensor_seed = 0                                 # the true sensors' noise seed (agvctl.sensing)
 [controller]
-pose = "mpc"            # a name of agvctl.controllers.registry.POSE_CONTROLLERS: "mpc" | "nmpc" | "none"
+pose = "mpc"            # "mpc" | "nmpc" | "ramsete" | "ltv_lqr" | "none", or yours: "package.module:Name"
 compute_delay = "none"  # or "one_sample"
-localization = "truth"  # agvctl.estimation.registry.ESTIMATORS: or "odometry" (encoder counts), "ekf" (+ fixes)
-wheel_speed = "exact"   # agvctl.estimation.wheel_speed: or "count_difference", "kalman" (from the encoder counts)
+localization = "truth"  # or "odometry" (encoder counts), "ekf" (+ fixes), or yours
+wheel_speed = "exact"   # or "count_difference", "kalman" (from the encoder counts), or yours
+wheel_loops = "pi"      # the PI loops (pi_gains, coulomb_feedforward, ...), or yours
 horizon = 20            # ...and the pose controller's settings (for the MPCs, controllers.mpc_common.MpcConfig)
 [limits]                # agvctl.evaluation.limits.LIMITS; checked by `agvctl check`, reported by `agvctl run`
 tracking_error_max_m = 0.03
@@ -21,8 +22,11 @@ tracking_error_max_m = 0.03
 
 :func:`load_experiment` reads the file once into an :class:`Experiment`: the validated file
 (:class:`~agvctl.scenario.spec.ExperimentSpec`), the nominal and true vehicles, the planned reference and the wheel
-loops — bad input shows as one line naming the file and key before anything runs. :func:`run_experiment` builds
-the controllers (or takes yours) and runs the closed loop::
+loops — bad input shows as one line naming the file and key before anything runs. A name of code
+(``pose``, ``localization``, ``wheel_speed``, ``wheel_loops``) is a built-in name, an installed package's entry
+point or an import reference ``package.module:Name`` (:mod:`agvctl.config.references`); it is resolved again in
+every process that loads the file. :func:`run_experiment` builds the controllers (or takes yours) and runs the
+closed loop::
 
     experiment = load_experiment("experiments/line.toml")
     result = run_experiment(experiment, pose_controller=my_controller)
@@ -36,11 +40,15 @@ import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from agvctl.config import build, document_fields, load_toml
+from agvctl.config.references import reference_file
 from agvctl.controllers.base import PoseController, WheelSpeedController
-from agvctl.controllers.registry import POSE_CONTROLLERS, WheelLoops, design_wheel_loops
+from agvctl.controllers.registry import WheelLoops, design_wheel_loops, pose_controllers
+from agvctl.controllers.registry import wheel_loops as wheel_loop_kinds
 from agvctl.errors import ConfigError, expect_instance
+from agvctl.estimation.registry import pose_estimators, wheel_speed_estimators
 from agvctl.params import VehicleParams, default_vehicle_path, load_vehicle
 from agvctl.planning import PathSpec, load_path, plan
 from agvctl.planning.reference import Reference
@@ -71,12 +79,17 @@ class Experiment:
     @property
     def input_files(self) -> tuple[Path, ...]:
         """The files the experiment is read from: its own, its trajectory, its vehicle (the shipped one by default)
-        and its gains file, if any — what a command must never write over."""
+        its gains file and the Python files it names, if any — what a command must never write over."""
         spec = self.spec
+        c = spec.controller
         files = [Path(spec.source), spec.resolve(spec.trajectory)]
         files.append(default_vehicle_path() if spec.vehicle == "default" else spec.resolve(spec.vehicle))
-        if spec.controller.pi_gains is not None:
-            files.append(spec.resolve(spec.controller.pi_gains))
+        if c.pi_gains is not None:
+            files.append(spec.resolve(c.pi_gains))
+        for name in (c.pose, c.wheel_loops, c.localization, c.wheel_speed):
+            code = reference_file(name, spec.base_dir)
+            if code is not None:
+                files.append(code)
         return tuple(files)
 
 
@@ -173,9 +186,20 @@ def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
         steering_priority=c.steering_priority,
         source=src,
     )
-    fit = POSE_CONTROLLERS[c.pose].fit_wheel_loop
-    if fit is not None:
-        c = dataclasses.replace(c, pose_settings=fit(c.pose_settings, wheel_loops.design))
+    kind = pose_controllers.resolve(c.pose, source=src, key="controller.pose", base_dir=spec.base_dir)
+    if c.pose_settings is None and kind.settings is not None:  # made in Python: the settings' defaults
+        c = dataclasses.replace(c, pose_settings=build(kind.settings, {}, source=src, prefix="controller"))
+    for key, registry in (
+        ("wheel_loops", wheel_loop_kinds),
+        ("localization", pose_estimators),
+        ("wheel_speed", wheel_speed_estimators),
+    ):
+        part = registry.resolve(getattr(c, key), source=src, key=f"controller.{key}", base_dir=spec.base_dir)
+        if getattr(c, f"{key}_settings") is None and part.settings is not None:
+            defaults: Any = build(part.settings, {}, source=src, prefix=f"controller.{key}_settings")
+            c = dataclasses.replace(c, **{f"{key}_settings": defaults})
+    if kind.fit_wheel_loop is not None:
+        c = dataclasses.replace(c, pose_settings=kind.fit_wheel_loop(c.pose_settings, wheel_loops.design))
     spec = dataclasses.replace(spec, controller=c)
     return Experiment(spec, controller_vehicle, plant_vehicle, reference, wheel_loops, path)
 
@@ -210,19 +234,28 @@ def run_experiment(
     expect_instance(experiment, Experiment, "run_experiment", "experiment")
     e = experiment
     c = e.spec.controller
+    vehicle = e.controller_vehicle
+    where: dict[str, Any] = {"source": e.spec.source, "base_dir": e.spec.base_dir}
     if pose_controller is None:
-        pose_controller = POSE_CONTROLLERS[c.pose].make(e.controller_vehicle, c.pose_settings)
+        pose_controller = pose_controllers.resolve(c.pose, key="controller.pose", **where).make(
+            vehicle, c.pose_settings
+        )
+    if wheel_controller is None:
+        loops = wheel_loop_kinds.resolve(c.wheel_loops, key="controller.wheel_loops", **where)
+        wheel_controller = loops.make(vehicle, c.wheel_loops_settings, e.wheel_loops)
+    localization = pose_estimators.resolve(c.localization, key="controller.localization", **where)
+    wheel_speed = wheel_speed_estimators.resolve(c.wheel_speed, key="controller.wheel_speed", **where)
     return run_closed_loop(
         plant_vehicle=e.plant_vehicle,
-        controller_vehicle=e.controller_vehicle,
+        controller_vehicle=vehicle,
         reference=e.reference,
         pose_controller=pose_controller,
-        wheel_controller=wheel_controller or e.wheel_loops.controller(e.controller_vehicle),
+        wheel_controller=wheel_controller,
         initial_pose=e.spec.plant.start_pose(),
         settle_s=e.spec.settle_s,
         compute_delay=c.compute_delay,
-        localization=c.localization,
-        wheel_speed=c.wheel_speed,
+        localization=localization.make(vehicle, c.localization_settings),
+        wheel_speed=wheel_speed.make(vehicle, c.wheel_speed_settings),
         sensor_seed=e.spec.plant.sensor_seed,
         progress=progress,
     )

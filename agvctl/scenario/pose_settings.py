@@ -14,7 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from agvctl.config import build, join_key, load_toml
-from agvctl.controllers.registry import POSE_CONTROLLERS
+from agvctl.config.references import is_reference
+from agvctl.controllers.registry import pose_controllers
 from agvctl.errors import ConfigError
 
 __all__ = ["load_pose_settings", "load_settings_table", "merged_settings"]
@@ -104,15 +105,21 @@ def load_settings_table(table: Any, source: str, prefix: str) -> dict[str, dict[
     """
     if not isinstance(table, Mapping):
         raise ConfigError(source, prefix, "expected a table of controller = settings file")
-    takes = [c for c, kind in POSE_CONTROLLERS.items() if kind.settings is not None]
     out: dict[str, dict[str, Any]] = {}
     for name, file in table.items():
         key = join_key(prefix, str(name))
-        if name not in takes:
-            raise ConfigError(source, key, f"must be a pose controller with settings: {', '.join(map(repr, takes))}")
+        if name in pose_controllers or is_reference(name):
+            settings = pose_controllers.resolve(name, source=source, key=key).settings
+        else:
+            settings = None
+        if settings is None:
+            takes = [c for c, kind in pose_controllers.builtins.items() if kind.settings is not None]
+            raise ConfigError(
+                source, key, f"must be a pose controller with settings: {', '.join(map(repr, takes))} or yours"
+            )
         if not isinstance(file, str) or not file:
             raise ConfigError(source, key, f"expected the name of a settings file (got {file!r})")
         path = Path(file) if Path(file).is_absolute() else Path(source).parent / file
         out[str(name)] = load_pose_settings(path, str(name), source=source, key=key)
-        build(POSE_CONTROLLERS[name].settings, out[str(name)], source=str(path))  # type: ignore[arg-type]
+        build(settings, out[str(name)], source=str(path))
     return out

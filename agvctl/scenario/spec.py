@@ -25,9 +25,10 @@ from agvctl.config import (
     number,
     to_dict,
 )
-from agvctl.controllers.registry import POSE_CONTROLLERS
+from agvctl.config.references import Registry
+from agvctl.controllers.registry import POSE_CONTROLLERS, pose_controllers, wheel_loops
 from agvctl.errors import ConfigError
-from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
+from agvctl.estimation.registry import pose_estimators, wheel_speed_estimators
 from agvctl.evaluation.limits import LimitsSpec
 from agvctl.planning.spec import StartPose
 from agvctl.scenario.pose_settings import load_pose_settings, merged_settings
@@ -90,10 +91,27 @@ def _check_initial_pose(pose: Any, source: str, key: str) -> None:
             raise ConfigError(source, f"{key}.{name}", f"must be within ±{bound} (got {shown:g})")
 
 
-def _choice(value: str, choices: Mapping[str, Any], source: str, key: str) -> None:
-    if value not in choices:
-        names = ", ".join(repr(c) for c in choices)
-        raise ConfigError(source, key, f"must be one of {names} (got {value!r})")
+_PARTS: dict[str, Registry[Any]] = {
+    "wheel_loops": wheel_loops,
+    "localization": pose_estimators,
+    "wheel_speed": wheel_speed_estimators,
+}
+"""The ``[controller]`` keys naming code other than the pose controller, each with its registry; a user's entry's
+settings are the table ``[controller.<key>_settings]``."""
+
+
+def _part_settings(key: str, name: str, table: Any, base_dir: Path | None, source: str, prefix: str) -> Any:
+    """The settings of the code ``[controller] <key>`` names, built from its ``<key>_settings`` table (None: the
+    defaults; no table and no ``Settings``: None)."""
+    where = join_key(prefix, f"{key}_settings")
+    settings = _PARTS[key].resolve(name, source=source, key=join_key(prefix, key), base_dir=base_dir).settings
+    if settings is None:
+        if table is not None:
+            raise ConfigError(source, where, f"{key} = {name!r} takes no settings")
+        return None
+    if table is not None and not isinstance(table, Mapping):
+        raise ConfigError(source, where, "expected a table of settings")
+    return build(settings, dict(table or {}), source=source, prefix=where)
 
 
 def _with_settings_file(
@@ -116,17 +134,26 @@ def _with_settings_file(
 @dataclass(frozen=True)
 class ControllerSpec:
     """The controllers of an experiment. Keys other than these go to the pose controller's settings, over those of
-    the settings file ``pose_settings = "FILE"`` names (:mod:`agvctl.scenario.pose_settings`), if any."""
+    the settings file ``pose_settings = "FILE"`` names (:mod:`agvctl.scenario.pose_settings`), if any.
+
+    ``pose``, ``wheel_loops``, ``localization`` and ``wheel_speed`` each name code through its registry
+    (:class:`~agvctl.config.references.Registry`): a built-in name, an installed package's entry-point name, or a
+    reference ``package.module:Name`` (``file.py:Name`` relative to the experiment file). A file naming code runs
+    that code.
+    """
 
     pose: str = "mpc"
-    """A name of :data:`~agvctl.controllers.registry.POSE_CONTROLLERS`."""
+    """The pose controller: a name or reference of :data:`~agvctl.controllers.registry.pose_controllers`."""
     compute_delay: ComputeDelay = "none"
     """``"one_sample"`` applies the setpoints computed at one sample from the next."""
     localization: str = "truth"
-    """A name of :data:`~agvctl.estimation.registry.ESTIMATORS`."""
+    """The pose estimator: a name or reference of :data:`~agvctl.estimation.registry.pose_estimators`."""
     wheel_speed: str = "exact"
-    """How the loops measure the motor speeds: a name of :data:`~agvctl.estimation.registry.WHEEL_SPEED_ESTIMATORS`.
-    """
+    """How the loops measure the motor speeds: a name or reference of
+    :data:`~agvctl.estimation.registry.wheel_speed_estimators`."""
+    wheel_loops: str = "pi"
+    """The wheel-speed loops: a name or reference of :data:`~agvctl.controllers.registry.wheel_loops` (``"pi"``:
+    the PI loops below)."""
     pi_gains: str | None = None
     """A gains file written by ``agvctl tune --out`` (relative to the experiment); None: tuned on the fly."""
     coulomb_feedforward: bool = True
@@ -142,25 +169,41 @@ class ControllerSpec:
     the currents they ask (the torque that steers) and give up speed instead
     (``docs/decisions/0026-steering-priority.md``)."""
     pose_settings: Any = dataclasses.field(default=None, metadata={"derived": True})
-    """The pose controller's settings (an instance of its registry entry's ``settings``), validated once."""
+    """The pose controller's settings (an instance of its entry's ``settings``), validated once."""
+    wheel_loops_settings: Any = dataclasses.field(default=None, metadata={"derived": True})
+    """A user's wheel loops' settings (``[controller.wheel_loops_settings]``), validated once."""
+    localization_settings: Any = dataclasses.field(default=None, metadata={"derived": True})
+    """A user's pose estimator's settings (``[controller.localization_settings]``), validated once."""
+    wheel_speed_settings: Any = dataclasses.field(default=None, metadata={"derived": True})
+    """A user's wheel-speed estimator's settings (``[controller.wheel_speed_settings]``), validated once."""
 
     def __post_init__(self) -> None:
         check_fields(self)
-        kind = POSE_CONTROLLERS.get(self.pose)
+        kind = POSE_CONTROLLERS.get(self.pose)  # a reference's defaults are filled in where it is resolved
         if self.pose_settings is None and kind is not None and kind.settings is not None:
             object.__setattr__(self, "pose_settings", kind.settings())
 
     @classmethod
-    def from_file(cls, data: Mapping[str, Any], *, source: str, prefix: str) -> ControllerSpec:
+    def from_file(
+        cls, data: Mapping[str, Any], *, source: str, prefix: str, base_dir: Path | None = None
+    ) -> ControllerSpec:
+        """The ``[controller]`` table, every name resolved (its code imported) and every settings table built.
+
+        ``base_dir`` is what file references are relative to (default: the folder of ``source``)."""
         own = [f.name for f in dataclasses.fields(cls) if not f.metadata.get("derived")]
+        settings_keys = [f"{key}_settings" for key in _PARTS]
         base: ControllerSpec = build_fields(
             cls, {k: v for k, v in data.items() if k in own}, source=source, prefix=prefix
         )
-        _choice(base.pose, POSE_CONTROLLERS, source, join_key(prefix, "pose"))
-        _choice(base.localization, ESTIMATORS, source, join_key(prefix, "localization"))
-        _choice(base.wheel_speed, WHEEL_SPEED_ESTIMATORS, source, join_key(prefix, "wheel_speed"))
-        rest = {k: v for k, v in data.items() if k not in own and k != "pose_settings"}
-        kind = POSE_CONTROLLERS[base.pose]
+        parts = {
+            f"{key}_settings": _part_settings(
+                key, getattr(base, key), data.get(f"{key}_settings"), base_dir, source, prefix
+            )
+            for key in _PARTS
+        }
+        pose_key = join_key(prefix, "pose")
+        kind = pose_controllers.resolve(base.pose, source=source, key=pose_key, base_dir=base_dir)
+        rest = {k: v for k, v in data.items() if k not in own and k != "pose_settings" and k not in settings_keys}
         if "pose_settings" in data:
             rest = _with_settings_file(data["pose_settings"], base.pose, kind.settings, rest, source, prefix)
         if kind.settings is None:
@@ -171,8 +214,9 @@ class ControllerSpec:
                     join_key(prefix, key),
                     f"not used with pose = {base.pose!r}" + did_you_mean(key, own, [prefix]),
                 )
-            return base
-        return dataclasses.replace(base, pose_settings=build(kind.settings, rest, source=source, prefix=prefix))
+            return dataclasses.replace(base, pose_settings=None, **parts)
+        pose_settings: Any = build(kind.settings, rest, source=source, prefix=prefix)
+        return dataclasses.replace(base, pose_settings=pose_settings, **parts)
 
     def to_file(self) -> dict[str, Any]:
         own = {
@@ -180,7 +224,12 @@ class ControllerSpec:
             for f in dataclasses.fields(self)
             if not f.metadata.get("derived") and getattr(self, f.name) is not None
         }
-        return {**own, **(to_dict(self.pose_settings) if self.pose_settings is not None else {})}
+        parts = {
+            f"{key}_settings": to_dict(getattr(self, f"{key}_settings"))
+            for key in _PARTS
+            if getattr(self, f"{key}_settings") is not None
+        }
+        return {**own, **(to_dict(self.pose_settings) if self.pose_settings is not None else {}), **parts}
 
 
 @document_fields

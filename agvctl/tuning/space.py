@@ -25,7 +25,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from agvctl.config import did_you_mean, join_key
-from agvctl.controllers.registry import POSE_CONTROLLERS
+from agvctl.config.references import is_reference
+from agvctl.controllers.registry import pose_controllers
 from agvctl.errors import ConfigError
 
 __all__ = ["DEFAULT_SPACES", "SearchParam", "SearchSpace", "search_space", "settings_table"]
@@ -66,7 +67,8 @@ class SearchSpace:
     Parameters
     ----------
     controller : str
-        A name of :data:`~agvctl.controllers.registry.POSE_CONTROLLERS` whose entry takes settings.
+        A pose controller of :data:`~agvctl.controllers.registry.pose_controllers` (a name or a reference) that
+        takes settings.
     params : tuple of SearchParam
         The settings searched, in the order the sampler draws them.
     """
@@ -202,20 +204,28 @@ def search_space(controller: str, table: Mapping[str, Any] | None, *, source: st
         raise ConfigError("search_space", "controller", f"expected a pose controller's name (got {controller!r:.60})")
     if table is not None and not isinstance(table, Mapping):
         raise ConfigError(source, "search", "expected a table of [search.<controller>] tables")
-    kind = POSE_CONTROLLERS.get(controller)
-    if kind is None or kind.settings is None:
-        takes = ", ".join(repr(c) for c, k in POSE_CONTROLLERS.items() if k.settings is not None)
-        raise ConfigError(source, "controllers", f"{controller!r} has no settings to tune; tune one of {takes}")
+    kind = pose_controllers.resolve(controller, source=source, key="controllers")
+    if kind.settings is None:
+        takes = ", ".join(repr(c) for c in pose_controllers.builtins if pose_controllers.builtins[c].settings)
+        raise ConfigError(
+            source,
+            "controllers",
+            f"{controller!r} has no settings to tune; tune one of {takes}, or one with a Settings dataclass",
+        )
     table = table or {}
     for name in table:
-        if name not in POSE_CONTROLLERS:
+        if not (name in pose_controllers or is_reference(name)):
             raise ConfigError(
-                source, f"search.{name}", "not a pose controller" + did_you_mean(name, POSE_CONTROLLERS, [])
+                source, f"search.{name}", "not a pose controller" + did_you_mean(name, pose_controllers.names(), [])
             )
         if not isinstance(table[name], Mapping):
             raise ConfigError(source, f"search.{name}", "expected a table of setting = [low, high]")
     own = table.get(controller)
     chosen, where = (own, source) if own is not None else (DEFAULT_SPACES.get(controller, {}), "the default space")
+    if own is None and not chosen:
+        raise ConfigError(
+            source, f"search.{controller}", f'no default space: declare [search."{controller}"] in the fuzz file'
+        )
     if not chosen:
         raise ConfigError(source, f"search.{controller}", "give at least one setting to search")
     params = tuple(
