@@ -23,6 +23,7 @@ from typing import Any
 from agvctl.checks.junit import junit_xml
 from agvctl.checks.report import CheckReport
 from agvctl.checks.runner import check_experiments, load_check
+from agvctl.cli.commands import command_summary
 from agvctl.cli.outputs import Output, check_outputs, writing
 from agvctl.cli.progress import ProgressBar
 from agvctl.cli.staging import check_replaceable, staged_outputs
@@ -45,7 +46,7 @@ EXIT_CODES = """exit codes:
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "check",
-        help="run experiments and enforce their [limits] (CI gate: exit 1 on a violation)",
+        help=command_summary("check"),
         description="Run each experiment (and its [robustness] Monte Carlo samples), check every limit, report. "
         "A run that raises is its experiment's error; every other run is still run and reported.",
         epilog=EXIT_CODES,

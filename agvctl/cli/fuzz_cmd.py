@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from agvctl.checks.runner import resolved_jobs
+from agvctl.cli.commands import command_summary
 from agvctl.cli.outputs import Output, check_outputs, files_in, vehicle_input, writing
 from agvctl.cli.progress import ProgressBar
 from agvctl.cli.staging import check_replaceable, staged_outputs
@@ -35,7 +36,7 @@ __all__ = ["format_fuzz_report", "register", "run"]
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "fuzz",
-        help="random scenarios (paths, plants, starts) through the closed loop, against limits",
+        help=command_summary("fuzz"),
         description="Draw random scenarios from a fuzz configuration's seed (paths of lines, arcs and turns; default "
         "or explicit limits; a plant within an envelope; an off-path start), run each with every pose controller "
         "listed, report per controller and write every failing scenario as a ready-to-run experiment file. "

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from agvctl.checks.summary import run_summary
+from agvctl.cli.commands import command_summary
 from agvctl.cli.outputs import check_outputs, files_in, writing
 from agvctl.cli.progress import ProgressBar
 from agvctl.cli.staging import check_replaceable, staged_outputs
@@ -20,7 +21,7 @@ from agvctl.scenario.experiment import load_experiment, run_experiment
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "run",
-        help="run a closed-loop experiment (reference → MPC → PI → DA/amplifier → plant)",
+        help=command_summary("run"),
         description="Run an experiment file: plan its trajectory, track it with the pose controller and the PI "
         "wheel loops through the DA converter and amplifier on the full plant, write the log, a summary and plots.",
     )
