@@ -10,7 +10,7 @@ from typing import Any
 from agvctl.checks.summary import run_summary
 from agvctl.cli.commands import command_summary
 from agvctl.cli.outputs import check_outputs, files_in, writing
-from agvctl.cli.progress import ProgressBar
+from agvctl.cli.progress import Progress
 from agvctl.cli.staging import check_replaceable, staged_outputs
 from agvctl.planning.headroom import limits_report
 from agvctl.plots import CLOSED_LOOP_PLOTS
@@ -99,11 +99,8 @@ def run(args: argparse.Namespace) -> int:
     names: tuple[str, ...] = (*RUN_FILES, CALIBRATED_VEHICLE_FILE, *plots)
     check_outputs(files_in("--out", out_dir, names), experiment.input_files, [("--out", out_dir)])
     check_replaceable("--out", out_dir, experiment.input_files)
-    bar = ProgressBar(f"{name}:")
-    try:
-        result = run_experiment(experiment, progress=bar)
-    finally:
-        bar.close()
+    with Progress(name) as progress:
+        result = run_experiment(experiment, progress=progress)
     summary = run_summary(experiment, result)
     with staged_outputs("run") as staging:  # the folder is replaced whole, once every file is written
         staged = staging.directory("--out", out_dir)
