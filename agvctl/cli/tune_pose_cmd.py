@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shlex
 import sys
 from pathlib import Path
@@ -84,8 +85,23 @@ def run_pose(args: argparse.Namespace) -> int:
             fh.write(content)
     print(summary_text(result))
     print(f"wrote {out}, {', '.join(str(study_dir / n) for n in ['report.json', *figures])}")
-    print(f'use it: [controller] pose_settings = "{out}" in an experiment, or [pose_settings] in a fuzz file')
+    print(settings_hint(out, Path(args.pose), controller))
     return 0
+
+
+def settings_hint(settings: Path, fuzz_file: Path, controller: str) -> str:
+    """How to use the settings file written: a path relative to the fuzz file in its ``[pose_settings]`` table
+    (paths in a file are read from its folder, not from the working directory), and the absolute path for an
+    experiment file, wherever that is."""
+    where = settings.resolve()
+    try:
+        from_fuzz_file = Path(os.path.relpath(where, fuzz_file.resolve().parent)).as_posix()
+    except ValueError:  # on another drive than the fuzz file (Windows)
+        from_fuzz_file = where.as_posix()
+    return (
+        f'use it: [pose_settings] {controller} = "{from_fuzz_file}" in {fuzz_file} (relative to that file), or '
+        f'[controller] pose_settings = "{where.as_posix()}" in an experiment'
+    )
 
 
 def check_mode(args: argparse.Namespace) -> None:
