@@ -86,7 +86,10 @@ def resolved_experiment_toml(experiment: Experiment) -> str:
     resolved["trajectory"] = str(exp.resolve(exp.trajectory).resolve())
     if exp.vehicle != "default":
         resolved["vehicle"] = str(exp.resolve(exp.vehicle).resolve())
-    return dump_toml(resolved, header=f"resolved from {exp.source}")
+    header = f"resolved from {exp.source}"
+    if experiment.vehicle_overrides:
+        header += f", its vehicle changed by --set {' --set '.join(experiment.vehicle_overrides)}"
+    return dump_toml(resolved, header=header)
 
 
 def write_run_outputs(

@@ -9,6 +9,7 @@ from typing import Any
 
 from agvctl.checks.summary import run_summary
 from agvctl.cli.commands import command_summary
+from agvctl.cli.options import add_vehicle_options
 from agvctl.cli.outputs import check_outputs, files_in, writing
 from agvctl.cli.progress import Progress
 from agvctl.cli.staging import check_replaceable, staged_outputs
@@ -26,6 +27,7 @@ def register(sub: Any) -> None:
         "wheel loops through the DA converter and amplifier on the full plant, write the log, a summary and plots.",
     )
     p.add_argument("experiment", metavar="EXPERIMENT.toml")
+    add_vehicle_options(p, "the experiment's vehicle")
     p.add_argument("--out", metavar="DIR", help="output directory, replaced whole (default: out/<experiment name>)")
     p.add_argument("--no-plot", action="store_true", help="skip the PNG plots")
     p.add_argument("--json", action="store_true", help="print summary.json instead of the report")
@@ -92,7 +94,7 @@ def format_summary(summary: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    experiment = load_experiment(args.experiment)
+    experiment = load_experiment(args.experiment, vehicle=args.vehicle, vehicle_overrides=args.overrides)
     name = experiment.spec.name
     out_dir = Path(args.out) if args.out else Path("out") / name
     plots = () if args.no_plot else (*CLOSED_LOOP_PLOTS, "estimate.png")

@@ -31,7 +31,7 @@ the controllers (or takes yours) and runs the closed loop::
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -65,6 +65,9 @@ class Experiment:
     """The PI wheel-speed loops (gains designed or from the gains file)."""
     path: PathSpec | None = None
     """The trajectory file, validated (its explicit limits; None for an experiment built without one)."""
+    vehicle_overrides: tuple[str, ...] = ()
+    """The ``"KEY=VALUE"`` changes of the vehicle file given on top of the experiment (the command line's
+    ``--set``), applied to the controllers' vehicle and so to the plant's."""
 
     @property
     def input_files(self) -> tuple[Path, ...]:
@@ -78,13 +81,22 @@ class Experiment:
         return tuple(files)
 
 
-def load_experiment(path: str | Path) -> Experiment:
+def load_experiment(
+    path: str | Path, *, vehicle: str | Path | None = None, vehicle_overrides: Sequence[str] = ()
+) -> Experiment:
     """Read and validate an experiment file and everything it names: trajectory, vehicles, controller settings.
 
     Parameters
     ----------
     path : str or Path
         The experiment file (TOML); the paths it names are relative to it.
+    vehicle : str, Path or None
+        A vehicle file instead of the one the experiment names (relative to the working directory; ``"default"``:
+        the shipped IAU AGV; None: the experiment's own).
+    vehicle_overrides : sequence of str
+        Dotted-key changes of the vehicle, ``"KEY=VALUE"`` (``"wheels.right.radius_m=0.101"``, values in the
+        key's unit), as the command line's ``--set`` gives them: the controllers' vehicle changes, and with it the
+        plant, which differs from it by the experiment's ``[plant] set``.
 
     Returns
     -------
@@ -107,10 +119,17 @@ def load_experiment(path: str | Path) -> Experiment:
     """
     path = Path(path)
     spec = build(ExperimentSpec, load_toml(path), source=str(path))
-    return experiment_from_spec(dataclasses.replace(spec, source=str(path)))
+    spec = dataclasses.replace(spec, source=str(path))
+    if vehicle is not None and vehicle != "default":
+        if not Path(vehicle).is_file():
+            raise ConfigError(str(vehicle), "", "file not found")
+        spec = dataclasses.replace(spec, vehicle=str(Path(vehicle).absolute()))
+    elif vehicle is not None:
+        spec = dataclasses.replace(spec, vehicle="default")
+    return experiment_from_spec(spec, vehicle_overrides=vehicle_overrides)
 
 
-def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
+def experiment_from_spec(spec: ExperimentSpec, *, vehicle_overrides: Sequence[str] = ()) -> Experiment:
     """An experiment from its validated file: the vehicles (nominal and true) loaded, the reference planned, the
     wheel loops designed and the pose controller's settings completed with them.
 
@@ -118,6 +137,8 @@ def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
     ----------
     spec : ExperimentSpec
         The experiment file, validated (its ``source`` the file, against which its paths are resolved).
+    vehicle_overrides : sequence of str
+        Dotted-key changes of the vehicle, ``"KEY=VALUE"`` (see :func:`load_experiment`).
 
     Returns
     -------
@@ -134,7 +155,7 @@ def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
     vehicle_path = None if spec.vehicle == "default" else spec.resolve(spec.vehicle)
     if vehicle_path is not None and not vehicle_path.exists():
         raise ConfigError(src, "vehicle", f"file not found: {vehicle_path}")
-    controller_vehicle = load_vehicle(vehicle_path)
+    controller_vehicle = load_vehicle(vehicle_path, vehicle_overrides)
     plant_vehicle = controller_vehicle.with_overrides(list(spec.plant.set.items()), source=f"{src}: plant.set")
     traj = spec.resolve(spec.trajectory)
     if not traj.exists():
@@ -155,7 +176,7 @@ def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
     if fit is not None:
         c = dataclasses.replace(c, pose_settings=fit(c.pose_settings, wheel_loops.design))
     spec = dataclasses.replace(spec, controller=c)
-    return Experiment(spec, controller_vehicle, plant_vehicle, reference, wheel_loops, path)
+    return Experiment(spec, controller_vehicle, plant_vehicle, reference, wheel_loops, path, tuple(vehicle_overrides))
 
 
 def run_experiment(
