@@ -93,3 +93,32 @@ def test_every_module_and_object_the_docs_and_docstrings_name_exists():
     assert len(named) > 100
     missing = {name: sorted(where) for name, where in named.items() if not _resolves(name)}
     assert not missing, missing
+
+
+def test_the_table_of_shipped_paths_gives_what_planning_them_gives():
+    """Every figure of the table in ``trajectories/README.md`` (shown in the planning guide), to the digits shown."""
+    import dataclasses
+
+    from agvctl.params import load_vehicle
+    from agvctl.planning import load_path, plan
+
+    vehicle = load_vehicle()
+    text = (ROOT / "trajectories" / "README.md").read_text(encoding="utf-8")
+    rows = [line.split("|")[1:-1] for line in text.splitlines() if line.startswith("| `")]
+    assert len(rows) == len(list((ROOT / "trajectories").glob("*.toml")))
+    for name, _what, duration, stopping, length, deviation in (map(str.strip, row) for row in rows):
+        path = load_path(ROOT / "trajectories" / name.strip("`"))
+        summary = plan(path, vehicle).summary()
+        assert duration == f"{summary['duration_s']:.2f} s", name
+        assert length == f"{summary['path_length_m']:.2f} m", name
+        deviation_mm = summary["geometry_deviation_m"] * 1e3
+        if deviation == "0":
+            assert deviation_mm == 0.0, name
+        elif deviation.startswith("<"):
+            assert 0.0 < deviation_mm < float(deviation.split()[1]), name
+        else:
+            assert deviation == f"{deviation_mm:.1f} mm", name
+        if stopping == "—":
+            continue
+        stopped = plan(dataclasses.replace(path, join="stop"), vehicle).summary()
+        assert stopping == f"{stopped['duration_s']:.2f} s", name
