@@ -84,5 +84,6 @@ sphinx_gallery_conf = {
 html_theme = "pydata_sphinx_theme"
 html_title = f"agvctl {release}"
 html_static_path = ["_static"]
+html_css_files = ["agvctl.css"]
 templates_path = ["_templates"]
 html_theme_options = {"navigation_with_keys": False, "show_toc_level": 2}

@@ -36,6 +36,7 @@ COMMANDS: dict[str, Command] = {
     "identify": Command(
         "agvctl.cli.identify_cmd", "identify vehicle constants: mass, friction, wheel geometry (appendix A.1)"
     ),
+    "examples": Command("agvctl.cli.examples_cmd", "copy the shipped example experiments and path files into a folder"),
 }
 """Every subcommand by name, in the order ``agvctl --help`` lists them."""
 
