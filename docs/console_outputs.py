@@ -8,7 +8,9 @@ to the repository's), so the paths it prints are those a user in a checkout sees
 
 from __future__ import annotations
 
+import glob
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -17,8 +19,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 GENERATED = Path(__file__).resolve().parent / "_generated"
 
-# name: (the arguments after `agvctl`, how many lines of the output to show: None for all)
-OUTPUTS: dict[str, tuple[list[str], int | None]] = {
+# name: (the arguments after `agvctl` (a shell's wildcards expanded), how many lines of the output to show: None for
+# all, and a pattern of later lines shown too, after "...")
+OUTPUTS: dict[str, tuple[list[str], int | None] | tuple[list[str], int | None, str]] = {
     "params": (["params"], None),
     "params_unknown_key": (["params", "--set", "wheels.left.radius=0.1"], None),
     "params_bad_friction": (["params", "--set", "motor.left.coulomb_friction_n_m=0.1"], None),
@@ -28,37 +31,50 @@ OUTPUTS: dict[str, tuple[list[str], int | None]] = {
     "tune": (["tune"], None),
     "identify_friction": (["identify", "friction", "--simulate"], 5),
     "identify_umbmark": (["identify", "umbmark", "--simulate"], None),
+    "check_failing": (
+        ["check", "experiments/*.toml", "tests/data/line_impossible.toml", "--jobs", "2", "--junit", "report.xml"],
+        3,
+        r"^(PASS|FAIL)  line_impossible|^    FAIL ",
+    ),
 }
 
 
-def _shown(argv: list[str], text: str, lines: int | None) -> str:
+def _shown(argv: list[str], text: str, lines: int | None, keep: str | None = None) -> str:
     out = text.rstrip("\n").splitlines()
     if lines is not None and len(out) > lines:
-        out = [*out[:lines], "..."]
+        later = [line for line in out[lines:] if keep is not None and re.search(keep, line)]
+        out = [*out[:lines], "...", *later]
     return "\n".join([f"$ agvctl {' '.join(argv)}", *out]) + "\n"
 
 
-def run_command(argv: list[str], lines: int | None = None) -> str:
-    """``$ agvctl ARGV`` and what it printed (standard output, then standard error), its first ``lines`` lines."""
+def run_command(argv: list[str], lines: int | None = None, keep: str | None = None) -> str:
+    """``$ agvctl ARGV`` and what it printed (standard output, then standard error): its first ``lines`` lines and
+    the later ones matching ``keep``."""
     env = {**os.environ, "MPLBACKEND": "Agg", "COLUMNS": "120"}
     env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT), env.get("PYTHONPATH")) if p)
     with tempfile.TemporaryDirectory(prefix="agvctl-docs-") as scratch:
-        for folder in ("experiments", "trajectories"):
+        for folder in ("experiments", "trajectories", "tests"):
             os.symlink(ROOT / folder, Path(scratch, folder), target_is_directory=True)
+        expanded = [a for arg in argv for a in (sorted(glob.glob(arg, root_dir=scratch)) if "*" in arg else [arg])]
         done = subprocess.run(
-            [sys.executable, "-m", "agvctl", *argv], cwd=scratch, env=env, capture_output=True, text=True, check=False
+            [sys.executable, "-m", "agvctl", *expanded],
+            cwd=scratch,
+            env=env,
+            capture_output=True,
+            text=True,
+            check=False,
         )
     text = (done.stdout + done.stderr).replace(str(ROOT / "agvctl" / "vehicles"), "...")
-    return _shown(argv, text, lines)
+    return _shown(argv, text, lines, keep)
 
 
 def write_outputs(folder: Path = GENERATED) -> list[Path]:
     """Run every command of :data:`OUTPUTS` and write each one's block as ``folder/NAME.txt``."""
     folder.mkdir(exist_ok=True)
     written = []
-    for name, (argv, lines) in OUTPUTS.items():
+    for name, (argv, lines, *keep) in OUTPUTS.items():
         path = folder / f"{name}.txt"
-        path.write_text(run_command(argv, lines), encoding="utf-8")
+        path.write_text(run_command(argv, lines, *keep), encoding="utf-8")
         written.append(path)
     return written
 
