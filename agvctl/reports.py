@@ -89,7 +89,10 @@ def resolved_experiment_toml(experiment: Experiment) -> str:
         resolved["vehicle"] = str(exp.resolve(exp.vehicle).resolve())
     for key in ("pose", "wheel_loops", "localization", "wheel_speed"):
         resolved["controller"][key] = absolute_reference(resolved["controller"][key], exp.base_dir)
-    return dump_toml(resolved, header=f"resolved from {exp.source}")
+    header = f"resolved from {exp.source}"
+    if experiment.vehicle_overrides:
+        header += f", its vehicle changed by --set {' --set '.join(experiment.vehicle_overrides)}"
+    return dump_toml(resolved, header=header)
 
 
 def write_run_outputs(

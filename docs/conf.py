@@ -9,12 +9,19 @@ import dataclasses
 import importlib
 import os
 import pkgutil
+import sys
 from pathlib import Path
 
 import agvctl
 
 ROOT = Path(__file__).resolve().parent.parent
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+# the command lines the guides show, run now: each page includes what its command printed in this build
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from console_outputs import write_outputs  # noqa: E402
+
+write_outputs()
 
 project = "agvctl"
 author = "the agvctl authors"
@@ -32,7 +39,7 @@ extensions = [
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
-exclude_patterns = ["_build", "decisions/README.md", "guide/broken-controllers.md", "benchmarks/regenerate.py", "auto_examples/*.ipynb"]
+exclude_patterns = ["_build", "_generated", "decisions/README.md", "guide/broken-controllers.md", "benchmarks/regenerate.py", "auto_examples/*.ipynb"]
 myst_enable_extensions = ["colon_fence", "dollarmath"]
 myst_heading_anchors = 3
 
@@ -77,5 +84,6 @@ sphinx_gallery_conf = {
 html_theme = "pydata_sphinx_theme"
 html_title = f"agvctl {release}"
 html_static_path = ["_static"]
+html_css_files = ["agvctl.css"]
 templates_path = ["_templates"]
 html_theme_options = {"navigation_with_keys": False, "show_toc_level": 2}

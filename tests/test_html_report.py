@@ -154,3 +154,16 @@ def test_a_render_that_is_not_a_function_is_refused_before_anything_runs() -> No
     with pytest.raises(ConfigError) as info:
         check_experiments([PASSING], jobs=1, render=42)  # type: ignore[arg-type]
     assert str(info.value).startswith("render: expected a function") and "\n" not in str(info.value)
+
+
+def test_a_fuzz_page_repeats_no_warning_of_its_runs_naming_a_deleted_file(tmp_path, capsys):
+    # seed 1's second scenario plans with an acceleration limit that leaves little headroom: a warning of its run
+    (tmp_path / "fz.toml").write_text('seed = 1\nscenarios = 2\ncontrollers = ["ramsete"]\nsettle_s = 0.2\n')
+    out, page = tmp_path / "fz", tmp_path / "fuzz.html"
+    code, _, err = run(capsys, "fuzz", tmp_path / "fz.toml", "--jobs", "1", "--out", out, "--html", page, "--no-plot")
+    assert code in (0, 1) and page.is_file()
+    recorded = [w for r in json.loads((out / "summary.json").read_text())["runs"] for w in r["warnings"]]
+    assert recorded  # the runs' warnings are in the summary ...
+    for line in err.splitlines():  # ... and any warning on stderr names a file that is there to read
+        if line.startswith("agvctl: warning: /"):
+            assert Path(line.removeprefix("agvctl: warning: ").split(":")[0]).exists(), line

@@ -221,13 +221,23 @@ def test_a_fuzz_file_runs_a_controller_with_its_settings_file(tmp_path):
     assert load_experiment(tmp_path / list(files)[-1]).spec.controller.pose_settings.b_rad2_m2 == 9.0
 
 
-def test_the_command_writes_the_settings_file_the_report_and_the_figures(tmp_path, capsys):
+def test_the_command_writes_the_settings_file_the_report_and_the_figures(tmp_path, capsys, monkeypatch):
     study = tmp_path / "study"
+    (tmp_path / "fuzz").mkdir()
+    monkeypatch.chdir(tmp_path)  # the settings file named from the working directory, the fuzz file in a folder
     code, out, _err = run(
-        capsys, "tune", "--pose", small(tmp_path), "--trials", 3, "--validation-scenarios", 2, "--jobs", 1,
-        "--study", study, "--out", tmp_path / "tuned.toml",
+        capsys, "tune", "--pose", small(tmp_path / "fuzz"), "--trials", 3, "--validation-scenarios", 2, "--jobs", 1,
+        "--study", study, "--out", "tuned.toml",
     )  # fmt: skip
     assert code == 0, out
+    # the path suggested for the fuzz file is read from the fuzz file's folder, the one for an experiment anywhere
+    hint = next(line for line in out.splitlines() if line.startswith("use it:"))
+    from_fuzz_file, for_experiment = hint.split('"')[1], hint.split('"')[3]
+    assert (tmp_path / "fuzz" / from_fuzz_file).resolve() == (tmp_path / "tuned.toml").resolve()
+    assert Path(for_experiment).is_absolute() and Path(for_experiment).resolve() == (tmp_path / "tuned.toml").resolve()
+    finished = int(out.split(" trials (")[1].split()[0])
+    if "importance:" in out:  # importances from at most three trials come with their caveat
+        assert f"from {finished} finished trials: too few to rank the settings" in out, out
     assert "validation: 2 scenarios of seed 4" in out
     text = (tmp_path / "tuned.toml").read_text(encoding="utf-8")
     assert text.startswith("# Settings of the 'ramsete' pose controller") and 'pose = "ramsete"' in text

@@ -1,7 +1,9 @@
 """The ``agvctl`` command line: a thin layer over the Python API.
 
 Each subcommand lives in its own module with ``register(subparsers)`` adding its parser and setting
-``func=run``, where ``run(args) -> int`` calls the public API and prints. Exit codes: 0 success, 1 a failed
+``func=run``, where ``run(args) -> int`` calls the public API and prints. The table of subcommands
+(:data:`~agvctl.cli.commands.COMMANDS`) names each module, so only the chosen command's module is imported:
+``agvctl --help`` reads the table alone. Exit codes: 0 success, 1 a failed
 check, 2 bad input or any other :class:`~agvctl.errors.AgvctlError` (one line on stderr naming the file and
 key; no traceback), 3 a run of ``check`` or ``fuzz`` that could not be completed (it raised; reported with every
 other run), 130 an interrupt (Ctrl-C: one line, no partial output; see :mod:`agvctl.__main__`).
@@ -10,6 +12,7 @@ other run), 130 an interrupt (Ctrl-C: one line, no partial output; see :mod:`agv
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import sys
 import warnings
@@ -17,9 +20,9 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 from agvctl import __version__
+from agvctl.cli.commands import COMMANDS
 from agvctl.cli.options import add_vehicle_options
 from agvctl.errors import AgvctlError, ConfigError
-from agvctl.feasibility import HeadroomWarning
 
 __all__ = ["add_vehicle_options", "main"]
 
@@ -50,14 +53,28 @@ class _Parser(argparse.ArgumentParser):
         return parsed, extras
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from agvctl.cli import check_cmd, fuzz_cmd, identify_cmd, params_cmd, plan_cmd, run_cmd, simulate_cmd, tune_cmd
+def _chosen_command(argv: Sequence[str]) -> str | None:
+    """The subcommand named on the command line: the first argument that is not an option (the top level takes
+    no option with a value), or None."""
+    for arg in argv:
+        if arg == "--":
+            return None
+        if not arg.startswith("-"):
+            return arg
+    return None
 
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser of the command line: every subcommand listed from the table, and the full parser of ``command``
+    alone (its module imported)."""
     parser = _Parser(prog="agvctl", description="Control design and trajectory planning for the IAU AGV.")
     parser.add_argument("--version", action="version", version=f"agvctl {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    for module in (run_cmd, check_cmd, fuzz_cmd, params_cmd, simulate_cmd, plan_cmd, tune_cmd, identify_cmd):
-        module.register(sub)
+    for name, entry in COMMANDS.items():
+        if name == command:
+            importlib.import_module(entry.module).register(sub)
+        else:
+            sub.add_parser(name, help=entry.summary)
     return parser
 
 
@@ -90,8 +107,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     usage: agvctl params ...
     0
     """
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
     try:
+        parser = build_parser(_chosen_command(argv))
         try:
             args = parser.parse_args(argv)
         except SystemExit as exc:  # --help and --version print, then exit 0
@@ -99,6 +117,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not getattr(args, "func", None):
             parser.print_help()
             return EXIT_BAD_INPUT
+        from agvctl.feasibility import HeadroomWarning  # with the command's libraries, not before --help
+
         with warnings.catch_warnings():  # advice (limits without headroom) as one line on stderr, never an error
             warnings.simplefilter("always", HeadroomWarning)
             warnings.showwarning = _one_line_warning

@@ -23,8 +23,9 @@ from typing import Any
 from agvctl.checks.junit import junit_xml
 from agvctl.checks.report import CheckReport
 from agvctl.checks.runner import check_experiments, load_check
+from agvctl.cli.commands import command_summary
 from agvctl.cli.outputs import Output, check_outputs, writing
-from agvctl.cli.progress import ProgressBar
+from agvctl.cli.progress import Progress
 from agvctl.cli.staging import check_replaceable, staged_outputs
 from agvctl.errors import ConfigError
 from agvctl.htmlreport import check_html, check_run_figures
@@ -45,7 +46,7 @@ EXIT_CODES = """exit codes:
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "check",
-        help="run experiments and enforce their [limits] (CI gate: exit 1 on a violation)",
+        help=command_summary("check"),
         description="Run each experiment (and its [robustness] Monte Carlo samples), check every limit, report. "
         "A run that raises is its experiment's error; every other run is still run and reported.",
         epilog=EXIT_CODES,
@@ -110,18 +111,15 @@ def run(args: argparse.Namespace) -> int:
     if monte_carlo:
         check_replaceable("--report-dir", report_dir, work.input_files)
     jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
-    bar = ProgressBar("check:")
-    try:
+    with Progress("check") as progress:
         report = check_experiments(
             work,
             jobs=jobs,
             executor=args.executor,
             scheduler=args.scheduler,
-            progress=lambda done, total: bar(done / total),
+            progress=progress,
             render=check_run_figures if args.html else None,
         )
-    finally:
-        bar.close()
     # everything is computed before anything is written
     texts = {"--junit": junit_xml(report), "--json": json.dumps(report.as_dict(), indent=2) + "\n"}
     if args.html:

@@ -13,13 +13,13 @@ import json
 import math
 import os
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
 from agvctl.checks.runner import resolved_jobs
+from agvctl.cli.commands import command_summary
 from agvctl.cli.outputs import Output, check_outputs, files_in, vehicle_input, writing
-from agvctl.cli.progress import ProgressBar
+from agvctl.cli.progress import Progress
 from agvctl.cli.staging import check_replaceable, staged_outputs
 from agvctl.errors import ConfigError
 from agvctl.evaluation.limits import LIMITS
@@ -35,7 +35,7 @@ __all__ = ["format_fuzz_report", "register", "run"]
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "fuzz",
-        help="random scenarios (paths, plants, starts) through the closed loop, against limits",
+        help=command_summary("fuzz"),
         description="Draw random scenarios from a fuzz configuration's seed (paths of lines, arcs and turns; default "
         "or explicit limits; a plant within an envelope; an off-path start), run each with every pose controller "
         "listed, report per controller and write every failing scenario as a ready-to-run experiment file. "
@@ -122,27 +122,6 @@ def format_fuzz_report(report: FuzzReport, worst: int = 5) -> str:
     return "\n".join(lines)
 
 
-class _Progress:
-    """A progress bar on a terminal; otherwise a line on stderr every tenth of the runs."""
-
-    def __init__(self) -> None:
-        self.bar = ProgressBar("fuzz:")
-        self.t0 = time.perf_counter()
-        self.step = 0
-
-    def __call__(self, done: int, total: int) -> None:
-        if self.bar.enabled:
-            self.bar(done / total)
-            return
-        tenth = 10 * done // total
-        if tenth > self.step:
-            self.step = tenth
-            print(f"fuzz: {done} of {total} runs, {time.perf_counter() - self.t0:.0f} s", file=sys.stderr, flush=True)
-
-    def close(self) -> None:
-        self.bar.close()
-
-
 def _indices(text: str) -> list[int]:
     """``"3,17"`` → ``[3, 17]``; anything else is a one-line error naming ``--only``."""
     try:
@@ -181,11 +160,8 @@ def run(args: argparse.Namespace) -> int:
     jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
     where = f"a Dask cluster ({args.scheduler or 'local'})" if args.executor == "dask" else f"{jobs} local jobs"
     print(f"fuzz {spec.name}: {len(work.tasks)} runs on {where}", file=sys.stderr, flush=True)
-    progress = _Progress()
-    try:
+    with Progress("fuzz", unit="runs") as progress:
         report = run_fuzz(work, jobs=jobs, executor=args.executor, scheduler=args.scheduler, progress=progress)
-    finally:
-        progress.close()
     # everything is computed before anything is written
     texts = {out_dir / "summary.json": json.dumps(report.as_dict(), indent=2) + "\n"}
     failures = report.failure_files()

@@ -17,6 +17,7 @@ from typing import Any
 import agvctl.cli.identify_friction_cmd as identify_friction_cmd
 import agvctl.cli.identify_mass_cmd as identify_mass_cmd
 import agvctl.cli.identify_umbmark_cmd as identify_umbmark_cmd
+from agvctl.cli.commands import command_summary
 
 __all__ = ["register"]
 
@@ -32,7 +33,7 @@ def register(sub: Any) -> None:
     """Add ``identify`` and its procedures to the top-level subparsers."""
     p = sub.add_parser(
         "identify",
-        help="identify vehicle constants: mass, friction, wheel geometry (appendix A.1)",
+        help=command_summary("identify"),
         description=_DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

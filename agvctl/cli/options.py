@@ -7,9 +7,17 @@ import argparse
 __all__ = ["add_vehicle_options"]
 
 
-def add_vehicle_options(parser: argparse.ArgumentParser) -> None:
-    """``--vehicle FILE`` and repeatable ``--set KEY=VALUE``, shared by every command that takes a vehicle."""
-    parser.add_argument("--vehicle", metavar="FILE", default=None, help="vehicle TOML (default: the report's IAU AGV)")
+def add_vehicle_options(parser: argparse.ArgumentParser, default: str = "the report's IAU AGV") -> None:
+    """``--vehicle FILE`` and repeatable ``--set KEY=VALUE``, shared by every command that takes a vehicle.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser.
+    default : str
+        The vehicle without ``--vehicle``, as the help names it.
+    """
+    parser.add_argument("--vehicle", metavar="FILE", default=None, help=f"vehicle TOML (default: {default})")
     parser.add_argument(
         "--set",
         metavar="KEY=VALUE",

@@ -6,6 +6,7 @@ import argparse
 import json
 from typing import Any
 
+from agvctl.cli.commands import command_summary
 from agvctl.cli.options import add_vehicle_options
 from agvctl.config import to_dict
 from agvctl.params import VehicleParams, load_vehicle
@@ -14,7 +15,7 @@ from agvctl.params import VehicleParams, load_vehicle
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "params",
-        help="show the vehicle's parameters and derived constants",
+        help=command_summary("params"),
         description="Show a vehicle's parameters and the constants derived from them (eq numbers).",
     )
     add_vehicle_options(p)

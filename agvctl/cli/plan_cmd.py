@@ -9,6 +9,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
+from agvctl.cli.commands import command_summary
 from agvctl.cli.options import add_vehicle_options
 from agvctl.cli.outputs import Output, check_outputs, vehicle_input, writing
 from agvctl.fileio import atomic_open, write_csv
@@ -20,7 +21,7 @@ from agvctl.planning.headroom import limits_report
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "plan",
-        help="plan a reference from a path file (trajectories/*.toml)",
+        help=command_summary("plan"),
         description="Plan a time-optimal, jerk-limited reference from a path file ([[segments]] or "
         "[[waypoints]]), within the wheel limits. The reference drives through curvature changes "
         "on smooth joins and stops only at reversals, turns in place and the end "

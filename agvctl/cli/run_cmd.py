@@ -8,8 +8,10 @@ from pathlib import Path
 from typing import Any
 
 from agvctl.checks.summary import run_summary
+from agvctl.cli.commands import command_summary
+from agvctl.cli.options import add_vehicle_options
 from agvctl.cli.outputs import check_outputs, files_in, writing
-from agvctl.cli.progress import ProgressBar
+from agvctl.cli.progress import Progress
 from agvctl.cli.staging import check_replaceable, staged_outputs
 from agvctl.planning.headroom import limits_report
 from agvctl.plots import CLOSED_LOOP_PLOTS
@@ -20,11 +22,12 @@ from agvctl.scenario.experiment import load_experiment, run_experiment
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "run",
-        help="run a closed-loop experiment (reference → MPC → PI → DA/amplifier → plant)",
+        help=command_summary("run"),
         description="Run an experiment file: plan its trajectory, track it with the pose controller and the PI "
         "wheel loops through the DA converter and amplifier on the full plant, write the log, a summary and plots.",
     )
     p.add_argument("experiment", metavar="EXPERIMENT.toml")
+    add_vehicle_options(p, "the experiment's vehicle")
     p.add_argument("--out", metavar="DIR", help="output directory, replaced whole (default: out/<experiment name>)")
     p.add_argument("--no-plot", action="store_true", help="skip the PNG plots")
     p.add_argument("--json", action="store_true", help="print summary.json instead of the report")
@@ -91,18 +94,15 @@ def format_summary(summary: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    experiment = load_experiment(args.experiment)
+    experiment = load_experiment(args.experiment, vehicle=args.vehicle, vehicle_overrides=args.overrides)
     name = experiment.spec.name
     out_dir = Path(args.out) if args.out else Path("out") / name
     plots = () if args.no_plot else (*CLOSED_LOOP_PLOTS, "estimate.png")
     names: tuple[str, ...] = (*RUN_FILES, CALIBRATED_VEHICLE_FILE, *plots)
     check_outputs(files_in("--out", out_dir, names), experiment.input_files, [("--out", out_dir)])
     check_replaceable("--out", out_dir, experiment.input_files)
-    bar = ProgressBar(f"{name}:")
-    try:
-        result = run_experiment(experiment, progress=bar)
-    finally:
-        bar.close()
+    with Progress(name) as progress:
+        result = run_experiment(experiment, progress=progress)
     summary = run_summary(experiment, result)
     with staged_outputs("run") as staging:  # the folder is replaced whole, once every file is written
         staged = staging.directory("--out", out_dir)

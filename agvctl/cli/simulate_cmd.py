@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from agvctl.cli.commands import command_summary
 from agvctl.cli.options import add_vehicle_options
 from agvctl.cli.outputs import Output, check_outputs, vehicle_input, writing
 from agvctl.errors import ConfigError
@@ -20,7 +21,7 @@ from agvctl.sim.open_loop import OpenLoopResult, load_input_profile, sample_coun
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "simulate",
-        help="open-loop response to constant DA volts or a DA profile",
+        help=command_summary("simulate"),
         description="Simulate the full nonlinear model from rest at the origin, the DA commands held over each "
         "sample period and passed through the DA converter and the amplifier.",
     )

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from agvctl.cli.commands import command_summary
 from agvctl.cli.options import add_vehicle_options
 from agvctl.cli.outputs import Output, check_outputs, files_in, vehicle_input, writing
 from agvctl.cli.tune_pose_cmd import add_pose_options, check_mode, run_pose
@@ -45,7 +46,7 @@ TUNING_PLOTS = ("bode.png", "nyquist.png", "step.png")
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "tune",
-        help="design the PI wheel-speed loops (or, with --pose, search a pose controller's settings)",
+        help=command_summary("tune"),
         description="Design the discrete PI wheel-speed controller from the decoupled model (eqs 60-61) "
         "sampled with a zero-order hold, for a phase margin, a gain margin and, optionally, a crossover; by "
         "default as fast as the margins allow. Margins are those of the sampled loop up to and including the "

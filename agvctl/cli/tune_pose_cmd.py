@@ -5,14 +5,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shlex
 import sys
-import time
 from pathlib import Path
 
 from agvctl.checks.runner import resolved_jobs
 from agvctl.cli.outputs import Output, check_outputs, files_in, vehicle_input, writing
-from agvctl.cli.progress import ProgressBar
+from agvctl.cli.progress import Progress
 from agvctl.config.references import plain_label
 from agvctl.errors import ConfigError
 from agvctl.fileio import atomic_open, write_text
@@ -45,24 +45,6 @@ def add_pose_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-class _Progress:
-    """A progress bar on a terminal; otherwise a line on stderr every tenth of the runs."""
-
-    def __init__(self) -> None:
-        self.bar = ProgressBar("tune:")
-        self.t0 = time.perf_counter()
-        self.step = 0
-
-    def __call__(self, done: int, total: int) -> None:
-        if self.bar.enabled:
-            self.bar(done / total)
-            return
-        tenth = 10 * done // total
-        if tenth > self.step:
-            self.step = tenth
-            print(f"tune: {done} of {total} runs, {time.perf_counter() - self.t0:.0f} s", file=sys.stderr, flush=True)
-
-
 def run_pose(args: argparse.Namespace) -> int:
     """Run ``agvctl tune --pose``: 0 when done (whether or not the tuned settings beat the defaults), 2 on bad
     input (nothing written)."""
@@ -77,20 +59,19 @@ def run_pose(args: argparse.Namespace) -> int:
     resolved_jobs(args.jobs, args.executor, args.scheduler)
     outputs = [Output("--out", out), *files_in("--study", study_dir, STUDY_FILES)]
     check_outputs(outputs, [Path(args.pose), vehicle_input(spec.vehicle)], [("--study", study_dir)])
-    progress = _Progress()
-    result = tune_pose(
-        spec,
-        controller=controller,
-        trials=args.trials,
-        validation_seed=args.validation_seed,
-        validation_scenarios=args.validation_scenarios,
-        jobs=args.jobs,
-        executor=args.executor,
-        scheduler=args.scheduler,
-        storage=study_dir / "study.db",
-        progress=progress,
-    )
-    progress.bar.close()
+    with Progress("tune", unit="runs") as progress:
+        result = tune_pose(
+            spec,
+            controller=controller,
+            trials=args.trials,
+            validation_seed=args.validation_seed,
+            validation_scenarios=args.validation_scenarios,
+            jobs=args.jobs,
+            executor=args.executor,
+            scheduler=args.scheduler,
+            storage=study_dir / "study.db",
+            progress=progress,
+        )
     command = "agvctl " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:] else ""
     texts: dict[Path, tuple[str, str]] = {
         out: ("--out", settings_text(result, command)),
@@ -105,8 +86,23 @@ def run_pose(args: argparse.Namespace) -> int:
             fh.write(content)
     print(summary_text(result))
     print(f"wrote {out}, {', '.join(str(study_dir / n) for n in ['report.json', *figures])}")
-    print(f'use it: [controller] pose_settings = "{out}" in an experiment, or [pose_settings] in a fuzz file')
+    print(settings_hint(out, Path(args.pose), controller))
     return 0
+
+
+def settings_hint(settings: Path, fuzz_file: Path, controller: str) -> str:
+    """How to use the settings file written: a path relative to the fuzz file in its ``[pose_settings]`` table
+    (paths in a file are read from its folder, not from the working directory), and the absolute path for an
+    experiment file, wherever that is."""
+    where = settings.resolve()
+    try:
+        from_fuzz_file = Path(os.path.relpath(where, fuzz_file.resolve().parent)).as_posix()
+    except ValueError:  # on another drive than the fuzz file (Windows)
+        from_fuzz_file = where.as_posix()
+    return (
+        f'use it: [pose_settings] {controller} = "{from_fuzz_file}" in {fuzz_file} (relative to that file), or '
+        f'[controller] pose_settings = "{where.as_posix()}" in an experiment'
+    )
 
 
 def check_mode(args: argparse.Namespace) -> None:

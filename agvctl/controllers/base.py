@@ -59,8 +59,25 @@ class PoseController(Protocol):
         """Start tracking ``reference`` from its time 0 (clears warm starts and fallbacks)."""
 
     def update(self, t_s: float, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]) -> PoseCommand:
-        """Setpoints for the sample starting at ``t_s`` given the pose (x_m, y_m, theta_rad) and the measured
-        wheel rim speeds (left, right) in m/s."""
+        """Setpoints for the sample starting at ``t_s``.
+
+        Parameters
+        ----------
+        t_s : float
+            The sample's time on the reference's clock, s.
+        pose : ndarray
+            The pose the controller is given (x in m, y in m, heading in rad): the estimate, or the truth with
+            ``localization = "truth"``.
+        wheel_speed_m_s : ndarray
+            The measured wheel rim speeds (left, right), m/s.
+
+        Returns
+        -------
+        PoseCommand
+            The wheel-speed setpoints (left, right) in m/s the wheel loops follow over the sample, the controller's
+            computing time, its solver status (``"solved"`` or the fallback it used) and, for a controller that keeps
+            its own clock, whether it is done with the reference.
+        """
         ...
 
 

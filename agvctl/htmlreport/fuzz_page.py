@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import os
 import tempfile
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -26,10 +27,13 @@ WORST_SHOWN = 3
 
 
 def _figure(task: FuzzTask, outcome: FuzzOutcome) -> bytes | None:
-    """The scenario's figure, from running its files again in this process (None for a run that crashed)."""
+    """The scenario's figure, from running its files again in this process (None for a run that crashed). The run
+    again is silent: its warnings are those of the run itself, in the outcome already (and would name the files of
+    a folder deleted before they are shown)."""
     if outcome.error is not None:
         return None
-    with tempfile.TemporaryDirectory(prefix="agvctl-page-") as tmp:
+    with warnings.catch_warnings(), tempfile.TemporaryDirectory(prefix="agvctl-page-") as tmp:
+        warnings.simplefilter("ignore")
         for name, text in task.files:
             Path(tmp, name).write_text(text, encoding="utf-8")
         experiment = load_experiment(Path(tmp, task.files[-1][0]))

@@ -26,6 +26,11 @@ __all__ = [
     "save_closed_loop_plots",
 ]
 
+MM_PER_M = 1e3
+"""Errors are drawn in mm, the unit every report prints them in."""
+LEGEND_BAND = 0.3
+"""The share of the path's height added above it for the path plot's legend."""
+
 CLOSED_LOOP_PLOTS = (
     "path.png",
     "tracking_error.png",
@@ -109,7 +114,8 @@ def draw_path(ax: Any, log: SimLog, *, mark_time_s: float | None = None, mark_la
     """Draw on an axes the vehicle's path against the reference: the ``path.png`` figure and the page's path panel.
 
     The reference (dashed), the true path with its start, and the estimated path where it differs from the true
-    one, in the plane: x and y in m, equal scale, with a legend and a grid.
+    one, in the plane: x and y in m, equal scale, with a grid and a legend in a band left free above the path (it
+    never covers it).
 
     Parameters
     ----------
@@ -132,7 +138,9 @@ def draw_path(ax: Any, log: SimLog, *, mark_time_s: float | None = None, mark_la
         k = int(np.argmin(np.abs(log["t_s"] - mark_time_s)))
         ax.plot(log["x_m"][k], log["y_m"][k], "x", color="r", ms=10, mew=2, label=mark_label or None)
     ax.set(xlabel="x [m]", ylabel="y [m]", aspect="equal", title="path")
-    ax.legend(loc="best")
+    y_min, y_max = ax.get_ylim()
+    ax.set_ylim(y_min, y_max + LEGEND_BAND * (y_max - y_min))
+    ax.legend(loc="upper center", ncol=2, fontsize=8)
     ax.grid(alpha=0.3)
 
 
@@ -140,8 +148,8 @@ def _tracking_error_figure(log: SimLog) -> Any:
     """Position and heading error against the time-indexed reference."""
     t = log["t_s"]
     fig, (a1, a2) = subplots(2, 1, figsize=(8, 5), sharex=True)
-    a1.plot(t, log["position_error_m"] * 100, "C3")
-    a1.set(ylabel="position error [cm]")
+    a1.plot(t, log["position_error_m"] * MM_PER_M, "C3")
+    a1.set(ylabel="position error [mm]")
     a2.plot(t, np.degrees(log["heading_error_rad"]), "C4")
     a2.set(xlabel="t [s]", ylabel="heading error [°]")
     for a in (a1, a2):
@@ -303,9 +311,9 @@ def _path_error_figure(log: SimLog) -> Any:
     t = log["t_s"]
     fig, (a1, a2) = subplots(2, 1, figsize=(8, 5), sharex=True)
     draw_errors(a1, log)
-    a2.plot(t, log["along_track_lag_m"] * 100, "C0")
+    a2.plot(t, log["along_track_lag_m"] * MM_PER_M, "C0")
     a2.axhline(0.0, color="k", lw=0.6)
-    a2.set(xlabel="t [s]", ylabel="along-track lag [cm]\n(> 0: behind)")
+    a2.set(xlabel="t [s]", ylabel="along-track lag [mm]\n(> 0: behind)")
     a2.grid(alpha=0.3)
     fig.tight_layout()
     return fig
@@ -315,7 +323,8 @@ def draw_errors(ax: Any, log: SimLog, bounds: Mapping[str, float] | None = None)
     """Draw on an axes the run's cross-track and position errors against time, with their bounds where given.
 
     The cross-track error is the distance to the path, how far off the path the vehicle is; the position error is
-    the distance to the reference's point at that time, which lateness adds to. Both are drawn in cm.
+    the distance to the reference's point at that time, which lateness adds to. Both are drawn in mm, as the reports
+    print them.
 
     Parameters
     ----------
@@ -328,12 +337,12 @@ def draw_errors(ax: Any, log: SimLog, bounds: Mapping[str, float] | None = None)
         present, are drawn as dashed lines (None: no bounds).
     """
     t = log["t_s"]
-    ax.plot(t, log["cross_track_error_m"] * 100, "C3", label="cross-track (distance to the path)")
-    ax.plot(t, log["position_error_m"] * 100, "0.6", lw=0.8, label="position error (to the reference point)")
+    ax.plot(t, log["cross_track_error_m"] * MM_PER_M, "C3", label="cross-track (distance to the path)")
+    ax.plot(t, log["position_error_m"] * MM_PER_M, "0.6", lw=0.8, label="position error (to the reference point)")
     for limit, color in (("cross_track_error_max_m", "C3"), ("tracking_error_max_m", "0.4")):
         if bounds and limit in bounds:
-            ax.axhline(bounds[limit] * 100, color=color, ls="--", lw=1, label=f"{limit} {bounds[limit]:.3g} m")
-    ax.set(ylabel="error [cm]")
+            ax.axhline(bounds[limit] * MM_PER_M, color=color, ls="--", lw=1, label=f"{limit} {bounds[limit]:.3g} m")
+    ax.set(ylabel="error [mm]")
     ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
 

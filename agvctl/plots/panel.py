@@ -11,7 +11,14 @@ from typing import Any
 
 from agvctl.log import SimLog
 from agvctl.params import VehicleParams
-from agvctl.plots.closed_loop import draw_both_sides, draw_errors, draw_path, draw_wheel_accel, draw_wheel_speed
+from agvctl.plots.closed_loop import (
+    MM_PER_M,
+    draw_both_sides,
+    draw_errors,
+    draw_path,
+    draw_wheel_accel,
+    draw_wheel_speed,
+)
 from agvctl.plots.figures import png_bytes, subplots
 
 __all__ = ["PANEL_DPI", "render_run_panel"]
@@ -86,8 +93,8 @@ def _draw(
     a_path.set_aspect("equal", adjustable="datalim")  # the panel's full size, the scale kept
     draw_errors(a_err, log, bounds)
     a_err.set_yscale("log")  # a millimetre and a bound of ten centimetres both readable
-    error_bounds_cm = [bounds[k] * 100 for k in ("cross_track_error_max_m", "tracking_error_max_m") if k in bounds]
-    a_err.set_ylim(bottom=min([1e-3, *(b / 2 for b in error_bounds_cm)]))
+    error_bounds_mm = [bounds[k] * MM_PER_M for k in ("cross_track_error_max_m", "tracking_error_max_m") if k in bounds]
+    a_err.set_ylim(bottom=min([1e-2, *(b / 2 for b in error_bounds_mm)]))
     speed_bound = bounds.get("peak_wheel_speed_m_s")
     for ax, side in ((a_left, "left"), (a_right, "right")):
         draw_wheel_speed(ax, log, side)

@@ -37,7 +37,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -75,6 +75,9 @@ class Experiment:
     """The PI wheel-speed loops (gains designed or from the gains file)."""
     path: PathSpec | None = None
     """The trajectory file, validated (its explicit limits; None for an experiment built without one)."""
+    vehicle_overrides: tuple[str, ...] = ()
+    """The ``"KEY=VALUE"`` changes of the vehicle file given on top of the experiment (the command line's
+    ``--set``), applied to the controllers' vehicle and so to the plant's."""
 
     @property
     def input_files(self) -> tuple[Path, ...]:
@@ -93,13 +96,22 @@ class Experiment:
         return tuple(files)
 
 
-def load_experiment(path: str | Path) -> Experiment:
+def load_experiment(
+    path: str | Path, *, vehicle: str | Path | None = None, vehicle_overrides: Sequence[str] = ()
+) -> Experiment:
     """Read and validate an experiment file and everything it names: trajectory, vehicles, controller settings.
 
     Parameters
     ----------
     path : str or Path
         The experiment file (TOML); the paths it names are relative to it.
+    vehicle : str, Path or None
+        A vehicle file instead of the one the experiment names (relative to the working directory; ``"default"``:
+        the shipped IAU AGV; None: the experiment's own).
+    vehicle_overrides : sequence of str
+        Dotted-key changes of the vehicle, ``"KEY=VALUE"`` (``"wheels.right.radius_m=0.101"``, values in the
+        key's unit), as the command line's ``--set`` gives them: the controllers' vehicle changes, and with it the
+        plant, which differs from it by the experiment's ``[plant] set``.
 
     Returns
     -------
@@ -127,7 +139,14 @@ def load_experiment(path: str | Path) -> Experiment:
         )
     path = Path(path)
     spec = build(ExperimentSpec, load_toml(path), source=str(path))
-    return experiment_from_spec(dataclasses.replace(spec, source=str(path)))
+    spec = dataclasses.replace(spec, source=str(path))
+    if vehicle is not None and vehicle != "default":
+        if not Path(vehicle).is_file():
+            raise ConfigError(str(vehicle), "", "file not found")
+        spec = dataclasses.replace(spec, vehicle=str(Path(vehicle).absolute()))
+    elif vehicle is not None:
+        spec = dataclasses.replace(spec, vehicle="default")
+    return experiment_from_spec(spec, vehicle_overrides=vehicle_overrides)
 
 
 @contextlib.contextmanager
@@ -142,7 +161,7 @@ def _read_for(source: str, key: str, path: Path | None) -> Iterator[None]:
         raise ConfigError(source, key, f"{path}: {exc.problem}") from None
 
 
-def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
+def experiment_from_spec(spec: ExperimentSpec, *, vehicle_overrides: Sequence[str] = ()) -> Experiment:
     """An experiment from its validated file: the vehicles (nominal and true) loaded, the reference planned, the
     wheel loops designed and the pose controller's settings completed with them.
 
@@ -150,6 +169,8 @@ def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
     ----------
     spec : ExperimentSpec
         The experiment file, validated (its ``source`` the file, against which its paths are resolved).
+    vehicle_overrides : sequence of str
+        Dotted-key changes of the vehicle, ``"KEY=VALUE"`` (see :func:`load_experiment`).
 
     Returns
     -------
@@ -168,7 +189,7 @@ def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
     if vehicle_path is not None and not vehicle_path.exists():
         raise ConfigError(src, "vehicle", f"file not found: {vehicle_path}")
     with _read_for(src, "vehicle", vehicle_path):
-        controller_vehicle = load_vehicle(vehicle_path)
+        controller_vehicle = load_vehicle(vehicle_path, vehicle_overrides)
     plant_vehicle = controller_vehicle.with_overrides(list(spec.plant.set.items()), source=f"{src}: plant.set")
     traj = spec.resolve(spec.trajectory)
     if not traj.exists():
@@ -201,7 +222,7 @@ def experiment_from_spec(spec: ExperimentSpec) -> Experiment:
     if kind.fit_wheel_loop is not None:
         c = dataclasses.replace(c, pose_settings=kind.fit_wheel_loop(c.pose_settings, wheel_loops.design))
     spec = dataclasses.replace(spec, controller=c)
-    return Experiment(spec, controller_vehicle, plant_vehicle, reference, wheel_loops, path)
+    return Experiment(spec, controller_vehicle, plant_vehicle, reference, wheel_loops, path, tuple(vehicle_overrides))
 
 
 def run_experiment(

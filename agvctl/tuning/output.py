@@ -11,7 +11,11 @@ from agvctl.errors import ConfigError
 from agvctl.tuning.objective import ObjectiveValue
 from agvctl.tuning.study import PoseTuningResult
 
-__all__ = ["importances", "result_dict", "settings_text", "summary_text", "tuning_figures"]
+__all__ = ["IMPORTANCE_MIN_TRIALS", "importances", "result_dict", "settings_text", "summary_text", "tuning_figures"]
+
+IMPORTANCE_MIN_TRIALS = 20
+"""Finished trials below which the importances are reported as rough: fANOVA fits a random forest to the trials,
+and over a handful of them the shares follow the few values drawn more than the objective."""
 
 
 def importances(result: PoseTuningResult) -> dict[str, float]:
@@ -86,6 +90,11 @@ def summary_text(result: PoseTuningResult) -> str:
     shares = importances(result)
     if shares:
         lines.append("  importance: " + ", ".join(f"{k} {100 * s:.0f} %" for k, s in shares.items()))
+        if c["complete"] < IMPORTANCE_MIN_TRIALS:
+            lines.append(
+                f"  (from {c['complete']} finished trials: too few to rank the settings; {IMPORTANCE_MIN_TRIALS} or "
+                "more advised)"
+            )
     return "\n".join(lines)
 
 

@@ -43,6 +43,12 @@ BENCHMARKS: dict[str, tuple[str, list[str], list[str], str]] = {
     "estimation": ("estimation.py", ["--repeat", "2"], [], "EKF, Kalman wheel speeds, sensors, loop on estimates."),
     "shipped": ("shipped.py", [], [], "The shipped experiments, each run once as `agvctl run` runs it."),
     "fuzz": ("fuzz.py", ["--scenarios", "40"], [], "The scenario fuzzer on local worker processes."),
+    "cli_startup": (
+        "cli_startup.py",
+        ["--commands"],
+        ["--commands"],
+        "The command line's start: `agvctl --help` against the bare interpreter, and each command's help.",
+    ),
     "pose_tuning": (
         "pose_tuning.py",
         ["--trials", "6", "--scenarios", "8", "--validation-scenarios", "8"],

@@ -8,19 +8,15 @@ with late position fixes by the pose EKF with buffer and replay (``experiments/f
 integrates the wrong radius; the EKF estimates it.
 """
 
-from pathlib import Path
-
 import matplotlib.pyplot as plt
 import numpy as np
 
+from agvctl.examples import example_path  # the example files installed with the package
 from agvctl.scenario.experiment import load_experiment, run_experiment
 
-# The experiment files beside this folder (sphinx-gallery runs an example in its own folder, without __file__).
-EXPERIMENTS = Path(globals().get("__file__", "plot.py")).resolve().parent.parent
-
 logs = {
-    "odometry": run_experiment(load_experiment(EXPERIMENTS / "figure8_odometry.toml")).log,
-    "EKF": run_experiment(load_experiment(EXPERIMENTS / "figure8_ekf.toml")).log,
+    "odometry": run_experiment(load_experiment(example_path("experiments/figure8_odometry.toml"))).log,
+    "EKF": run_experiment(load_experiment(example_path("experiments/figure8_ekf.toml"))).log,
 }
 
 fig, (ax_path, ax_err) = plt.subplots(1, 2, figsize=(10, 4))

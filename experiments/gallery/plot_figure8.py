@@ -7,17 +7,13 @@ LTV MPC over the PI wheel loops, through the 12-bit DA converter and the current
 nonlinear plant. The same run as ``agvctl run experiments/figure8.toml``.
 """
 
-from pathlib import Path
-
 import matplotlib.pyplot as plt
 
 from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.examples import example_path  # the example files installed with the package
 from agvctl.scenario.experiment import load_experiment, run_experiment
 
-# The experiment files beside this folder (sphinx-gallery runs an example in its own folder, without __file__).
-EXPERIMENTS = Path(globals().get("__file__", "plot.py")).resolve().parent.parent
-
-experiment = load_experiment(EXPERIMENTS / "figure8.toml")
+experiment = load_experiment(example_path("experiments/figure8.toml"))
 result = run_experiment(experiment)
 log = result.log
 metrics = closed_loop_metrics(result)

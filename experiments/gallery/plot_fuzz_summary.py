@@ -9,18 +9,14 @@ the configuration's limits, as ``agvctl fuzz experiments/fuzz/ci.toml --scenario
 does.
 """
 
-from pathlib import Path
-
 import matplotlib.pyplot as plt
 import numpy as np
 
+from agvctl.examples import example_path  # the example files installed with the package
 from agvctl.fuzz.run import fuzz
 from agvctl.fuzz.spec import load_fuzz_config, override_fuzz_config
 
-# The experiment files beside this folder (sphinx-gallery runs an example in its own folder, without __file__).
-EXPERIMENTS = Path(globals().get("__file__", "plot.py")).resolve().parent.parent
-
-spec = override_fuzz_config(load_fuzz_config(EXPERIMENTS / "fuzz" / "ci.toml"), controllers=["mpc", "ramsete"])
+spec = override_fuzz_config(load_fuzz_config(example_path("experiments/fuzz/ci.toml")), controllers=["mpc", "ramsete"])
 report = fuzz(spec, scenarios=range(6), jobs=1)
 for outcome in report.outcomes:
     verdict = "pass" if outcome.passed else "FAIL " + "; ".join(outcome.reasons)
