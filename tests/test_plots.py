@@ -83,6 +83,14 @@ def test_a_run_panel_on_the_figure_kept_from_other_runs_is_the_png_of_a_new_figu
     assert [two_panels(i) for i in (0, 1, 0, 1)] == new * 2  # this thread's figure, kept from run to run
 
 
+def test_a_run_panel_after_a_change_of_style_is_drawn_in_the_new_style(two_panels):
+    two_panels(0)  # this thread's figure, made in the present style
+    with matplotlib.rc_context({"axes.facecolor": "#e5e5e5", "axes.grid": False}):
+        restyled = _on_new_figures(two_panels)
+        assert [two_panels(0), two_panels(1)] == restyled
+    assert two_panels(0) != restyled[0]
+
+
 def test_run_panels_drawn_in_threads_at_once_are_those_drawn_one_by_one_and_leave_rcparams_alone(two_panels):
     new = _on_new_figures(two_panels)
     hinting = matplotlib.rcParams["text.hinting"]

@@ -8,6 +8,7 @@ import json
 import math
 from pathlib import Path
 
+import matplotlib
 import pytest
 from cli_runs import one_line, run
 
@@ -225,6 +226,7 @@ def test_the_command_writes_the_settings_file_the_report_and_the_figures(tmp_pat
     study = tmp_path / "study"
     (tmp_path / "fuzz").mkdir()
     monkeypatch.chdir(tmp_path)  # the settings file named from the working directory, the fuzz file in a folder
+    style = dict(matplotlib.rcParams)
     code, out, _err = run(
         capsys, "tune", "--pose", small(tmp_path / "fuzz"), "--trials", 3, "--validation-scenarios", 2, "--jobs", 1,
         "--study", study, "--out", "tuned.toml",
@@ -244,3 +246,4 @@ def test_the_command_writes_the_settings_file_the_report_and_the_figures(tmp_pat
     report = json.loads((study / "report.json").read_text(encoding="utf-8"))
     assert report["trials"]["complete"] + report["trials"]["pruned"] == 3
     assert (study / "history.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert dict(matplotlib.rcParams) == style  # Optuna's plots set a style of their own: the user's is kept

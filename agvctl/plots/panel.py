@@ -27,9 +27,10 @@ PANEL_DPI = 64
 """Dots per inch of the panel: the figure is 704 × 576 pixels, legible on a screen and some 100 kB as PNG."""
 
 _KEPT = threading.local()
-"""Each thread's panel figure between two runs, cleared of the last run's artists (``_KEPT.panel``), for the life of
-the thread: a worker draws one run after another, and making the figure, its axes and their ticks again would
-cost a third of each panel."""
+"""Each thread's panel figure between two runs, cleared of the last run's artists, with the matplotlib style
+(``rcParams``) it was made in (``_KEPT.panel``), for the life of the thread: a worker draws one run after another,
+and making the figure, its axes and their ticks again would cost a third of each panel. A figure made in another
+style than the current one is made again."""
 
 
 def render_run_panel(
@@ -68,12 +69,17 @@ def render_run_panel(
     bytes
         The PNG.
     """
-    fig, axes = getattr(_KEPT, "panel", None) or subplots(3, 2, figsize=(11, 9))
+    import matplotlib
+
+    # a figure takes its style when made: kept only while the style holds (the hinting is the PNG's own)
+    style = {k: v for k, v in matplotlib.rcParams.items() if k != "text.hinting"}
+    kept = getattr(_KEPT, "panel", None)
+    fig, axes = kept[:2] if kept is not None and kept[2] == style else subplots(3, 2, figsize=(11, 9))
     _KEPT.panel = None  # taken: a failed drawing leaves no half-drawn figure behind
     _draw(fig, axes, log, vehicle, title, bounds, mark_time_s, mark_label)
     png = png_bytes(fig, dpi)
     _clear(axes)
-    _KEPT.panel = fig, axes
+    _KEPT.panel = fig, axes, style
     return png
 
 

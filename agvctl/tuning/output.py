@@ -192,11 +192,13 @@ def tuning_figures(result: PoseTuningResult) -> dict[str, bytes]:
         trial does not flatten the others) and, with two or more finished trials, ``importance.png`` (each
         setting's share), as PNG bytes.
     """
+    import matplotlib
     import matplotlib.pyplot as plt
     import optuna
 
     out: dict[str, bytes] = {}
-    with warnings.catch_warnings():
+    # Optuna's plots set matplotlib's global style (ggplot): restored on leaving, the user's style is left alone
+    with warnings.catch_warnings(), matplotlib.rc_context():
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
         plots: list[tuple[str, Any]] = [("history.png", optuna.visualization.matplotlib.plot_optimization_history)]
         if importances(result):
