@@ -121,7 +121,7 @@ def low_speed(vehicle: VehicleParams, speed_m_s: float = 0.005) -> None:
             controller_vehicle=vehicle,
             reference=ref,
             pose_controller=FeedForwardPoseController(),
-            wheel_controller=PIWheelController(vehicle, gains, coulomb_feedforward=True),
+            wheel_controller=PIWheelController(vehicle, gains),
             wheel_speed=wheel_speed,
         ).log
         t = log["t_s"]

@@ -158,7 +158,7 @@ def test_converges_from_an_offset_start(
         controller_vehicle=vehicle,
         reference=ref,
         pose_controller=cls(vehicle),  # type: ignore[call-arg]
-        wheel_controller=PIWheelController(vehicle, gains, coulomb_feedforward=True),
+        wheel_controller=PIWheelController(vehicle, gains),
         initial_pose=(start.x_m, start.y_m + 0.05, start.theta_rad + math.radians(5.0)),
         settle_s=1.0,
     )

@@ -236,7 +236,7 @@ def test_encoder_speeds_do_not_make_the_wheels_stick_slip_at_low_speed(vehicle, 
         controller_vehicle=vehicle,
         reference=ref,
         pose_controller=FeedForwardPoseController(),
-        wheel_controller=PIWheelController(vehicle, gains, coulomb_feedforward=True),
+        wheel_controller=PIWheelController(vehicle, gains),
         wheel_speed=wheel_speed,
     ).log
     cruise = (log["t_s"] > 2.0) & (log["t_s"] < ref.duration_s - 2.0)

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from scipy.signal import lfilter
 
 from agvctl.actuator import Actuator
-from agvctl.controllers.pi.wheel_loop import PIGains, PISpeedLoop, PIWheelController
+from agvctl.controllers.pi.wheel_loop import PIGains, PISpeedLoop, PIWheelController, WheelLoopOptions
 from agvctl.params import load_vehicle
 from agvctl.sim.wheel_step import step_metrics, wheel_step_response
 
@@ -22,6 +22,7 @@ K_E, K_T, R, TAU_C, I_MAX, K_POW = 0.027, 0.027, 0.38, 0.065, 5.5, 2.0
 T_S = 0.04
 OMEGA_STEP = 0.3 * 36.0 / 0.10  # 0.3 m/s wheel speed, N = 36, r = 0.1 m
 GAINS = PIGains(kp=0.06, ki=0.7, dt_s=T_S)  # close to the tuned gains; fixed here so these tests stand alone
+PLAIN_PI = WheelLoopOptions(coulomb_feedforward=False)  # the PI law alone, no friction feed-forward
 
 
 def test_num_den_is_the_documented_backward_euler_pi():
@@ -36,7 +37,15 @@ def test_num_den_is_the_documented_backward_euler_pi():
 
 def test_unsaturated_loop_is_the_filter_num_den(vehicle):
     """Without active limits the loop's voltage sequence is C(z) applied to the error sequence."""
-    loop = PISpeedLoop(GAINS, vehicle.motor.left, current_limit_a=1e9, voltage_min_v=-1e9, voltage_max_v=1e9)
+    loop = PISpeedLoop(
+        GAINS,
+        vehicle.motor.left,
+        current_limit_a=1e9,
+        voltage_min_v=-1e9,
+        voltage_max_v=1e9,
+        coulomb_feedforward=False,
+        anti_windup=True,
+    )
     rng = np.random.default_rng(4)
     errors = rng.normal(0.0, 5.0, 50)
     u = [loop.update(float(e), 0.0) for e in errors]
@@ -46,7 +55,7 @@ def test_unsaturated_loop_is_the_filter_num_den(vehicle):
 
 
 def test_wheel_controller_outputs_da_volts(vehicle):
-    ctrl = PIWheelController(vehicle, GAINS)
+    ctrl = PIWheelController(vehicle, GAINS, PLAIN_PI)
     da = ctrl.update(np.array([10.0, -10.0]), np.array([9.0, -9.0]))
     # one sample: u = (kp + ki T) e, e = ±1 rad/s; the DA command is u / k_pow
     assert da.shape == (2,)
@@ -66,7 +75,7 @@ def test_predicted_current_never_commands_past_the_limit(setpoint, measured, int
     """After the DA's rounding and the amplifier, (u − k_e ω)/R stays within ±I_max (eq 1), and the DA code is
     in range, for any setpoint, measured speed (up to the no-load speed at full DA) and integrator state."""
     vehicle = _VEHICLE
-    ctrl = PIWheelController(vehicle, GAINS, coulomb_feedforward=feedforward)
+    ctrl = PIWheelController(vehicle, GAINS, WheelLoopOptions(coulomb_feedforward=feedforward))
     for loop in ctrl.loops:
         loop.integrator_v = integrator
     da = ctrl.update(np.array([setpoint, -setpoint]), np.array([measured, -measured]))
@@ -92,8 +101,8 @@ def test_per_side_motor_constants():
 
 def test_coulomb_feedforward_value():
     v = _VEHICLE
-    on = PIWheelController(v, GAINS, coulomb_feedforward=True).loops[0]
-    off = PIWheelController(v, GAINS).loops[0]
+    on = PIWheelController(v, GAINS).loops[0]  # on by default
+    off = PIWheelController(v, GAINS, PLAIN_PI).loops[0]
     u_ff = TAU_C * R / K_T  # 0.9148 V balances the Coulomb torque at standstill (eq 1)
     assert on.feedforward_v(10.0) == pytest.approx(u_ff)
     assert on.feedforward_v(-10.0) == pytest.approx(-u_ff)
@@ -107,8 +116,10 @@ def test_coulomb_feedforward_value():
 
 def test_anti_windup_cuts_the_overshoot_of_a_saturating_step(vehicle):
     """The 0.3 m/s step drives the current limit (R I_max = 2.09 V < k_p e = 6.5 V at the start)."""
-    with_aw = wheel_step_response(vehicle, GAINS)
-    without = wheel_step_response(vehicle, GAINS, anti_windup=False)
+    with_aw = wheel_step_response(vehicle, GAINS, options=PLAIN_PI)
+    without = wheel_step_response(
+        vehicle, GAINS, options=WheelLoopOptions(coulomb_feedforward=False, anti_windup=False)
+    )
     assert np.max(with_aw.current_peak_a) == pytest.approx(I_MAX, rel=1e-3)  # it really saturated
     assert without.metrics.overshoot_pct > 20.0
     assert with_aw.metrics.overshoot_pct < 2.0
@@ -136,7 +147,7 @@ def test_integrator_removes_the_coulomb_offset(vehicle):
     """Steady state of eq 1 with Coulomb friction: k_t/R (u − k_e ω) = τ_c. A P controller u = k_p (ω_ref − ω)
     settles at ω = (k_p ω_ref − R τ_c/k_t)/(k_p + k_e); the PI's integrator removes that error."""
     kp = GAINS.kp
-    p_only = wheel_step_response(vehicle, PIGains(kp=kp, ki=0.0, dt_s=T_S))
+    p_only = wheel_step_response(vehicle, PIGains(kp=kp, ki=0.0, dt_s=T_S), options=PLAIN_PI)
     omega_p = (kp * OMEGA_STEP - R * TAU_C / K_T) / (kp + K_E)
     expected_pct = (1 - omega_p / OMEGA_STEP) * 100  # about 41 %
     assert p_only.metrics.steady_state_error_pct == pytest.approx(expected_pct, abs=0.5)
@@ -149,13 +160,13 @@ def test_feedforward_cancels_coulomb_friction(vehicle):
     """With the feed-forward a P controller's offset is only that of the back-EMF: ω = k_p ω_ref/(k_p + k_e);
     with the PI the integrator settles lower by exactly τ_c R/k_t."""
     kp = GAINS.kp
-    p_ff = wheel_step_response(vehicle, PIGains(kp=kp, ki=0.0, dt_s=T_S), coulomb_feedforward=True)
+    p_ff = wheel_step_response(vehicle, PIGains(kp=kp, ki=0.0, dt_s=T_S))  # the feed-forward is on by default
     expected_pct = K_E / (kp + K_E) * 100
     assert p_ff.metrics.steady_state_error_pct == pytest.approx(expected_pct, abs=0.5)
 
     integrators = {}
     for ff in (False, True):
-        ctrl = PIWheelController(vehicle, GAINS, coulomb_feedforward=ff)
+        ctrl = PIWheelController(vehicle, GAINS, WheelLoopOptions(coulomb_feedforward=ff))
         res = wheel_step_response(vehicle, controller=ctrl)
         assert res.metrics.steady_state_error_pct < 0.2
         integrators[ff] = ctrl.loops[0].integrator_v
@@ -181,7 +192,7 @@ def test_when_both_wheels_ask_past_the_current_limit_their_difference_is_kept(ve
     setpoint, measured = sign * np.array([40.0, 38.0]), np.array([0.0, 0.0])
 
     def currents(steering_priority: bool) -> tuple[np.ndarray, np.ndarray]:
-        ctrl = PIWheelController(vehicle, GAINS, steering_priority=steering_priority)
+        ctrl = PIWheelController(vehicle, GAINS, WheelLoopOptions(steering_priority=steering_priority))
         loops = zip(ctrl.loops, setpoint, measured, strict=True)
         asked = np.array([loop.demand(s, m).voltage_v for loop, s, m in loops])
         volts = ctrl.motor_voltages_v(setpoint, measured)
@@ -209,7 +220,14 @@ def test_a_wheel_at_rest_is_released_to_stiction_until_it_is_asked_to_move(vehic
     its break-away: at rest the loop releases the wheel, whatever its speed estimate wanders, and resumes from its
     integrator when the setpoint leaves zero."""
     loop = PISpeedLoop(
-        GAINS, vehicle.motor.left, current_limit_a=I_MAX, voltage_min_v=-10.0, voltage_max_v=10.0, standstill_rad_s=0.1
+        GAINS,
+        vehicle.motor.left,
+        current_limit_a=I_MAX,
+        voltage_min_v=-10.0,
+        voltage_max_v=10.0,
+        standstill_rad_s=0.1,
+        coulomb_feedforward=False,
+        anti_windup=True,
     )
     for _ in range(20):  # driving, then braking to a stop: the integrator holds what friction needed
         loop.update(5.0, 4.0)

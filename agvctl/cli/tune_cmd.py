@@ -22,6 +22,7 @@ from agvctl.controllers.pi.tuning import (
     TuningSpec,
     design_pi,
 )
+from agvctl.controllers.pi.wheel_loop import WheelLoopOptions
 from agvctl.errors import ConfigError
 from agvctl.fileio import atomic_open, write_text
 from agvctl.params import load_vehicle
@@ -37,6 +38,9 @@ _FLAGS = {
     "gain_margin_db": "--gain-margin",
     "crossover_rad_s": "--bandwidth",
 }
+
+_LOOPS = WheelLoopOptions()
+"""The wheel loops' defaults: the design is verified with them unless ``--[no-]coulomb-feedforward`` says."""
 
 
 TUNING_PLOTS = ("bode.png", "nyquist.png", "step.png")
@@ -67,8 +71,11 @@ def register(sub: Any) -> None:
     )
     p.add_argument(
         "--coulomb-feedforward",
-        action="store_true",
-        help="verify (and save) with the Coulomb-friction feed-forward tau_c R/k_t sign(setpoint)",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="verify (and record in the gains file) with or without the Coulomb-friction feed-forward "
+        f"tau_c R/k_t sign(setpoint) (default: {'with' if _LOOPS.coulomb_feedforward else 'without'}, as the wheel "
+        "loops' default)",
     )
     p.add_argument("--json", action="store_true", help="print the gains, margins and step figures as JSON")
     p.add_argument("--out", metavar="FILE", help="write the gains file (with --pose: the settings file)")
@@ -127,9 +134,10 @@ def run(args: argparse.Namespace) -> int:
         if exc.source != SPEC_SOURCE:
             raise
         raise ConfigError(_FLAGS.get(exc.key, exc.key), "", exc.problem) from None
-    step = wheel_step_response(
-        vehicle, design.gains, wheel_speed_step_m_s=STEP_M_S, coulomb_feedforward=args.coulomb_feedforward
+    options = (
+        _LOOPS if args.coulomb_feedforward is None else WheelLoopOptions(coulomb_feedforward=args.coulomb_feedforward)
     )
+    step = wheel_step_response(vehicle, design.gains, wheel_speed_step_m_s=STEP_M_S, options=options)
     data = summary(design, step)
 
     # render everything before writing anything: no half-written output on error
@@ -139,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
         m = design.margins
         gains_text = gains_toml(
             design.gains,
-            coulomb_feedforward=args.coulomb_feedforward,
+            coulomb_feedforward=options.coulomb_feedforward,
             header=f"PI wheel-speed gains from `agvctl tune` for {vehicle.name}\n"
             f"C(z) = ((kp + ki dt_s) z - kp) / (z - 1), motor-speed error (rad/s) -> motor voltage (V)\n"
             f"margins: GM {m.gain_margin_db:.3f} dB, PM {m.phase_margin_deg:.3f} deg, "
@@ -172,7 +180,7 @@ def run(args: argparse.Namespace) -> int:
         f"{math.pi / g.dt_s:.2f}), PM {m.phase_margin_deg:.2f}° at crossover {m.crossover_rad_s:.3f} rad/s"
     )
     print(f"                   (sampled loop: ZOH plant of eqs 60-61, chain gain {design.chain_gain:g} V/V)")
-    ff = ", Coulomb feed-forward" if args.coulomb_feedforward else ""
+    ff = ", Coulomb feed-forward" if options.coulomb_feedforward else ""
     print(
         f"  step             {STEP_M_S:g} m/s = {step.setpoint_rad_s[0]:.1f} rad/s motor, "
         f"full nonlinear plant, DA + amplifier{ff}:"

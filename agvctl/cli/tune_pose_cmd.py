@@ -114,7 +114,7 @@ def check_mode(args: argparse.Namespace) -> None:
         if given:
             raise ConfigError(f"--{given[0].replace('_', '-')}", "", "only with --pose FUZZ.toml")
     else:
-        given = [k for k in pi_only if getattr(args, k)]
+        given = [k for k in pi_only if getattr(args, k) not in (None, False, [], "")]
         if given:
             flag = "--set" if given[0] == "overrides" else f"--{given[0].replace('_', '-')}"
             raise ConfigError(flag, "", "belongs to the PI design; not with --pose (the fuzz file names the vehicle)")

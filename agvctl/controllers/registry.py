@@ -38,7 +38,7 @@ from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.nonlinear import NonlinearMpcController
 from agvctl.controllers.pi.gains_file import load_gains
 from agvctl.controllers.pi.tuning import WheelLoopDesign, closed_loop_time_constant_s, default_pi_gains
-from agvctl.controllers.pi.wheel_loop import PIWheelController
+from agvctl.controllers.pi.wheel_loop import PIWheelController, WheelLoopOptions
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 
@@ -169,35 +169,19 @@ class WheelLoops:
 
     design: WheelLoopDesign
     """The gains and the time constant of the first-order lag that best fits their closed loop."""
-    coulomb_feedforward: bool
-    """Whether the loops add the Coulomb-friction feed-forward."""
-    symmetric_braking: bool
-    """Whether the braking current is always limited to decelerate no harder than a_lim."""
-    gentle_stop: bool
-    """Whether it is limited so only when a wheel is brought to a stop."""
-    steering_priority: bool = True
-    """Whether, when both loops ask past the current limit the same way, the difference they ask is kept."""
+    options: WheelLoopOptions = WheelLoopOptions()
+    """The loops' choices."""
 
     def controller(self, vehicle: VehicleParams) -> PIWheelController:
         """The wheel-speed controller on ``vehicle`` (the controller's model)."""
-        return PIWheelController(
-            vehicle,
-            self.design.gains,
-            coulomb_feedforward=self.coulomb_feedforward,
-            symmetric_braking=self.symmetric_braking,
-            gentle_stop=self.gentle_stop,
-            steering_priority=self.steering_priority,
-        )
+        return PIWheelController(vehicle, self.design.gains, self.options)
 
 
 def design_wheel_loops(
     vehicle: VehicleParams,
     gains_path: Path | None,
+    options: WheelLoopOptions | None = None,
     *,
-    coulomb_feedforward: bool,
-    symmetric_braking: bool,
-    gentle_stop: bool,
-    steering_priority: bool = True,
     source: str,
 ) -> WheelLoops:
     """An experiment's wheel loops: from a gains file, or designed for the default spec.
@@ -208,14 +192,9 @@ def design_wheel_loops(
         The controller's vehicle.
     gains_path : Path or None
         A gains file written by ``agvctl tune --out`` (None: design the gains for the default spec).
-    coulomb_feedforward : bool
-        Add the Coulomb-friction feed-forward (a gains file's own setting adds to it).
-    symmetric_braking : bool
-        Always limit the braking current so as to decelerate no harder than a_lim.
-    gentle_stop : bool
-        Limit it so only when a wheel is brought to a stop.
-    steering_priority : bool
-        When both loops ask past the current limit the same way, keep the difference they ask.
+    options : WheelLoopOptions or None
+        The loops' choices (None: their defaults). A gains file that records the feed-forward its gains were
+        verified with must agree with them.
     source : str
         The experiment file, as errors name it.
 
@@ -227,12 +206,12 @@ def design_wheel_loops(
     Raises
     ------
     ConfigError
-        A gains file that is missing, malformed, or designed for another sample period.
+        A gains file that is missing, malformed, designed for another sample period, or verified with another
+        feed-forward setting than ``options``.
     """
+    options = WheelLoopOptions() if options is None else options
     if gains_path is None:
-        return WheelLoops(
-            default_pi_gains(vehicle), coulomb_feedforward, symmetric_braking, gentle_stop, steering_priority
-        )
+        return WheelLoops(default_pi_gains(vehicle), options)
     if not gains_path.exists():
         raise ConfigError(source, "controller.pi_gains", f"file not found: {gains_path}")
     settings = load_gains(gains_path)
@@ -242,10 +221,16 @@ def design_wheel_loops(
             "pi.dt_s",
             f"gains designed for {settings.dt_s:g} s, the vehicle samples every {vehicle.control.sample_period_s:g} s",
         )
+    recorded = settings.coulomb_feedforward
+    if recorded is not None and recorded != options.coulomb_feedforward:
+        raise ConfigError(
+            str(gains_path),
+            "pi.coulomb_feedforward",
+            f"the gains were verified with coulomb_feedforward = {str(recorded).lower()}, the experiment's "
+            f"controller.coulomb_feedforward is {str(options.coulomb_feedforward).lower()}: make them agree",
+        )
     design = WheelLoopDesign(settings.gains, closed_loop_time_constant_s(vehicle, settings.gains))
-    return WheelLoops(
-        design, settings.coulomb_feedforward or coulomb_feedforward, symmetric_braking, gentle_stop, steering_priority
-    )
+    return WheelLoops(design, options)
 
 
 @document_fields

@@ -29,7 +29,6 @@ heading_max_deg = 5.0
 "body.mass_kg" = [-0.10, 0.30]
 
 [controller]                        # more keys for every run's [controller] table (pose comes from controllers)
-coulomb_feedforward = true
 
 [estimators]                        # optional: each scenario draws one of each list (uniformly)
 localization = ["ekf"]              # pose estimators (names or references)

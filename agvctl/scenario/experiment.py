@@ -201,10 +201,7 @@ def experiment_from_spec(spec: ExperimentSpec, *, vehicle_overrides: Sequence[st
     wheel_loops = design_wheel_loops(
         controller_vehicle,
         None if c.pi_gains is None else spec.resolve(c.pi_gains),
-        coulomb_feedforward=c.coulomb_feedforward,
-        symmetric_braking=c.symmetric_braking,
-        gentle_stop=c.gentle_stop,
-        steering_priority=c.steering_priority,
+        c.wheel_loop_options,
         source=src,
     )
     kind = pose_controllers.resolve(c.pose, source=src, key="controller.pose", base_dir=spec.base_dir)

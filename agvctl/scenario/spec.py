@@ -26,6 +26,7 @@ from agvctl.config import (
     to_dict,
 )
 from agvctl.config.references import Registry
+from agvctl.controllers.pi.wheel_loop import Braking, WheelLoopOptions
 from agvctl.controllers.registry import POSE_CONTROLLERS, pose_controllers, wheel_loops
 from agvctl.errors import ConfigError
 from agvctl.estimation.registry import pose_estimators, wheel_speed_estimators
@@ -35,6 +36,12 @@ from agvctl.scenario.pose_settings import load_pose_settings, merged_settings
 from agvctl.sim.loop import MAX_INITIAL_POSE, ComputeDelay
 
 __all__ = ["ControllerSpec", "ExperimentSpec", "PlantSpec", "RobustnessSpec", "Spread"]
+
+_LOOPS = WheelLoopOptions()
+"""The wheel loops' defaults, which the ``[controller]`` keys for them take."""
+
+BrakingName = Literal["full", "symmetric", "gentle_stop"]
+"""The names of :class:`~agvctl.controllers.pi.wheel_loop.Braking`'s values, as files give them."""
 
 
 @document_fields
@@ -156,15 +163,15 @@ class ControllerSpec:
     the PI loops below)."""
     pi_gains: str | None = None
     """A gains file written by ``agvctl tune --out`` (relative to the experiment); None: tuned on the fly."""
-    coulomb_feedforward: bool = True
-    """Add the Coulomb-friction voltage τ_c R/k_t to the PI output (ramped in near zero speed). On by default: the
-    wheels then answer small setpoints instead of sitting in the friction until the integrator winds up
-    (``docs/decisions/0009-pi-wheel-loops.md``)."""
-    symmetric_braking: bool = False
-    """Limit the braking current so that friction-assisted braking decelerates no harder than a_lim."""
-    gentle_stop: bool = False
-    """Limit the braking current only in the last sample before a wheel stops."""
-    steering_priority: bool = True
+    coulomb_feedforward: bool = _LOOPS.coulomb_feedforward
+    """Add the Coulomb-friction voltage τ_c R/k_t to the PI output (ramped in near zero speed): the wheels then
+    answer small setpoints instead of sitting in the friction until the integrator winds up
+    (:attr:`~agvctl.controllers.pi.wheel_loop.WheelLoopOptions.coulomb_feedforward`)."""
+    braking: BrakingName = _LOOPS.braking.value
+    """How hard the PI loops may brake a wheel: ``"full"`` (the current limit), ``"symmetric"`` (always no harder
+    than a_lim, eq 5, friction helping) or ``"gentle_stop"`` (so only in the last sample before a wheel stops;
+    for paths that stop wheels to reverse them) (:class:`~agvctl.controllers.pi.wheel_loop.Braking`)."""
+    steering_priority: bool = _LOOPS.steering_priority
     """When both wheel loops ask for more current than the amplifier gives, the same way, keep the difference of
     the currents they ask (the torque that steers) and give up speed instead
     (``docs/decisions/0026-steering-priority.md``)."""
@@ -176,6 +183,15 @@ class ControllerSpec:
     """A user's pose estimator's settings (``[controller.localization_settings]``), validated once."""
     wheel_speed_settings: Any = dataclasses.field(default=None, metadata={"derived": True})
     """A user's wheel-speed estimator's settings (``[controller.wheel_speed_settings]``), validated once."""
+
+    @property
+    def wheel_loop_options(self) -> WheelLoopOptions:
+        """The PI wheel loops' options this table sets (the others at their defaults)."""
+        return WheelLoopOptions(
+            coulomb_feedforward=self.coulomb_feedforward,
+            braking=Braking(self.braking),
+            steering_priority=self.steering_priority,
+        )
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -191,6 +207,9 @@ class ControllerSpec:
 
         ``base_dir`` is what file references are relative to (default: the folder of ``source``)."""
         own = [f.name for f in dataclasses.fields(cls) if not f.metadata.get("derived")]
+        for old in ("symmetric_braking", "gentle_stop"):
+            if old in data:
+                raise ConfigError(source, join_key(prefix, old), 'replaced by braking = "symmetric" or "gentle_stop"')
         settings_keys = [f"{key}_settings" for key in _PARTS]
         base: ControllerSpec = build_fields(
             cls, {k: v for k, v in data.items() if k in own}, source=source, prefix=prefix

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from agvctl.config import document_fields
 from agvctl.controllers.base import WheelSpeedController
-from agvctl.controllers.pi.wheel_loop import PIGains, PIWheelController
+from agvctl.controllers.pi.wheel_loop import PIGains, PIWheelController, WheelLoopOptions
 from agvctl.log import SimLog
 from agvctl.params import SIDES, VehicleParams
 from agvctl.sim.stepper import PlantStepper
@@ -152,8 +152,7 @@ def wheel_step_response(
     controller: WheelSpeedController | None = None,
     wheel_speed_step_m_s: float = 0.3,
     duration_s: float = 3.0,
-    coulomb_feedforward: bool = False,
-    anti_windup: bool = True,
+    options: WheelLoopOptions | None = None,
 ) -> WheelStepResult:
     """Step both wheels' rim-speed setpoints from rest on the full nonlinear plant.
 
@@ -167,15 +166,13 @@ def wheel_step_response(
         The gains of a :class:`~agvctl.controllers.pi.wheel_loop.PIWheelController`, when no ``controller`` is
         given.
     controller : WheelSpeedController or None
-        The wheel loops to step (None: a PI with ``gains``, ``coulomb_feedforward`` and ``anti_windup``).
+        The wheel loops to step (None: a PI with ``gains`` and ``options``).
     wheel_speed_step_m_s : float
         The step of both rim speeds, finite and not zero, m/s.
     duration_s : float
         How long to simulate, s.
-    coulomb_feedforward : bool
-        The PI's Coulomb-friction feed-forward.
-    anti_windup : bool
-        The PI's anti-windup.
+    options : WheelLoopOptions or None
+        The PI's options, when no ``controller`` is given (None: their defaults).
 
     Returns
     -------
@@ -190,7 +187,7 @@ def wheel_step_response(
     if controller is None:
         if gains is None:
             raise ValueError("wheel_step_response: give gains or a controller")
-        controller = PIWheelController(vehicle, gains, coulomb_feedforward=coulomb_feedforward, anti_windup=anti_windup)
+        controller = PIWheelController(vehicle, gains, options)
     if not (math.isfinite(wheel_speed_step_m_s) and wheel_speed_step_m_s != 0.0):
         raise ValueError(f"wheel_speed_step_m_s must be finite and non-zero (got {wheel_speed_step_m_s})")
     ts = vehicle.control.sample_period_s

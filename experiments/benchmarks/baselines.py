@@ -64,7 +64,6 @@ set = { "wheels.right.radius_m" = %r }
 initial_pose = { x_m = 0.0, y_m = -0.03, theta_deg = 2.0 }
 [controller]
 pose = "mpc"
-coulomb_feedforward = true
 """
 
 

@@ -80,7 +80,7 @@ def main() -> int:
             controller_vehicle=vehicle,
             reference=reference,
             pose_controller=pose,
-            wheel_controller=PIWheelController(vehicle, gains, coulomb_feedforward=True),
+            wheel_controller=PIWheelController(vehicle, gains),
             settle_s=settle,
         )
         return result.wall_time_s, closed_loop_metrics(result)

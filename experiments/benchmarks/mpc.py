@@ -65,7 +65,7 @@ def closed_loop(controller: PoseController, reference: Reference, vehicle: Vehic
         controller_vehicle=vehicle,
         reference=reference,
         pose_controller=controller,
-        wheel_controller=PIWheelController(vehicle, design.gains, coulomb_feedforward=True),
+        wheel_controller=PIWheelController(vehicle, design.gains),
         settle_s=SETTLE_S,
     )
     log = result.log

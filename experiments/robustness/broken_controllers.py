@@ -196,13 +196,7 @@ def _default(e: Experiment, **settings: Any) -> PoseController:
 def _gains_x4(e: Experiment) -> WheelSpeedController:
     loops = e.wheel_loops
     gains = dataclasses.replace(loops.design.gains, kp=4 * loops.design.gains.kp, ki=4 * loops.design.gains.ki)
-    return PIWheelController(
-        e.controller_vehicle,
-        gains,
-        coulomb_feedforward=loops.coulomb_feedforward,
-        symmetric_braking=loops.symmetric_braking,
-        gentle_stop=loops.gentle_stop,
-    )
+    return PIWheelController(e.controller_vehicle, gains, loops.options)
 
 
 FAULTS: dict[str, Callable[[Experiment], Controllers]] = {

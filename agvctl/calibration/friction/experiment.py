@@ -17,15 +17,19 @@ from agvctl.actuator import Actuator
 from agvctl.calibration.friction.log import FrictionLog
 from agvctl.config import document_fields
 from agvctl.controllers.pi.tuning import design_pi
-from agvctl.controllers.pi.wheel_loop import PIWheelController
+from agvctl.controllers.pi.wheel_loop import PIWheelController, WheelLoopOptions
 from agvctl.params import VehicleParams
 from agvctl.sim.stepper import PlantStepper
 
-__all__ = ["SPEED_NOISE_RAD_S", "FrictionExperiment", "simulate_friction_experiment"]
+__all__ = ["FRICTION_WHEEL_LOOPS", "SPEED_NOISE_RAD_S", "FrictionExperiment", "simulate_friction_experiment"]
 
 SPEED_NOISE_RAD_S = 0.5
 """Standard deviation of the simulated motor-speed measurement noise at ``noise_scale = 1`` (rad/s; 0.15 % of
 the top motor speed, about 1.4 mm/s at the rim)."""
+
+FRICTION_WHEEL_LOOPS = WheelLoopOptions(coulomb_feedforward=False)
+"""The loops that hold the speed plateaus: no friction feed-forward, so the friction being identified reaches the
+measured current through the loops alone, not through the model's own guess of it."""
 
 
 @document_fields
@@ -176,7 +180,7 @@ def simulate_friction_experiment(
     bench = _Bench(plant_vehicle, noise_scale * SPEED_NOISE_RAD_S, np.random.default_rng(seed))
     ts = bench.sample_period_s
     rows = _Rows(ts)
-    pi = PIWheelController(controller_vehicle, design_pi(controller_vehicle).gains)
+    pi = PIWheelController(controller_vehicle, design_pi(controller_vehicle).gains, FRICTION_WHEEL_LOOPS)
     zero = np.zeros(2)
 
     def hold(setpoint: NDArray[np.float64]) -> Controller:

@@ -13,20 +13,32 @@ from agvctl.calibration.umbmark.model import Method, UmbmarkCorrection, e_max_sy
 from agvctl.config import document_fields
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.ltv import LtvMpcController
-from agvctl.controllers.pi.wheel_loop import PIWheelController
+from agvctl.controllers.pi.wheel_loop import Braking, PIWheelController, WheelLoopOptions
 from agvctl.controllers.registry import default_pi_gains
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 from agvctl.planning import LineSegment, TurnSegment, WheelLimits, plan_segments
 from agvctl.sim.loop import run_closed_loop
 
-__all__ = ["POSITION_NOISE_M", "Direction", "UmbmarkConfig", "UmbmarkResult", "drive_square", "simulate_umbmark"]
+__all__ = [
+    "POSITION_NOISE_M",
+    "UMBMARK_WHEEL_LOOPS",
+    "Direction",
+    "UmbmarkConfig",
+    "UmbmarkResult",
+    "drive_square",
+    "simulate_umbmark",
+]
 
 Direction = Literal["cw", "ccw"]
 
 POSITION_NOISE_M = 0.003
 """Standard deviation, per axis, of a measured end position at ``noise_scale = 1`` (m): marking the vehicle's
 reference point on the floor and measuring it with a tape."""
+
+UMBMARK_WHEEL_LOOPS = WheelLoopOptions(braking=Braking.GENTLE_STOP)
+"""The wheel loops that drive the square: each corner is a turn in place, which stops a wheel to reverse it, so the
+loops brake gently in the last sample before a wheel stops (as ``experiments/square.toml``)."""
 
 
 MAX_SIDE_LENGTH_M = 100.0
@@ -118,7 +130,7 @@ def drive_square(
     )
     gains, loop_tau_s = default_pi_gains(controller_vehicle)
     mpc = LtvMpcController(controller_vehicle, MpcConfig(wheel_loop_time_constant_s=loop_tau_s))
-    wheels = PIWheelController(controller_vehicle, gains, coulomb_feedforward=True, gentle_stop=True)
+    wheels = PIWheelController(controller_vehicle, gains, UMBMARK_WHEEL_LOOPS)
     result = run_closed_loop(
         plant_vehicle=plant_vehicle,
         controller_vehicle=controller_vehicle,

@@ -8,15 +8,17 @@
 
 from agvctl.controllers.pi.gains_file import PISettings, gains_toml, load_gains
 from agvctl.controllers.pi.tuning import LoopMargins, TuningResult, TuningSpec, default_pi_gains, design_pi
-from agvctl.controllers.pi.wheel_loop import PIGains, PIWheelController
+from agvctl.controllers.pi.wheel_loop import Braking, PIGains, PIWheelController, WheelLoopOptions
 
 __all__ = [
+    "Braking",
     "LoopMargins",
     "PIGains",
     "PISettings",
     "PIWheelController",
     "TuningResult",
     "TuningSpec",
+    "WheelLoopOptions",
     "default_pi_gains",
     "design_pi",
     "gains_toml",

@@ -21,8 +21,9 @@ class PISettings:
     kp_v_s_rad: float = number(ge=0, doc="k_p, V s/rad.")
     ki_v_rad: float = number(ge=0, doc="k_i, V/rad.")
     dt_s: float = number(gt=0, doc="The sample period the gains were designed for, s.")
-    coulomb_feedforward: bool = False
-    """Whether the loops add the Coulomb-friction feed-forward."""
+    coulomb_feedforward: bool | None = None
+    """Whether the gains were verified with the Coulomb-friction feed-forward (None: not recorded). An experiment
+    that reads the file must use the same (its ``[controller] coulomb_feedforward``)."""
 
     def validate(self, *, source: str, prefix: str) -> None:
         if self.kp_v_s_rad == 0 and self.ki_v_rad == 0:
@@ -67,15 +68,15 @@ def load_gains(path: str | Path) -> PISettings:
     return build(GainsFile, load_toml(path), source=str(path)).pi
 
 
-def gains_toml(gains: PIGains, *, coulomb_feedforward: bool = False, header: str = "") -> str:
+def gains_toml(gains: PIGains, *, coulomb_feedforward: bool | None = None, header: str = "") -> str:
     """The text of a gains file, read back by :func:`load_gains`.
 
     Parameters
     ----------
     gains : PIGains
         The gains.
-    coulomb_feedforward : bool
-        Whether the loops add the Coulomb-friction feed-forward.
+    coulomb_feedforward : bool or None
+        Whether the gains were verified with the Coulomb-friction feed-forward (None: not recorded).
     header : str
         Comment lines above the table (how the gains were found).
 
@@ -87,4 +88,5 @@ def gains_toml(gains: PIGains, *, coulomb_feedforward: bool = False, header: str
     settings = PISettings(
         kp_v_s_rad=gains.kp, ki_v_rad=gains.ki, dt_s=gains.dt_s, coulomb_feedforward=coulomb_feedforward
     )
-    return dump_toml({"pi": dataclasses.asdict(settings)}, header=header)
+    table = {k: v for k, v in dataclasses.asdict(settings).items() if v is not None}
+    return dump_toml({"pi": table}, header=header)

@@ -45,12 +45,16 @@ asking more gets its limit, the other the current it asked less the same excess,
 for (proportional to the difference of their speed errors, the steering error) survives the saturation. The wheel
 held below its own limit stops integrating as it would at that limit.
 
-Optional Coulomb-friction feed-forward: ``u_ff = τ_c R / k_t · sign(ω_ref)`` (the voltage that balances the
-Coulomb torque τ_c at standstill, eq 1 with the friction of eqs 2-4), off by default.
+Coulomb-friction feed-forward: ``u_ff = τ_c R / k_t · sign(ω_ref)`` (the voltage that balances the Coulomb torque
+τ_c at standstill, eq 1 with the friction of eqs 2-4), on by default (:class:`WheelLoopOptions`).
+
+Every choice the loops offer is one field of :class:`WheelLoopOptions`, with its one default: experiments, gains
+files, ``agvctl tune``, the calibration experiments and the Python constructors all read it from there.
 """
 
 from __future__ import annotations
 
+import enum
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -65,10 +69,12 @@ from agvctl.errors import expect_instance
 from agvctl.params import SIDES, MotorParams, Side, VehicleParams
 
 __all__ = [
+    "Braking",
     "LoopDemand",
     "PIGains",
     "PISpeedLoop",
     "PIWheelController",
+    "WheelLoopOptions",
 ]
 
 
@@ -107,6 +113,46 @@ class PIGains:
         return control.tf(
             list(self.num), list(self.den), self.dt_s, inputs="speed_error_rad_s", outputs="motor_voltage_v"
         )
+
+
+class Braking(enum.Enum):
+    """How hard the loops may brake a wheel (see :func:`symmetric_braking_current_a`)."""
+
+    FULL = "full"
+    """With the full current limit, as when accelerating."""
+    SYMMETRIC = "symmetric"
+    """Always with the current that, helped by friction, decelerates no harder than a_lim (eq 5)."""
+    GENTLE_STOP = "gentle_stop"
+    """With that current only in the last sample before a wheel stops; at speed with the full limit."""
+
+
+@document_fields
+@dataclass(frozen=True)
+class WheelLoopOptions:
+    """The choices of the PI wheel loops, each with its one default.
+
+    Every entry point that builds the loops (an experiment's ``[controller]``, :class:`PIWheelController`,
+    ``agvctl tune``'s verification, the calibration experiments) takes its options from here.
+    """
+
+    coulomb_feedforward: bool = True
+    """Add τ_c R/k_t to the PI output, ramped in over the last :data:`FEEDFORWARD_RAMP_RAD_S` to zero speed. On:
+    the wheels then answer small setpoints instead of sitting in the friction until the integrator winds up
+    (``docs/decisions/0009-pi-wheel-loops.md``)."""
+    anti_windup: bool = True
+    """Clamp the output to the window of predicted current ((u − k_e ω)/R within ±I_max) and the DA range, and stop
+    the integrator there."""
+    braking: Braking = Braking.FULL
+    """How hard the loops may brake a wheel."""
+    steering_priority: bool = True
+    """When both loops ask for more than their usable voltage the same way, the one asking more gets its limit and
+    the other the same current less: the difference of the currents they ask, the torque that turns the vehicle, is
+    kept and the speed gives way (``docs/decisions/0026-steering-priority.md``)."""
+
+    def __post_init__(self) -> None:
+        for name in ("coulomb_feedforward", "anti_windup", "steering_priority"):
+            expect_instance(getattr(self, name), bool, "WheelLoopOptions", name)
+        expect_instance(self.braking, Braking, "WheelLoopOptions", "braking")
 
 
 class LoopDemand(NamedTuple):
@@ -150,9 +196,10 @@ class PISpeedLoop:
     quantum_v : float
         One DA step in motor volts (k_pow·α), to keep the rounded command inside the current window, V.
     coulomb_feedforward : bool
-        Add the Coulomb-friction feed-forward τ_c R/k_t.
+        Add the Coulomb-friction feed-forward τ_c R/k_t (:attr:`WheelLoopOptions.coulomb_feedforward`).
     anti_windup : bool
-        Clamp the output to the current window and the DA range, and stop the integrator there.
+        Clamp the output to the current window and the DA range, and stop the integrator there
+        (:attr:`WheelLoopOptions.anti_windup`).
     braking_current_limit_a : float or None
         The largest current opposing the motion (None: ``current_limit_a``), A.
     braking_limit_below_rad_s : float
@@ -176,8 +223,8 @@ class PISpeedLoop:
         voltage_min_v: float,
         voltage_max_v: float,
         quantum_v: float = 0.0,
-        coulomb_feedforward: bool = False,
-        anti_windup: bool = True,
+        coulomb_feedforward: bool,
+        anti_windup: bool,
         braking_current_limit_a: float | None = None,
         braking_limit_below_rad_s: float = math.inf,
         standstill_rad_s: float = 0.0,
@@ -294,8 +341,8 @@ def symmetric_braking_current_a(vehicle: VehicleParams, side: Side) -> float:
     helps: k_t I_b + τ_c decelerates the wheel's equivalent inertia J̃ (eq 60) at a_lim for the I_b above
     (0.50 A for the IAU AGV, against 5.5 A). Full braking current near a stop would decelerate a wheel at
     (k_t I_max + τ_c)/J̃ ≈ 2.7 a_lim, notably when a wheel is stopped to reverse (spin in place after a line).
-    :class:`PIWheelController` applies it always (``symmetric_braking``) or only in the last sample before a
-    wheel stops (``gentle_stop``), so that braking at speed keeps its full authority.
+    :class:`PIWheelController` applies it always (:attr:`Braking.SYMMETRIC`) or only in the last sample before a
+    wheel stops (:attr:`Braking.GENTLE_STOP`), so that braking at speed keeps its full authority.
     """
     m = vehicle.motor.side(side)
     j_eq = vehicle.derived.side(side).inertia_equivalent_kg_m2
@@ -324,19 +371,8 @@ class PIWheelController:
     gains : PIGains
         k_p (V s/rad), k_i (V/rad) and the sample period (s) of both loops, from
         :func:`~agvctl.controllers.pi.tuning.design_pi`.
-    coulomb_feedforward : bool
-        Add τ_c R/k_t to the PI output, ramped in over the last 2 rad/s to zero speed.
-    anti_windup : bool
-        Clamp the output to the window of predicted current ((u − k_e ω)/R within ±I_max) and the DA range, and
-        stop the integrator there.
-    symmetric_braking : bool
-        Limit the braking current so that friction-assisted braking decelerates no harder than a_lim (eq 5).
-    gentle_stop : bool
-        The same braking limit, only at low speed, when a wheel is brought to a stop.
-    steering_priority : bool
-        When both loops ask for more than their usable voltage the same way (past the current limit, or the DA
-        range), the one asking more gets its limit and the other the same current less: the difference of the
-        currents they ask, the torque that turns the vehicle, is kept and the speed gives way (see the module notes).
+    options : WheelLoopOptions
+        The loops' choices (feed-forward, anti-windup, braking, steering priority); default: their defaults.
 
     Examples
     --------
@@ -346,22 +382,27 @@ class PIWheelController:
     >>> vehicle = load_vehicle()
     >>> loops = PIWheelController(vehicle, default_pi_gains(vehicle).gains)
     >>> loops.update(np.array([10.0, 10.0]), np.array([0.0, 0.0])).round(3)  # DA volts for a 10 rad/s step
-    array([0.442, 0.442])
+    array([0.899, 0.899])
+
+    of which the Coulomb feed-forward τ_c R/k_t, over the amplifier's gain, is
+
+    >>> motor = vehicle.motor.left
+    >>> feedforward_v = motor.coulomb_friction_n_m * motor.resistance_ohm / motor.torque_constant_n_m_a
+    >>> round(feedforward_v / vehicle.amplifier.gain, 3)
+    0.457
     """
 
     def __init__(
         self,
         vehicle: VehicleParams,
         gains: PIGains,
-        *,
-        coulomb_feedforward: bool = False,
-        anti_windup: bool = True,
-        symmetric_braking: bool = False,
-        gentle_stop: bool = False,
-        steering_priority: bool = True,
+        options: WheelLoopOptions | None = None,
     ) -> None:
         expect_instance(vehicle, VehicleParams, "PIWheelController", "vehicle")
         expect_instance(gains, PIGains, "PIWheelController", "gains")
+        options = WheelLoopOptions() if options is None else options
+        expect_instance(options, WheelLoopOptions, "PIWheelController", "options")
+        braking = options.braking
         act = Actuator(vehicle)
         self.amplifier_gain = act.gain
         u_max = vehicle.amplifier.voltage_limit_v
@@ -376,13 +417,13 @@ class PIWheelController:
                 voltage_min_v=v_min,
                 voltage_max_v=v_max,
                 quantum_v=act.gain * act.volts_per_code,
-                coulomb_feedforward=coulomb_feedforward,
-                anti_windup=anti_windup,
+                coulomb_feedforward=options.coulomb_feedforward,
+                anti_windup=options.anti_windup,
                 braking_current_limit_a=(
-                    symmetric_braking_current_a(vehicle, side) if symmetric_braking or gentle_stop else None
+                    None if braking is Braking.FULL else symmetric_braking_current_a(vehicle, side)
                 ),
                 braking_limit_below_rad_s=(
-                    math.inf if symmetric_braking or not gentle_stop else gentle_stop_speed_rad_s(vehicle, side)
+                    gentle_stop_speed_rad_s(vehicle, side) if braking is Braking.GENTLE_STOP else math.inf
                 ),
                 standstill_rad_s=2.0
                 * math.pi
@@ -392,7 +433,8 @@ class PIWheelController:
             for side in SIDES
         )
         self.gains = gains
-        self.steering_priority = steering_priority
+        self.options = options
+        self.steering_priority = options.steering_priority
 
     def reset(self) -> None:
         """Zero both integrators."""
