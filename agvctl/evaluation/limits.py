@@ -34,14 +34,18 @@ from stiction jumps for a few milliseconds whatever the controller does.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal
+
+import numpy as np
 
 from agvctl.config import check_fields, convert_value, did_you_mean, document_fields, join_key
 from agvctl.errors import ConfigError
 from agvctl.evaluation.metrics import METRICS, RunRecord, closed_loop_metrics
-from agvctl.evaluation.signals import Metric
+from agvctl.evaluation.requirements import PathParts, RequirementSpec, evaluate_requirement
+from agvctl.evaluation.signals import Metric, Reduction
+from agvctl.evaluation.stl import Comparison, Formula, Temporal
 from agvctl.feasibility import torque_accel_limit_m_s2
 from agvctl.log import SimLog
 from agvctl.params import VehicleParams
@@ -56,8 +60,14 @@ __all__ = [
     "all_passed",
     "default_limits",
     "evaluate_limits",
+    "evaluate_requirements",
     "format_limit_message",
+    "format_margin",
+    "format_requirement_message",
     "judge_run",
+    "limit_formula",
+    "normalised_margin",
+    "smallest_normalised_margin",
 ]
 
 
@@ -157,8 +167,47 @@ def _bounds(data: Mapping[str, Any], *, source: str, prefix: str) -> dict[str, f
     return bounds
 
 
+def format_margin(margin: float, unit: str, worst_time_s: float | None, window_s: tuple[float, float] | None) -> str:
+    """A verdict's margin, the time of its worst point and its window, as the messages end.
+
+    Parameters
+    ----------
+    margin : float
+        The signed margin (≥ 0: kept), in ``unit``.
+    unit : str
+        The unit as printed after a value (``" m"``).
+    worst_time_s : float or None
+        When it was decided, s.
+    window_s : tuple of float or None
+        The span of the run it looked at, s.
+
+    Returns
+    -------
+    str
+        ``"margin +0.0288 m at t = 12.40 s of [0.00, 30.00] s"``.
+
+    Examples
+    --------
+    >>> format_margin(-0.012, " m", 12.4, (0.0, 30.0))
+    'margin -0.012 m at t = 12.40 s of [0.00, 30.00] s'
+    """
+    text = f"margin {margin:+.6g}{unit}"
+    if worst_time_s is not None:
+        text += f" at t = {worst_time_s:.2f} s"
+    if window_s is not None and all(math.isfinite(w) for w in window_s):
+        text += f" of [{window_s[0]:.2f}, {window_s[1]:.2f}] s"
+    return text
+
+
 def format_limit_message(
-    limit: str, value: float, bound: float, passed: bool, worst_time_s: float | None, first_time_s: float | None
+    limit: str,
+    value: float,
+    bound: float,
+    passed: bool,
+    worst_time_s: float | None,
+    first_time_s: float | None,
+    margin: float | None = None,
+    window_s: tuple[float, float] | None = None,
 ) -> str:
     """A limit's result as one readable line, as ``run`` and ``check`` print it.
 
@@ -176,29 +225,85 @@ def format_limit_message(
         When the signal was worst, s.
     first_time_s : float or None
         When it first went past the bound, s.
+    margin : float or None
+        The signed margin ``bound − value`` (None: not given).
+    window_s : tuple of float or None
+        The span of the run the limit looked at, s.
 
     Returns
     -------
     str
         ``"tracking_error_max_m: 0.0012 m against the limit 0.03 m — ok"``; a violated limit ends in
-        ``— VIOLATED`` with the times.
+        ``— VIOLATED`` with the times; with a margin, it follows (:func:`format_margin`).
 
     Examples
     --------
     >>> print(format_limit_message("tracking_error_max_m", 0.042, 0.03, False, 12.4, 11.9))
     tracking_error_max_m: 0.042 m against the limit 0.03 m — VIOLATED, worst at t = 12.40 s,
     first exceeded at t = 11.90 s
+    >>> print(format_limit_message("tracking_error_max_m", 0.012, 0.03, True, 12.4, None, 0.018, (0.0, 30.0)))
+    tracking_error_max_m: 0.012 m against the limit 0.03 m — ok; margin +0.018 m at t = 12.40 s of [0.00, 30.00] s
     """
     unit = LIMITS[limit].unit if limit in LIMITS else ""
     text = f"{limit}: {value:.6g}{unit} against the limit {bound:.6g}{unit}"
     if passed:
-        return text + " — ok"
-    text += " — VIOLATED"
-    if worst_time_s is not None:
-        text += f", worst at t = {worst_time_s:.2f} s"
-    if first_time_s is not None:
-        text += f", first exceeded at t = {first_time_s:.2f} s"
+        text += " — ok"
+    else:
+        text += " — VIOLATED"
+        if worst_time_s is not None:
+            text += f", worst at t = {worst_time_s:.2f} s"
+        if first_time_s is not None:
+            text += f", first exceeded at t = {first_time_s:.2f} s"
+    if margin is not None and not math.isnan(margin):
+        text += "; " + format_margin(margin, unit, worst_time_s, window_s)
     return text
+
+
+def format_requirement_message(
+    name: str,
+    formula: str,
+    passed: bool,
+    margin: float,
+    unit: str,
+    worst_time_s: float | None,
+    window_s: tuple[float, float] | None,
+    note: str = "",
+) -> str:
+    """A requirement's verdict as one readable line.
+
+    Parameters
+    ----------
+    name : str
+        The requirement's name.
+    formula : str
+        Its formula.
+    passed : bool
+        Whether it was kept.
+    margin : float
+        Its signed margin, in ``unit``.
+    unit : str
+        The deciding signal's unit as printed.
+    worst_time_s : float or None
+        When it was decided, s.
+    window_s : tuple of float or None
+        The span of the run it looked at, s.
+    note : str
+        Why the margin is infinite or missing (empty: nothing to say).
+
+    Returns
+    -------
+    str
+        ``"dock_speed: always (...) — kept; margin +0.05 m/s at t = 9.12 s of [0.00, 20.00] s"``.
+
+    Examples
+    --------
+    >>> print(format_requirement_message("slow", "always speed_m_s <= 0.2", False, -0.01, " m/s", 3.0, (0.0, 9.0)))
+    slow: always speed_m_s <= 0.2 — BROKEN; margin -0.01 m/s at t = 3.00 s of [0.00, 9.00] s
+    """
+    text = f"{name}: {formula} — {'kept' if passed else 'BROKEN'}"
+    if not math.isnan(margin):
+        text += "; " + format_margin(margin, unit, worst_time_s, window_s)
+    return text + (f" ({note})" if note else "")
 
 
 @document_fields
@@ -222,18 +327,89 @@ class LimitResult:
     """True when the bound is a default of :func:`default_limits`, not set in the file."""
     reason: str = ""
     """Why a default bound is what it is (one line; empty for a bound set in the file)."""
+    margin: float = math.nan
+    """The signed margin, in the unit of the limit's name or the requirement's signal: ``bound − value`` for a
+    limit, the formula's robustness for a requirement (≥ 0: kept)."""
+    window_s: tuple[float, float] | None = None
+    """The span of the run the verdict looked at, s."""
+    kind: Literal["limit", "requirement"] = "limit"
+    """A ``[limits]`` key (or a default of the gate), or a requirement of ``[[requirements]]``."""
+    formula: str = ""
+    """The requirement's formula, or the limit's as one (``always abs(position_error_m) <= 0.03``) where it is
+    judged as one; empty for a limit on a whole-run number (an RMS, a share, a count, a percentile)."""
+    unit: str = ""
+    """The margin's unit as printed (``" m"``)."""
+    note: str = ""
+    """Why a requirement's margin is infinite or missing; empty otherwise."""
+
+    @property
+    def normalised_margin(self) -> float:
+        """The margin over the bound's magnitude (over 1 for a bound of 0): comparable between verdicts, −1 for a
+        value twice its bound."""
+        return normalised_margin(self.margin, self.bound)
 
     @property
     def message(self) -> str:
+        if self.kind == "requirement":
+            return format_requirement_message(
+                self.limit,
+                self.formula,
+                self.passed,
+                self.margin,
+                self.unit,
+                self.worst_time_s,
+                self.window_s,
+                self.note,
+            )
         text = format_limit_message(
-            self.limit, self.value, self.bound, self.passed, self.worst_time_s, self.first_time_s
+            self.limit,
+            self.value,
+            self.bound,
+            self.passed,
+            self.worst_time_s,
+            self.first_time_s,
+            self.margin,
+            self.window_s,
         )
         return f"{text} (default: {self.reason})" if self.default else text
 
     def as_dict(self) -> dict[str, object]:
         d = asdict(self)
+        for key in ("margin", "value", "bound"):
+            d[key] = _finite_or_none(d[key])
+        d["window_s"] = None if self.window_s is None else [_finite_or_none(w) for w in self.window_s]
+        d["normalised_margin"] = _finite_or_none(self.normalised_margin)
         d["message"] = self.message
         return d
+
+
+def _finite_or_none(value: object) -> object:
+    """JSON has no NaN nor infinity: None for them."""
+    return None if isinstance(value, float) and not math.isfinite(value) else value
+
+
+def normalised_margin(margin: float, bound: float) -> float:
+    """A margin over its bound's magnitude (over 1 for a bound of 0 or NaN).
+
+    Parameters
+    ----------
+    margin : float
+        The signed margin.
+    bound : float
+        The bound it is measured against, in the same unit.
+
+    Returns
+    -------
+    float
+        ``margin / |bound|``.
+
+    Examples
+    --------
+    >>> normalised_margin(-0.01, 0.02), normalised_margin(-2.0, 0.0)
+    (-0.5, -2.0)
+    """
+    scale = abs(bound) if math.isfinite(bound) and bound != 0 else 1.0
+    return margin / scale
 
 
 def _times(key: str, log: SimLog, bound: float, sample_period_s: float) -> tuple[float | None, float | None]:
@@ -304,13 +480,83 @@ def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimi
     return {key: defaults[key] for key in LIMITS if key in defaults}
 
 
+def limit_formula(key: str, bound: float) -> tuple[Formula, str, str] | None:
+    """A limit as a requirement of signal temporal logic, where it is one: (formula, its text, its anchor).
+
+    A bound on the worst sample is ``always signal <= bound`` over the run, one on the final sample ``signal <=
+    bound`` at the run's end. A bound on a whole-run number (an RMS, a share, a count, a percentile) is not a
+    property of samples in time: None.
+
+    Parameters
+    ----------
+    key : str
+        The limit's name, a key of :data:`LIMITS`.
+    bound : float
+        Its bound, in the unit of its name.
+
+    Returns
+    -------
+    tuple or None
+        The parsed formula, its text and its anchor (``"start"`` or ``"run_end"``); None for a whole-run number.
+
+    Examples
+    --------
+    >>> limit_formula("tracking_error_max_m", 0.03)[1:]
+    ('always abs(position_error_m) <= 0.03', 'start')
+    """
+    metric = LIMITS[key].metric
+    if metric.reduction not in (Reduction.MAX, Reduction.FINAL) or not metric.signal_name:
+        return None
+    comparison = Comparison(metric.signal_name, "<=", float(bound), metric.absolute)
+    if metric.reduction is Reduction.MAX:
+        return Temporal("always", (0.0, math.inf), comparison), f"always {comparison}", "start"
+    return comparison, str(comparison), "run_end"
+
+
+def _limit_result(
+    key: str, bound: float, default: DefaultLimit | None, log: SimLog, sample_period_s: float
+) -> LimitResult:
+    """One limit judged on a run: through its formula where it has one (:func:`limit_formula`), else as its
+    whole-run number against the bound."""
+    metric = LIMITS[key].metric
+    value = metric.value(log, sample_period_s)
+    t = np.asarray(log["t_s"], dtype=np.float64)
+    run_window = (float(t[0]), float(t[-1])) if len(t) else (0.0, 0.0)
+    as_formula = limit_formula(key, bound)
+    worst, first = _times(key, log, bound, sample_period_s)
+    if as_formula is not None:
+        formula, text, anchor = as_formula
+        verdict = evaluate_requirement(formula, log, sample_period_s, None, anchor=anchor)
+        margin, worst, window = verdict.margin, verdict.worst_time_s, verdict.window_s
+    else:
+        text, margin, window = "", bound - value, run_window
+    passed = bool(margin >= -abs(bound) * 1e-12) and not math.isnan(value)
+    return LimitResult(
+        key,
+        bound,
+        value,
+        passed,
+        worst,
+        None if passed else first,
+        default is not None,
+        default.reason if default is not None else "",
+        margin=float(margin) if not math.isnan(value) else math.nan,
+        window_s=window,
+        formula=text,
+        unit=LIMITS[key].unit,
+    )
+
+
 def evaluate_limits(
     limits: LimitsSpec, log: SimLog, vehicle: VehicleParams, sample_period_s: float
 ) -> list[LimitResult]:
     """Check every limit of the default gate and every limit ``limits`` sets (which replaces the default of its key).
 
-    Each limit's value, worst time and first time past its bound come from its metric's samples
-    (:class:`~agvctl.evaluation.signals.Metric`), so a breach always has a first time.
+    A limit on the worst or the final sample is judged as a requirement (:func:`limit_formula`,
+    :func:`~agvctl.evaluation.requirements.evaluate_requirement`): its margin, the time of its worst sample and its
+    window come from the formula's robustness; a limit on a whole-run number has the margin ``bound − value``.
+    The first time past the bound comes from its metric's samples (:class:`~agvctl.evaluation.signals.Metric`), so
+    a breach always has a first time.
 
     Parameters
     ----------
@@ -331,47 +577,98 @@ def evaluate_limits(
     defaults = default_limits(vehicle, log)
     bounds: dict[str, tuple[float, DefaultLimit | None]] = {k: (d.bound, d) for k, d in defaults.items()}
     bounds.update({key: (bound, None) for key, bound in limits.items()})
-    results = []
-    for key in LIMITS:
-        if key not in bounds:
-            continue
-        bound, default = bounds[key]
-        value = LIMITS[key].metric.value(log, sample_period_s)
-        passed = value <= bound * (1 + 1e-12)
-        worst, first = _times(key, log, bound, sample_period_s)
-        results.append(
+    return [_limit_result(key, *bounds[key], log, sample_period_s) for key in LIMITS if key in bounds]
+
+
+def evaluate_requirements(
+    requirements: Sequence[RequirementSpec], log: SimLog, sample_period_s: float, reference: PathParts | None
+) -> list[LimitResult]:
+    """Judge each of a file's ``[[requirements]]`` on a run.
+
+    Parameters
+    ----------
+    requirements : sequence of RequirementSpec
+        The requirements.
+    log : SimLog
+        The run's log.
+    sample_period_s : float
+        T_s, s.
+    reference : Reference or None
+        The run's reference, which marks the parts of its path.
+
+    Returns
+    -------
+    list of LimitResult
+        One per requirement (``kind = "requirement"``), in their order: kept when the margin is ≥ 0 (a margin
+        that could not be judged, NaN, breaks it and its note says why).
+    """
+    out = []
+    for req in requirements:
+        v = evaluate_requirement(req, log, sample_period_s, reference)
+        out.append(
             LimitResult(
-                key,
-                bound,
-                value,
-                bool(passed),
-                worst,
-                None if passed else first,
-                default is not None,
-                default.reason if default is not None else "",
+                req.name,
+                v.bound,
+                v.value,
+                bool(v.margin >= 0),
+                v.worst_time_s,
+                None,
+                margin=v.margin,
+                window_s=v.window_s,
+                kind="requirement",
+                formula=req.formula,
+                unit=v.unit,
+                note=v.note,
             )
         )
-    return results
+    return out
 
 
 @document_fields
 @dataclass(frozen=True)
 class RunVerdict:
-    """A closed-loop run judged: its metrics and its limits' verdicts."""
+    """A closed-loop run judged: its metrics, its limits' and its requirements' verdicts."""
 
     metrics: dict[str, float]
     """Its :func:`~agvctl.evaluation.metrics.closed_loop_metrics`, each in the unit of its name."""
     limits: tuple[LimitResult, ...]
-    """Each limit checked (:func:`evaluate_limits`), in the order of :data:`LIMITS`."""
+    """Each limit checked (:func:`evaluate_limits`), in the order of :data:`LIMITS`, then each requirement
+    (:func:`evaluate_requirements`) in the file's order."""
 
     @property
     def passed(self) -> bool:
-        """Whether every limit passes (:func:`all_passed`)."""
+        """Whether every limit and requirement passes (:func:`all_passed`)."""
         return all_passed(list(self.limits))
 
+    @property
+    def min_normalised_margin(self) -> float:
+        """The smallest margin over its bound of every verdict (:func:`smallest_normalised_margin`)."""
+        return smallest_normalised_margin(self.limits)
 
-def judge_run(result: RunRecord, limits: LimitsSpec, vehicle: VehicleParams) -> RunVerdict:
-    """A closed-loop run's metrics and every limit's verdict: what ``run``, ``check`` and ``fuzz`` report.
+
+def smallest_normalised_margin(results: Sequence[LimitResult]) -> float:
+    """The smallest margin over its bound's magnitude of a run's verdicts: how close the run came to failing
+    (negative: it failed). A NaN margin counts as −∞.
+
+    Parameters
+    ----------
+    results : sequence of LimitResult
+        The run's verdicts.
+
+    Returns
+    -------
+    float
+        The smallest :attr:`LimitResult.normalised_margin` (+∞ with no verdict).
+    """
+    values = [r.normalised_margin for r in results]
+    return min((-math.inf if math.isnan(v) else v for v in values), default=math.inf)
+
+
+def judge_run(
+    result: RunRecord, limits: LimitsSpec, vehicle: VehicleParams, requirements: Sequence[RequirementSpec] = ()
+) -> RunVerdict:
+    """A closed-loop run's metrics and every limit's and requirement's verdict: what ``run``, ``check`` and
+    ``fuzz`` report.
 
     Parameters
     ----------
@@ -381,6 +678,8 @@ def judge_run(result: RunRecord, limits: LimitsSpec, vehicle: VehicleParams) -> 
         The experiment's ``[limits]``.
     vehicle : VehicleParams
         The controller's vehicle, from which the default gate is derived.
+    requirements : sequence of RequirementSpec
+        The experiment's ``[[requirements]]``, judged on the run's reference's parts.
 
     Returns
     -------
@@ -388,20 +687,24 @@ def judge_run(result: RunRecord, limits: LimitsSpec, vehicle: VehicleParams) -> 
         The metrics and the verdicts.
     """
     metrics = closed_loop_metrics(result)
-    return RunVerdict(metrics, tuple(evaluate_limits(limits, result.log, vehicle, result.sample_period_s)))
+    verdicts = evaluate_limits(limits, result.log, vehicle, result.sample_period_s)
+    if requirements:
+        reference = getattr(result, "reference", None)
+        verdicts += evaluate_requirements(requirements, result.log, result.sample_period_s, reference)
+    return RunVerdict(metrics, tuple(verdicts))
 
 
 def all_passed(results: list[LimitResult]) -> bool:
-    """Whether a run passes its limits: every one within its bound, and none of a metric that is NaN.
+    """Whether a run passes its limits and requirements: every one kept, and no limit of a metric that is NaN.
 
     Parameters
     ----------
     results : list of LimitResult
-        The run's checked limits.
+        The run's verdicts.
 
     Returns
     -------
     bool
-        True if it passes (also with no limit at all).
+        True if it passes (also with no verdict at all).
     """
-    return all(r.passed for r in results) and not any(math.isnan(r.value) for r in results)
+    return all(r.passed for r in results) and not any(r.kind == "limit" and math.isnan(r.value) for r in results)

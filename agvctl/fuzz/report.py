@@ -83,7 +83,7 @@ class FuzzOutcome:
         """Why it failed: the error, or the messages of the violated limits."""
         if self.error is not None:
             return [self.error]
-        return [r.message for r in self.limits if not r.passed or math.isnan(r.value)]
+        return [r.message for r in self.limits if not r.passed or (r.kind == "limit" and math.isnan(r.value))]
 
     def value(self, metric: str) -> float:
         """A metric, NaN if the run crashed."""
