@@ -300,7 +300,7 @@ def format_requirement_message(
     >>> print(format_requirement_message("slow", "always speed_m_s <= 0.2", False, -0.01, " m/s", 3.0, (0.0, 9.0)))
     slow: always speed_m_s <= 0.2 — BROKEN; margin -0.01 m/s at t = 3.00 s of [0.00, 9.00] s
     """
-    text = f"{name}: {formula} — {'kept' if passed else 'BROKEN'}"
+    text = f"{name}: {' '.join(formula.split())} — {'kept' if passed else 'BROKEN'}"
     if not math.isnan(margin):
         text += "; " + format_margin(margin, unit, worst_time_s, window_s)
     return text + (f" ({note})" if note else "")
