@@ -66,7 +66,7 @@ __all__ = [
     "format_requirement_message",
     "judge_run",
     "limit_formula",
-    "normalised_margin",
+    "margin_scale",
     "smallest_normalised_margin",
 ]
 
@@ -344,9 +344,9 @@ class LimitResult:
 
     @property
     def normalised_margin(self) -> float:
-        """The margin over the bound's magnitude (over 1 for a bound of 0): comparable between verdicts, −1 for a
-        value twice its bound."""
-        return normalised_margin(self.margin, self.bound)
+        """The margin over its scale (:func:`margin_scale`: the bound's magnitude, a count's bound + ½), comparable
+        between verdicts: −1 for a value twice its bound."""
+        return self.margin / margin_scale(self.limit if self.kind == "limit" else "", self.bound)
 
     @property
     def message(self) -> str:
@@ -386,30 +386,6 @@ class LimitResult:
 def _finite_or_none(value: object) -> object:
     """JSON has no NaN nor infinity: None for them."""
     return None if isinstance(value, float) and not math.isfinite(value) else value
-
-
-def normalised_margin(margin: float, bound: float) -> float:
-    """A margin over its bound's magnitude (over 1 for a bound of 0 or NaN).
-
-    Parameters
-    ----------
-    margin : float
-        The signed margin.
-    bound : float
-        The bound it is measured against, in the same unit.
-
-    Returns
-    -------
-    float
-        ``margin / |bound|``.
-
-    Examples
-    --------
-    >>> normalised_margin(-0.01, 0.02), normalised_margin(-2.0, 0.0)
-    (-0.5, -2.0)
-    """
-    scale = abs(bound) if math.isfinite(bound) and bound != 0 else 1.0
-    return margin / scale
 
 
 def _times(key: str, log: SimLog, bound: float, sample_period_s: float) -> tuple[float | None, float | None]:
@@ -513,6 +489,32 @@ def limit_formula(key: str, bound: float) -> tuple[Formula, str, str] | None:
     return comparison, str(comparison), "run_end"
 
 
+COUNT_MARGIN_STEP = 0.5
+"""A count is judged against its bound + ½: its margin ``bound + ½ − count`` is +½ with no event to spare and −½ at
+the first event over, never 0, so its sign is its verdict and a count at a bound of 0 ranks as far from failing."""
+
+
+def margin_scale(limit: str, bound: float) -> float:
+    """What a verdict's margin is normalised by: the bound's magnitude (1 for a bound of 0 or NaN), a count's
+    bound + ½ (:data:`COUNT_MARGIN_STEP`).
+
+    Parameters
+    ----------
+    limit : str
+        The limit's or requirement's name.
+    bound : float
+        Its bound.
+
+    Returns
+    -------
+    float
+        The scale, > 0.
+    """
+    if limit in LIMITS and LIMITS[limit].values == "count":
+        return bound + COUNT_MARGIN_STEP
+    return abs(bound) if math.isfinite(bound) and bound != 0 else 1.0
+
+
 def _limit_result(
     key: str, bound: float, default: DefaultLimit | None, log: SimLog, sample_period_s: float
 ) -> LimitResult:
@@ -528,6 +530,8 @@ def _limit_result(
         formula, text, anchor = as_formula
         verdict = evaluate_requirement(formula, log, sample_period_s, None, anchor=anchor)
         margin, worst, window = verdict.margin, verdict.worst_time_s, verdict.window_s
+    elif LIMITS[key].values == "count":
+        text, margin, window = "", bound + COUNT_MARGIN_STEP - value, run_window
     else:
         text, margin, window = "", bound - value, run_window
     passed = bool(margin >= -abs(bound) * 1e-12) and not math.isnan(value)
