@@ -122,3 +122,63 @@ def test_a_bad_requirement_is_one_line_naming_the_file_and_key(tmp_path, capsys,
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1 and str(path) in err and says in err, err
     assert not (tmp_path / "out").exists()
+
+
+def test_every_output_of_check_gives_each_verdict_its_margin(tmp_path, capsys):
+    import json
+    import xml.etree.ElementTree as ET
+
+    out = {k: tmp_path / f"c.{k}" for k in ("json", "xml", "html")}
+    argv = ["check", str(EXPERIMENT), "--jobs", "1", "--margins", "3"]
+    argv += ["--json", str(out["json"]), "--junit", str(out["xml"]), "--html", str(out["html"])]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    (exp,) = json.loads(out["json"].read_text())["experiments"]
+    verdicts = {v["limit"]: v for v in exp["limits"]}
+    assert set(REQUIREMENTS) <= set(verdicts)
+    for v in verdicts.values():
+        assert v["margin"] > 0 and len(v["window_s"]) == 2 and v["window_s"][0] <= v["window_s"][1], v
+        assert f"margin {v['margin']:+.6g}" in v["message"]
+    assert exp["min_normalised_margin"] == min(v["normalised_margin"] for v in verdicts.values())
+    cases = ET.parse(out["xml"]).getroot().iter("testcase")
+    properties = {c.get("name"): {p.get("name"): p.get("value") for p in c.iter("property")} for c in cases}
+    for name, v in verdicts.items():
+        assert float(properties[name]["margin"]) == pytest.approx(v["margin"], rel=1e-5)
+        assert float(properties[name]["window_end_s"]) == pytest.approx(v["window_s"][1], rel=1e-5)
+    page = out["html"].read_text()
+    assert all(name in page for name in REQUIREMENTS) and "margin / bound" in page
+    # --margins: the three verdicts with the smallest margin over bound, the smallest first
+    listed = text[text.index("closest to failing") :].splitlines()[1:]
+    ranked = sorted(verdicts.values(), key=lambda v: v["normalised_margin"])[:3]
+    assert [line.split()[2].rstrip(":") for line in listed] == [v["limit"] for v in ranked]
+
+
+def test_run_writes_the_smallest_normalised_margin_into_the_summary(tmp_path):
+    import json
+
+    assert main(["run", str(EXPERIMENT), "--no-plot", "--out", str(tmp_path / "out")]) == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    kinds = {v["kind"] for v in summary["limits"]}
+    assert kinds == {"limit", "requirement"}
+    assert summary["min_normalised_margin"] == min(v["normalised_margin"] for v in summary["limits"]) > 0
+
+
+def test_a_fuzz_file_carries_its_requirements_into_every_run_and_refuses_a_bad_one(tmp_path, capsys):
+    import json
+
+    text = (
+        'seed = 3\nscenarios = 2\ncontrollers = ["mpc"]\nsettle_s = 1.0\n'
+        '[[requirements]]\nname = "near_the_path"\nformula = "always abs(cross_track_error_m) <= 0.5"\n'
+    )
+    config = tmp_path / "f.toml"
+    config.write_text(text, encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["fuzz", str(config), "--jobs", "1", "--out", str(out), "--no-plot"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["requirements"][0]["name"] == "near_the_path"
+    assert all(r["min_normalised_margin"] > 0 for r in summary["runs"])
+    capsys.readouterr()
+    config.write_text(text.replace("<= 0.5", "<= 0.5 and"), encoding="utf-8")
+    assert main(["fuzz", str(config), "--out", str(tmp_path / "out2")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(config) in err[0] and "requirements[0].formula" in err[0], err
