@@ -8,8 +8,9 @@ import re
 import numpy as np
 import pytest
 
-from agvctl.evaluation import stl
-from agvctl.evaluation.stl import FormulaError, Trace, comparisons, parse_formula, robustness
+from agvctl.evaluation import formula as stl
+from agvctl.evaluation.formula import FormulaError, comparisons, parse_formula
+from agvctl.evaluation.stl import Trace, robustness
 
 FORMULAS = (
     "always x_m <= 0.5",

@@ -1,6 +1,6 @@
 """Requirements a user writes: ``[[requirements]]`` of an experiment or a fuzz file, each a formula of signal
-temporal logic (:mod:`agvctl.evaluation.stl`) over the run's named signals and the named parts of its path,
-judged with a signed margin in the signal's unit.
+temporal logic (:mod:`agvctl.evaluation.formula`, evaluated by :mod:`agvctl.evaluation.stl`) over the run's named
+signals and the named parts of its path, judged with a signed margin in the signal's unit.
 
 ::
 
@@ -34,19 +34,9 @@ from numpy.typing import NDArray
 
 from agvctl.config import check_fields, check_plain_name, did_you_mean, document_fields
 from agvctl.errors import ConfigError
+from agvctl.evaluation.formula import Atom, Formula, FormulaError, atoms, comparisons, horizon_s, parse_formula
 from agvctl.evaluation.metrics import SIGNALS, signal_values
-from agvctl.evaluation.stl import (
-    Atom,
-    Formula,
-    FormulaError,
-    Trace,
-    atoms,
-    comparisons,
-    first_at_or_after,
-    horizon_s,
-    parse_formula,
-    robustness,
-)
+from agvctl.evaluation.stl import Trace, first_at_or_after, robustness
 from agvctl.log import SimLog
 
 __all__ = [
@@ -164,7 +154,7 @@ class RequirementSpec:
     name: str
     """Its name, as the reports and JUnit's test cases give it (a plain name)."""
     formula: str
-    """The formula (:mod:`agvctl.evaluation.stl`), e.g. ``"always abs(cross_track_error_m) <= 0.05"``."""
+    """The formula (:mod:`agvctl.evaluation.formula`), e.g. ``"always abs(cross_track_error_m) <= 0.05"``."""
     anchor: Anchor = "start"
     """Where its time windows count from: ``"start"`` (the run's start), ``"reference_end"``, ``"run_end"``."""
 
