@@ -3,11 +3,12 @@
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from agvctl.checks.report import CheckReport
+from agvctl.checks.report import CheckReport, LimitVerdict
 from agvctl.config import document_fields
 
 __all__ = ["JUnitCase", "JUnitSuite", "junit_suites", "junit_xml"]
@@ -30,6 +31,8 @@ class JUnitCase:
     """Why it failed (a violated limit's message); None if it did not."""
     error: str | None = None
     """Why it broke (a run that raised); None if it did not."""
+    properties: tuple[tuple[str, str], ...] = ()
+    """``<properties>`` of the case, (name, value) pairs: a verdict's margin, its time and window."""
 
 
 @document_fields
@@ -74,6 +77,10 @@ def junit_suites(name: str, suites: Sequence[JUnitSuite], time_s: float) -> str:
         counts = {"tests": len(s.cases), "failures": 0, "errors": 0}
         for c in s.cases:
             case = ET.SubElement(suite, "testcase", classname=c.classname, name=c.name, time=f"{c.time_s:.3f}")
+            if c.properties:
+                props = ET.SubElement(case, "properties")
+                for prop, text in c.properties:
+                    ET.SubElement(props, "property", name=prop, value=text)
             if c.error is not None:
                 counts["errors"] += 1
                 ET.SubElement(case, "error", message=c.error, type="Crash").text = c.error
@@ -95,6 +102,21 @@ def junit_suites(name: str, suites: Sequence[JUnitSuite], time_s: float) -> str:
     return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
 
+def _margin_properties(v: LimitVerdict) -> tuple[tuple[str, str], ...]:
+    """A verdict's margin, normalised margin, worst time and window as JUnit properties (``nan`` where missing)."""
+    window = v.window_s if v.window_s is not None else (math.nan, math.nan)
+    worst = v.worst_time_s if v.worst_time_s is not None else math.nan
+    return (
+        ("kind", v.kind),
+        ("margin", f"{v.margin:.6g}"),
+        ("unit", v.unit.strip()),
+        ("normalised_margin", f"{v.normalised_margin:.6g}"),
+        ("worst_time_s", f"{worst:.6g}"),
+        ("window_start_s", f"{window[0]:.6g}"),
+        ("window_end_s", f"{window[1]:.6g}"),
+    )
+
+
 def junit_xml(report: CheckReport) -> str:
     """A check report as JUnit XML: one test suite per experiment, one test case per limit.
 
@@ -106,7 +128,9 @@ def junit_xml(report: CheckReport) -> str:
     Returns
     -------
     str
-        The XML document: a violated limit is a ``<failure>`` whose ``message`` is the limit message; a run that
+        The XML document: a violated limit or broken requirement is a ``<failure>`` whose ``message`` is its
+        message (with its margin); every verdict's case has ``<properties>`` ``kind``, ``margin``, ``unit``,
+        ``normalised_margin``, ``worst_time_s``, ``window_start_s`` and ``window_end_s``; a run that
         could not be completed is a test case of its own, ``run`` (``run (sample i)`` for a Monte Carlo sample),
         with an ``<error>`` whose ``message`` is the run's error.
     """
@@ -129,6 +153,7 @@ def junit_xml(report: CheckReport) -> str:
                 each,
                 output="" if not v.passed else v.message,
                 failure=None if v.passed else v.message,
+                properties=_margin_properties(v),
             )
             for v in exp.verdicts
         ]

@@ -1,8 +1,9 @@
 """What ``agvctl check`` reports: each run's outcome, each limit's verdict over an experiment's runs, the whole check.
 
 These are plain data, apart from how they are computed (:mod:`agvctl.checks.runner`) and written
-(:mod:`agvctl.checks.junit`, ``as_dict`` for JSON). A limit's verdict over several runs (the nominal run, or every
-Monte Carlo sample) is decided by the worst run: the one with the largest value, since every limit is an upper bound.
+(:mod:`agvctl.checks.junit`, ``as_dict`` for JSON). A verdict over several runs (the nominal run, or every Monte
+Carlo sample) is decided by the worst run: the one with the smallest margin (for a limit, an upper bound, the largest
+value).
 A run that raised has no metrics: it is recorded with its error, its experiment fails as an error (not a limit
 violation), and the verdicts are those of the experiment's other runs.
 """
@@ -13,12 +14,18 @@ import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 from agvctl.config import document_fields
-from agvctl.evaluation.limits import LimitResult, format_limit_message
+from agvctl.evaluation.limits import (
+    LimitResult,
+    format_limit_message,
+    format_requirement_message,
+    margin_scale,
+    smallest_normalised_margin,
+)
 from agvctl.fileio import json_safe
 from agvctl.scenario.experiment import Experiment
 
@@ -30,6 +37,7 @@ __all__ = [
     "Overrides",
     "RunOutcome",
     "RunTask",
+    "closest_to_failing",
     "worst_run_verdicts",
 ]
 
@@ -103,14 +111,51 @@ class LimitVerdict:
     """Whether the bound is the default gate's (:func:`~agvctl.evaluation.limits.default_limits`)."""
     reason: str = ""
     """Why a default bound is what it is."""
+    margin: float = math.nan
+    """The worst run's signed margin (≥ 0: kept), in :attr:`unit`
+    (:attr:`~agvctl.evaluation.limits.LimitResult.margin`)."""
+    window_s: tuple[float, float] | None = None
+    """The span of the worst run the verdict looked at, s."""
+    kind: Literal["limit", "requirement"] = "limit"
+    """A limit or a requirement of ``[[requirements]]``."""
+    formula: str = ""
+    """The formula it is judged by (empty for a limit on a whole-run number)."""
+    unit: str = ""
+    """The margin's unit as printed."""
+    note: str = ""
+    """Why a requirement's margin is infinite or missing."""
+
+    @property
+    def normalised_margin(self) -> float:
+        """The margin over its scale (:func:`~agvctl.evaluation.limits.margin_scale`)."""
+        return self.margin / margin_scale(self.limit if self.kind == "limit" else "", self.bound)
 
     @property
     def message(self) -> str:
-        """The limit message (with a default's reason); when violated on a Monte Carlo sample, that sample and its
-        parameters too."""
-        text = format_limit_message(
-            self.limit, self.value, self.bound, self.passed, self.worst_time_s, self.first_time_s
-        )
+        """The limit's or requirement's message with its margin (and a default's reason); when violated on a Monte
+        Carlo sample, that sample and its parameters too."""
+        if self.kind == "requirement":
+            text = format_requirement_message(
+                self.limit,
+                self.formula,
+                self.passed,
+                self.margin,
+                self.unit,
+                self.worst_time_s,
+                self.window_s,
+                self.note,
+            )
+        else:
+            text = format_limit_message(
+                self.limit,
+                self.value,
+                self.bound,
+                self.passed,
+                self.worst_time_s,
+                self.first_time_s,
+                self.margin,
+                self.window_s,
+            )
         if self.default:
             text += f" (default: {self.reason})"
         if self.passed:
@@ -122,15 +167,27 @@ class LimitVerdict:
 
     def as_dict(self) -> dict[str, Any]:
         d = dataclasses.asdict(self)
+        d.update(json_safe({k: d[k] for k in ("margin", "value", "bound")}))
+        d["window_s"] = None if self.window_s is None else [w if math.isfinite(w) else None for w in self.window_s]
+        d["normalised_margin"] = json_safe({"m": self.normalised_margin})["m"]
         d["message"] = self.message
         return d
 
 
-def worst_run_verdicts(outcomes: Sequence[RunOutcome]) -> list[LimitVerdict]:
-    """One verdict per limit over the runs of one experiment, each naming the run with the largest (worst) value.
+def _ranked_margin(r: LimitResult) -> float:
+    """A run's margin as runs are ranked by it: a limit given without one by ``bound − value``; NaN as −∞."""
+    margin = r.margin
+    if math.isnan(margin) and r.kind == "limit":
+        margin = r.bound - r.value
+    return -math.inf if math.isnan(margin) else margin
 
-    The limit fails when any run fails; among failed runs the worst is also one that exceeded the bound, so the
-    verdict's value, times and sample are those of a violating run.
+
+def worst_run_verdicts(outcomes: Sequence[RunOutcome]) -> list[LimitVerdict]:
+    """One verdict per limit and requirement over the runs of one experiment, each naming the run with the smallest
+    (worst) margin: for a limit, the largest value.
+
+    The verdict fails when any run fails; among failed runs the worst is also one that broke it (a NaN margin
+    counts as the worst), so the verdict's value, margin, times and sample are those of a failing run.
 
     Parameters
     ----------
@@ -148,7 +205,9 @@ def worst_run_verdicts(outcomes: Sequence[RunOutcome]) -> list[LimitVerdict]:
     verdicts = []
     for idx, first in enumerate(completed[0].limits):
         per_run = [o.limits[idx] for o in completed]
-        worst_i = int(np.argmax([r.value for r in per_run]))
+        worst_i = int(np.argmin([_ranked_margin(r) for r in per_run]))
+        if first.kind == "limit" and any(math.isnan(r.value) for r in per_run):
+            worst_i = int(np.argmax([r.value for r in per_run]))  # a metric that is NaN: that run
         worst = per_run[worst_i]
         failed = sum(not r.passed for r in per_run)
         task = completed[worst_i].task
@@ -166,6 +225,12 @@ def worst_run_verdicts(outcomes: Sequence[RunOutcome]) -> list[LimitVerdict]:
                 failed_runs=failed,
                 default=worst.default,
                 reason=worst.reason,
+                margin=worst.margin,
+                window_s=worst.window_s,
+                kind=worst.kind,
+                formula=worst.formula,
+                unit=worst.unit,
+                note=worst.note,
             )
         )
     return verdicts
@@ -208,6 +273,15 @@ class ExperimentReport:
     def monte_carlo(self) -> bool:
         return any(o.task.sample is not None for o in self.outcomes)
 
+    @property
+    def min_normalised_margin(self) -> float:
+        """The smallest margin over its bound of any verdict of any run (negative: a run failed; NaN: no run was
+        completed)."""
+        runs = [o for o in self.outcomes if o.error is None]
+        if not runs:
+            return math.nan
+        return min(smallest_normalised_margin(o.limits) for o in runs)
+
     def consistency(self) -> dict[str, Any] | None:
         """The estimator's NEES and NIS (3 dof each) averaged over the runs, with the 95 % chi-square interval of
         an average over that many runs at one instant: [χ²₀.₀₂₅(3n)/n, χ²₀.₉₇₅(3n)/n]. Averaging over time as well
@@ -236,6 +310,7 @@ class ExperimentReport:
             "errors": [{"sample": o.task.sample, "error": o.error} for o in self.errors],
             "wall_time_s": self.wall_time_s,
             "limits": [v.as_dict() for v in self.verdicts],
+            "min_normalised_margin": json_safe({"m": self.min_normalised_margin})["m"],
             "metrics": metrics if self.monte_carlo else metrics[0],
         }
         consistency = self.consistency()
@@ -281,3 +356,27 @@ class CheckReport:
             "wall_time_s": self.wall_time_s,
             "experiments": [e.as_dict() for e in self.experiments],
         }
+
+
+def closest_to_failing(report: CheckReport, count: int = 10) -> list[tuple[str, LimitVerdict]]:
+    """The verdicts of a check closest to failing: the smallest margins over their bounds first.
+
+    A margin is compared over its bound's magnitude (:attr:`LimitVerdict.normalised_margin`), so a limit in metres
+    and a requirement in metres per second rank together: −0.5 is a value half again its bound, 0.1 one a tenth
+    below it. A verdict that could not be judged (NaN) ranks first; one kept vacuously (+∞) last.
+
+    Parameters
+    ----------
+    report : CheckReport
+        The check's report.
+    count : int
+        How many to give (at most).
+
+    Returns
+    -------
+    list of tuple
+        (experiment name, verdict), the closest to failing first.
+    """
+    rows = [(exp.name, v) for exp in report.experiments for v in exp.verdicts]
+    rows.sort(key=lambda row: -math.inf if math.isnan(row[1].normalised_margin) else row[1].normalised_margin)
+    return rows[: max(0, count)]

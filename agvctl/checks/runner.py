@@ -230,7 +230,7 @@ def _run(task: RunTask, t0: float, render: RunRender | None) -> RunOutcome:
         plant_spec = dataclasses.replace(spec.plant, sensor_seed=spec.plant.sensor_seed + 1 + task.sample)
         prepared = dataclasses.replace(prepared, spec=dataclasses.replace(spec, plant=plant_spec))
     result = run_experiment(prepared)
-    verdict = judge_run(result, prepared.spec.limits, prepared.controller_vehicle)
+    verdict = judge_run(result, prepared.spec.limits, prepared.controller_vehicle, prepared.spec.requirements)
     figures = render(prepared, result, verdict.limits) if render is not None else {}
     return RunOutcome(task, verdict.metrics, verdict.limits, time.perf_counter() - t0, figures=figures)
 

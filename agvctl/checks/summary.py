@@ -47,18 +47,21 @@ def run_summary(experiment: Experiment, result: ClosedLoopResult) -> dict[str, A
     -------
     dict
         ``experiment``, ``passed``, ``metrics`` (:data:`SUMMARY_METRICS` first; NaN as None), ``wall_time_s``,
-        ``setup_time_s``, ``simulated_s``, ``limits`` (each limit's verdict), and with an estimator that learns the
-        odometry calibration its ``calibration`` against the plant's truth
+        ``setup_time_s``, ``simulated_s``, ``limits`` (each limit's and requirement's verdict, with its margin, the time
+        of its worst point and its window), ``min_normalised_margin`` (the smallest margin over its bound,
+        :func:`~agvctl.evaluation.limits.smallest_normalised_margin`; negative: the run failed), and with an
+        estimator that learns the odometry calibration its ``calibration`` against the plant's truth
         (:func:`~agvctl.estimation.calibration.calibration_summary`).
     """
     exp = experiment.spec
-    verdict = judge_run(result, exp.limits, experiment.controller_vehicle)
+    verdict = judge_run(result, exp.limits, experiment.controller_vehicle, exp.requirements)
     ordered = {k: verdict.metrics[k] for k in SUMMARY_METRICS}
     ordered.update({k: v for k, v in verdict.metrics.items() if k not in ordered})
     calibration = calibration_summary(result.log, experiment.controller_vehicle, experiment.plant_vehicle)
     return {
         "experiment": exp.name,
         "passed": verdict.passed,
+        "min_normalised_margin": json_safe({"m": verdict.min_normalised_margin})["m"],
         "metrics": json_safe(ordered),
         "wall_time_s": result.wall_time_s,
         "setup_time_s": result.setup_time_s,

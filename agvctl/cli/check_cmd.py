@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from agvctl.checks.junit import junit_xml
-from agvctl.checks.report import CheckReport
+from agvctl.checks.report import CheckReport, closest_to_failing
 from agvctl.checks.runner import check_experiments, load_check
 from agvctl.cli.commands import command_summary
 from agvctl.cli.outputs import Output, check_outputs, writing
@@ -57,6 +57,16 @@ def register(sub: Any) -> None:
     p.add_argument("--json", metavar="FILE", dest="json_out", help="write the same results as JSON")
     p.add_argument(
         "--html", metavar="FILE", help="write one self-contained HTML page: every verdict beside its run's plots"
+    )
+    p.add_argument(
+        "--margins",
+        type=int,
+        nargs="?",
+        const=10,
+        default=None,
+        metavar="N",
+        help="after the report, list the N limits and requirements closest to failing, by margin over bound "
+        "(default 10)",
     )
     p.add_argument("--jobs", type=int, default=None, metavar="N", help="local worker processes (default: all cores)")
     p.add_argument("--executor", choices=("local", "dask"), default="local", help="where the runs go (default local)")
@@ -102,6 +112,8 @@ def format_report(report: CheckReport) -> str:
 def run(args: argparse.Namespace) -> int:
     if args.scheduler and args.executor != "dask":
         raise ConfigError("--scheduler", "", "only with --executor dask")
+    if args.margins is not None and args.margins < 1:
+        raise ConfigError("--margins", "", f"must be >= 1 (got {args.margins})")
     work = load_check(args.experiments)  # every file validated, every output checked: then the runs
     named = (("--junit", args.junit), ("--json", args.json_out), ("--html", args.html))
     outputs = [Output(flag, Path(name)) for flag, name in named if name]
@@ -132,7 +144,20 @@ def run(args: argparse.Namespace) -> int:
         for out in outputs:
             staging.write_text(out.flag, out.path, texts[out.flag])
     print(format_report(report))
+    if args.margins is not None:
+        print(format_margins(report, args.margins))
     return exit_code(report)
+
+
+def format_margins(report: CheckReport, count: int) -> str:
+    """The ``--margins`` list: :func:`~agvctl.checks.report.closest_to_failing`, one line each."""
+    rows = closest_to_failing(report, count)
+    lines = [
+        f"closest to failing ({len(rows)} of {sum(len(e.verdicts) for e in report.experiments)}, by margin over bound):"
+    ]
+    for name, v in rows:
+        lines.append(f"  {v.normalised_margin:+8.3g}  {name}  {v.message}")
+    return "\n".join(lines)
 
 
 def exit_code(report: CheckReport) -> int:

@@ -89,7 +89,7 @@ def format_summary(summary: dict[str, Any]) -> str:
     wall, sim = summary["wall_time_s"], summary["simulated_s"]
     lines.append(f"  wall time         {wall:.2f} s for {sim:.1f} s simulated ({sim / max(wall, 1e-9):.0f}x real time)")
     for r in summary["limits"]:
-        lines.append(f"  limit  {r['message']}")
+        lines.append(f"  {r['kind']:<5}  {r['message']}")
     return "\n".join(lines)
 
 

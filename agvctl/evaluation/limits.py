@@ -34,14 +34,28 @@ from stiction jumps for a few milliseconds whatever the controller does.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any, Literal
+
+import numpy as np
 
 from agvctl.config import check_fields, convert_value, did_you_mean, document_fields, join_key
 from agvctl.errors import ConfigError
+from agvctl.evaluation.formula import Comparison, Formula, Temporal
 from agvctl.evaluation.metrics import METRICS, RunRecord, closed_loop_metrics
-from agvctl.evaluation.signals import Metric
+from agvctl.evaluation.requirements import PathParts, RequirementSpec, evaluate_requirement
+from agvctl.evaluation.signals import Metric, Reduction
+from agvctl.evaluation.verdicts import (
+    COUNT_MARGIN_STEP,
+    LimitResult,
+    all_passed,
+    format_limit_message,
+    format_margin,
+    format_requirement_message,
+    margin_scale,
+    smallest_normalised_margin,
+)
 from agvctl.feasibility import torque_accel_limit_m_s2
 from agvctl.log import SimLog
 from agvctl.params import VehicleParams
@@ -56,8 +70,14 @@ __all__ = [
     "all_passed",
     "default_limits",
     "evaluate_limits",
+    "evaluate_requirements",
     "format_limit_message",
+    "format_margin",
+    "format_requirement_message",
     "judge_run",
+    "limit_formula",
+    "margin_scale",
+    "smallest_normalised_margin",
 ]
 
 
@@ -157,85 +177,6 @@ def _bounds(data: Mapping[str, Any], *, source: str, prefix: str) -> dict[str, f
     return bounds
 
 
-def format_limit_message(
-    limit: str, value: float, bound: float, passed: bool, worst_time_s: float | None, first_time_s: float | None
-) -> str:
-    """A limit's result as one readable line, as ``run`` and ``check`` print it.
-
-    Parameters
-    ----------
-    limit : str
-        The limit's name (a key of :data:`LIMITS`, whose unit is printed).
-    value : float
-        The run's value of its metric, in the limit's unit.
-    bound : float
-        The bound, in the same unit.
-    passed : bool
-        Whether the value is within the bound.
-    worst_time_s : float or None
-        When the signal was worst, s.
-    first_time_s : float or None
-        When it first went past the bound, s.
-
-    Returns
-    -------
-    str
-        ``"tracking_error_max_m: 0.0012 m against the limit 0.03 m — ok"``; a violated limit ends in
-        ``— VIOLATED`` with the times.
-
-    Examples
-    --------
-    >>> print(format_limit_message("tracking_error_max_m", 0.042, 0.03, False, 12.4, 11.9))
-    tracking_error_max_m: 0.042 m against the limit 0.03 m — VIOLATED, worst at t = 12.40 s,
-    first exceeded at t = 11.90 s
-    """
-    unit = LIMITS[limit].unit if limit in LIMITS else ""
-    text = f"{limit}: {value:.6g}{unit} against the limit {bound:.6g}{unit}"
-    if passed:
-        return text + " — ok"
-    text += " — VIOLATED"
-    if worst_time_s is not None:
-        text += f", worst at t = {worst_time_s:.2f} s"
-    if first_time_s is not None:
-        text += f", first exceeded at t = {first_time_s:.2f} s"
-    return text
-
-
-@document_fields
-@dataclass(frozen=True)
-class LimitResult:
-    """One limit checked on one run."""
-
-    limit: str
-    """The limit's name, a key of :data:`LIMITS`."""
-    bound: float
-    """The bound, in the unit of the limit's name."""
-    value: float
-    """The run's value of the limit's metric, in the same unit."""
-    passed: bool
-    """Whether the value is within the bound."""
-    worst_time_s: float | None
-    """When the signal behind the limit was worst (None for counts that never happened), s."""
-    first_time_s: float | None
-    """When the signal first went past the bound (None if it never did), s."""
-    default: bool = False
-    """True when the bound is a default of :func:`default_limits`, not set in the file."""
-    reason: str = ""
-    """Why a default bound is what it is (one line; empty for a bound set in the file)."""
-
-    @property
-    def message(self) -> str:
-        text = format_limit_message(
-            self.limit, self.value, self.bound, self.passed, self.worst_time_s, self.first_time_s
-        )
-        return f"{text} (default: {self.reason})" if self.default else text
-
-    def as_dict(self) -> dict[str, object]:
-        d = asdict(self)
-        d["message"] = self.message
-        return d
-
-
 def _times(key: str, log: SimLog, bound: float, sample_period_s: float) -> tuple[float | None, float | None]:
     """(worst, first past the bound) of a limit's signal, as its metric's reduction says
     (:meth:`~agvctl.evaluation.signals.Reduction.worst`, :meth:`~agvctl.evaluation.signals.Reduction.first_past`)."""
@@ -304,13 +245,85 @@ def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimi
     return {key: defaults[key] for key in LIMITS if key in defaults}
 
 
+def limit_formula(key: str, bound: float) -> tuple[Formula, str, str] | None:
+    """A limit as a requirement of signal temporal logic, where it is one: (formula, its text, its anchor).
+
+    A bound on the worst sample is ``always signal <= bound`` over the run, one on the final sample ``signal <=
+    bound`` at the run's end. A bound on a whole-run number (an RMS, a share, a count, a percentile) is not a
+    property of samples in time: None.
+
+    Parameters
+    ----------
+    key : str
+        The limit's name, a key of :data:`LIMITS`.
+    bound : float
+        Its bound, in the unit of its name.
+
+    Returns
+    -------
+    tuple or None
+        The parsed formula, its text and its anchor (``"start"`` or ``"run_end"``); None for a whole-run number.
+
+    Examples
+    --------
+    >>> limit_formula("tracking_error_max_m", 0.03)[1:]
+    ('always abs(position_error_m) <= 0.03', 'start')
+    """
+    metric = LIMITS[key].metric
+    if metric.reduction not in (Reduction.MAX, Reduction.FINAL) or not metric.signal_name:
+        return None
+    comparison = Comparison(metric.signal_name, "<=", float(bound), metric.absolute)
+    if metric.reduction is Reduction.MAX:
+        return Temporal("always", (0.0, math.inf), comparison), f"always {comparison}", "start"
+    return comparison, str(comparison), "run_end"
+
+
+def _limit_result(
+    key: str, bound: float, default: DefaultLimit | None, log: SimLog, sample_period_s: float
+) -> LimitResult:
+    """One limit judged on a run: through its formula where it has one (:func:`limit_formula`), else as its
+    whole-run number against the bound."""
+    metric = LIMITS[key].metric
+    value = metric.value(log, sample_period_s)
+    t = np.asarray(log["t_s"], dtype=np.float64)
+    run_window = (float(t[0]), float(t[-1])) if len(t) else (0.0, 0.0)
+    as_formula = limit_formula(key, bound)
+    worst, first = _times(key, log, bound, sample_period_s)
+    if as_formula is not None:
+        formula, text, anchor = as_formula
+        verdict = evaluate_requirement(formula, log, sample_period_s, None, anchor=anchor)
+        margin, worst, window = verdict.margin, verdict.worst_time_s, verdict.window_s
+    elif LIMITS[key].values == "count":
+        text, margin, window = "", bound + COUNT_MARGIN_STEP - value, run_window
+    else:
+        text, margin, window = "", bound - value, run_window
+    passed = bool(margin >= -abs(bound) * 1e-12) and not math.isnan(value)
+    return LimitResult(
+        key,
+        bound,
+        value,
+        passed,
+        worst,
+        None if passed else first,
+        default is not None,
+        default.reason if default is not None else "",
+        margin=float(margin) if not math.isnan(value) else math.nan,
+        window_s=window,
+        formula=text,
+        unit=LIMITS[key].unit,
+    )
+
+
 def evaluate_limits(
     limits: LimitsSpec, log: SimLog, vehicle: VehicleParams, sample_period_s: float
 ) -> list[LimitResult]:
     """Check every limit of the default gate and every limit ``limits`` sets (which replaces the default of its key).
 
-    Each limit's value, worst time and first time past its bound come from its metric's samples
-    (:class:`~agvctl.evaluation.signals.Metric`), so a breach always has a first time.
+    A limit on the worst or the final sample is judged as a requirement (:func:`limit_formula`,
+    :func:`~agvctl.evaluation.requirements.evaluate_requirement`): its margin, the time of its worst sample and its
+    window come from the formula's robustness; a limit on a whole-run number has the margin ``bound − value``.
+    The first time past the bound comes from its metric's samples (:class:`~agvctl.evaluation.signals.Metric`), so
+    a breach always has a first time.
 
     Parameters
     ----------
@@ -331,47 +344,80 @@ def evaluate_limits(
     defaults = default_limits(vehicle, log)
     bounds: dict[str, tuple[float, DefaultLimit | None]] = {k: (d.bound, d) for k, d in defaults.items()}
     bounds.update({key: (bound, None) for key, bound in limits.items()})
-    results = []
-    for key in LIMITS:
-        if key not in bounds:
-            continue
-        bound, default = bounds[key]
-        value = LIMITS[key].metric.value(log, sample_period_s)
-        passed = value <= bound * (1 + 1e-12)
-        worst, first = _times(key, log, bound, sample_period_s)
-        results.append(
+    return [_limit_result(key, *bounds[key], log, sample_period_s) for key in LIMITS if key in bounds]
+
+
+def evaluate_requirements(
+    requirements: Sequence[RequirementSpec], log: SimLog, sample_period_s: float, reference: PathParts | None
+) -> list[LimitResult]:
+    """Judge each of a file's ``[[requirements]]`` on a run.
+
+    Parameters
+    ----------
+    requirements : sequence of RequirementSpec
+        The requirements.
+    log : SimLog
+        The run's log.
+    sample_period_s : float
+        T_s, s.
+    reference : Reference or None
+        The run's reference, which marks the parts of its path.
+
+    Returns
+    -------
+    list of LimitResult
+        One per requirement (``kind = "requirement"``), in their order: kept when the margin is ≥ 0 (a margin
+        that could not be judged, NaN, breaks it and its note says why).
+    """
+    out = []
+    for req in requirements:
+        v = evaluate_requirement(req, log, sample_period_s, reference)
+        out.append(
             LimitResult(
-                key,
-                bound,
-                value,
-                bool(passed),
-                worst,
-                None if passed else first,
-                default is not None,
-                default.reason if default is not None else "",
+                req.name,
+                v.bound,
+                v.value,
+                bool(v.margin >= 0),
+                v.worst_time_s,
+                None,
+                margin=v.margin,
+                window_s=v.window_s,
+                kind="requirement",
+                formula=req.formula,
+                unit=v.unit,
+                note=v.note,
             )
         )
-    return results
+    return out
 
 
 @document_fields
 @dataclass(frozen=True)
 class RunVerdict:
-    """A closed-loop run judged: its metrics and its limits' verdicts."""
+    """A closed-loop run judged: its metrics, its limits' and its requirements' verdicts."""
 
     metrics: dict[str, float]
     """Its :func:`~agvctl.evaluation.metrics.closed_loop_metrics`, each in the unit of its name."""
     limits: tuple[LimitResult, ...]
-    """Each limit checked (:func:`evaluate_limits`), in the order of :data:`LIMITS`."""
+    """Each limit checked (:func:`evaluate_limits`), in the order of :data:`LIMITS`, then each requirement
+    (:func:`evaluate_requirements`) in the file's order."""
 
     @property
     def passed(self) -> bool:
-        """Whether every limit passes (:func:`all_passed`)."""
+        """Whether every limit and requirement passes (:func:`all_passed`)."""
         return all_passed(list(self.limits))
 
+    @property
+    def min_normalised_margin(self) -> float:
+        """The smallest margin over its bound of every verdict (:func:`smallest_normalised_margin`)."""
+        return smallest_normalised_margin(self.limits)
 
-def judge_run(result: RunRecord, limits: LimitsSpec, vehicle: VehicleParams) -> RunVerdict:
-    """A closed-loop run's metrics and every limit's verdict: what ``run``, ``check`` and ``fuzz`` report.
+
+def judge_run(
+    result: RunRecord, limits: LimitsSpec, vehicle: VehicleParams, requirements: Sequence[RequirementSpec] = ()
+) -> RunVerdict:
+    """A closed-loop run's metrics and every limit's and requirement's verdict: what ``run``, ``check`` and
+    ``fuzz`` report.
 
     Parameters
     ----------
@@ -381,6 +427,8 @@ def judge_run(result: RunRecord, limits: LimitsSpec, vehicle: VehicleParams) -> 
         The experiment's ``[limits]``.
     vehicle : VehicleParams
         The controller's vehicle, from which the default gate is derived.
+    requirements : sequence of RequirementSpec
+        The experiment's ``[[requirements]]``, judged on the run's reference's parts.
 
     Returns
     -------
@@ -388,20 +436,8 @@ def judge_run(result: RunRecord, limits: LimitsSpec, vehicle: VehicleParams) -> 
         The metrics and the verdicts.
     """
     metrics = closed_loop_metrics(result)
-    return RunVerdict(metrics, tuple(evaluate_limits(limits, result.log, vehicle, result.sample_period_s)))
-
-
-def all_passed(results: list[LimitResult]) -> bool:
-    """Whether a run passes its limits: every one within its bound, and none of a metric that is NaN.
-
-    Parameters
-    ----------
-    results : list of LimitResult
-        The run's checked limits.
-
-    Returns
-    -------
-    bool
-        True if it passes (also with no limit at all).
-    """
-    return all(r.passed for r in results) and not any(math.isnan(r.value) for r in results)
+    verdicts = evaluate_limits(limits, result.log, vehicle, result.sample_period_s)
+    if requirements:
+        reference = getattr(result, "reference", None)
+        verdicts += evaluate_requirements(requirements, result.log, result.sample_period_s, reference)
+    return RunVerdict(metrics, tuple(verdicts))

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Any, Protocol
+from typing import Any, Literal, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -15,6 +15,8 @@ from agvctl.log import SimLog
 
 __all__ = [
     "METRICS",
+    "SIGNALS",
+    "signal_values",
     "NON_FINITE_COMMAND_STATUS",
     "closed_loop_metrics",
     "sample_wheel_accel_m_s2",
@@ -178,11 +180,6 @@ def _either(log: SimLog, column: str) -> NDArray[np.float64]:
     return np.asarray(np.maximum(np.abs(log[column.format("left")]), np.abs(log[column.format("right")])))
 
 
-def _abs(column: str, scale: float = 1.0) -> Signal:
-    """``|column|`` at each sample, times ``scale``."""
-    return lambda log, ts: np.abs(np.asarray(log[column])) * scale
-
-
 def _joined_cross_track_m(log: SimLog, ts: float) -> NDArray[np.float64]:
     """``|cross-track error|`` from the first sample within :data:`JOINED_M` of the path on (0 before it; every
     sample if none is)."""
@@ -215,49 +212,121 @@ def _solve_time_ms(log: SimLog, ts: float) -> NDArray[np.float64]:
 
 _DEG = math.degrees(1.0)
 
+
+def _wheel_speed_error(side: str) -> Signal:
+    """``v(t_k) − v_sp(t_k−1)`` of one wheel: its rim speed one sample after its setpoint was set (0 at k = 0)."""
+
+    def signal(log: SimLog, ts: float) -> NDArray[np.float64]:
+        error = log[f"wheel_speed_{side}_m_s"][1:] - log[f"setpoint_wheel_speed_{side}_m_s"][:-1]
+        return np.concatenate(([0.0], error))
+
+    return signal
+
+
+SIGNALS: dict[str, Signal] = {
+    "heading_error_deg": lambda log, ts: np.asarray(log["heading_error_rad"]) * _DEG,
+    "path_heading_error_deg": lambda log, ts: np.asarray(log["path_heading_error_rad"]) * _DEG,
+    "cross_track_error_joined_m": _joined_cross_track_m,
+    "wheel_speed_m_s": lambda log, ts: _either(log, "wheel_speed_{}_m_s"),
+    "wheel_accel_m_s2": sample_wheel_accel_m_s2,
+    "wheel_accel_instant_m_s2": lambda log, ts: _either(log, "wheel_accel_peak_{}_m_s2"),
+    "wheel_speed_error_m_s": wheel_speed_error_m_s,
+    "wheel_speed_error_left_m_s": _wheel_speed_error("left"),
+    "wheel_speed_error_right_m_s": _wheel_speed_error("right"),
+    "motor_current_peak_a": lambda log, ts: _either(log, "current_peak_{}_a"),
+    "da_clipped": _clipped,
+    "current_limited_share": _current_limited,
+    "solve_time_ms": _solve_time_ms,
+    "deadline_missed": lambda log, ts: _flags(log["solve_time_s"] > ts),
+    "solver_failed": lambda log, ts: _flags(log["solver_status"] > 0),
+    "non_finite_command": lambda log, ts: _flags(log["solver_status"] == NON_FINITE_COMMAND_STATUS),
+    "estimate_error_m": estimate_position_error_m,
+    "heading_estimate_error_deg": lambda log, ts: estimate_heading_error_rad(log) * _DEG,
+}
+"""The signals derived from a run's log, by name (its unit in it), one value per row: with the log's own columns
+(:data:`~agvctl.log.PLANT_LOG_COLUMNS` and the closed loop's), what a metric reduces and a requirement's formula
+compares. ``heading_error_deg`` and ``path_heading_error_deg`` are signed (the log's radians in degrees);
+``wheel_speed_m_s``, ``wheel_accel_m_s2`` (:func:`sample_wheel_accel_m_s2`), ``wheel_accel_instant_m_s2``
+and ``motor_current_peak_a`` the larger magnitude of the two wheels'; ``wheel_speed_error_m_s`` the windowed error
+where the loop has authority (:func:`wheel_speed_error_m_s`), ``wheel_speed_error_left_m_s`` and
+``wheel_speed_error_right_m_s`` each wheel's signed ``v(t_k) − v_sp(t_k−1)``; ``da_clipped``, ``deadline_missed``,
+``solver_failed`` and ``non_finite_command`` are flags (1 or 0); ``current_limited_share`` is the larger share of
+either wheel's hold interval at the current limit."""
+
+
+def signal_values(log: SimLog, name: str, sample_period_s: float) -> NDArray[np.float64]:
+    """A named signal's samples: a signal of :data:`SIGNALS` or a column of the log.
+
+    Parameters
+    ----------
+    log : SimLog
+        The run's log.
+    name : str
+        A key of :data:`SIGNALS` or a column of ``log``.
+    sample_period_s : float
+        T_s, s.
+
+    Returns
+    -------
+    ndarray
+        One value per row of the log, in the unit of its name.
+
+    Raises
+    ------
+    KeyError
+        A name that is neither.
+    """
+    if name in SIGNALS:
+        return np.asarray(SIGNALS[name](log, sample_period_s), dtype=np.float64)
+    return np.asarray(log[name], dtype=np.float64)
+
+
+def _metric(
+    name: str,
+    unit: str,
+    signal: str,
+    reduction: Reduction,
+    *,
+    absolute: bool = False,
+    over: Literal["samples", "intervals"] = "samples",
+) -> Metric:
+    """The metric ``name``: the reduction of the named signal (of its magnitude with ``absolute``)."""
+
+    def series(log: SimLog, ts: float) -> NDArray[np.float64]:
+        values = signal_values(log, signal, ts)
+        return np.abs(values) if absolute else values
+
+    return Metric(name, unit, series, reduction, over, signal_name=signal, absolute=absolute)
+
+
 METRICS: dict[str, Metric] = {
     m.name: m
     for m in (
-        Metric("tracking_error_rms_m", " m", _abs("position_error_m"), Reduction.RMS),
-        Metric("tracking_error_max_m", " m", _abs("position_error_m"), Reduction.MAX),
-        Metric("heading_error_max_deg", "°", _abs("heading_error_rad", _DEG), Reduction.MAX),
-        Metric("final_position_error_m", " m", _abs("position_error_m"), Reduction.FINAL),
-        Metric("final_heading_error_deg", "°", _abs("heading_error_rad", _DEG), Reduction.FINAL),
-        Metric("cross_track_error_max_m", " m", _abs("cross_track_error_m"), Reduction.MAX),
-        Metric("cross_track_error_rms_m", " m", _abs("cross_track_error_m"), Reduction.RMS),
-        Metric("cross_track_error_max_joined_m", " m", _joined_cross_track_m, Reduction.MAX),
-        Metric("along_track_lag_max_m", " m", _abs("along_track_lag_m"), Reduction.MAX),
-        Metric("path_heading_error_max_deg", "°", _abs("path_heading_error_rad", _DEG), Reduction.MAX),
-        Metric("peak_wheel_speed_m_s", " m/s", lambda log, ts: _either(log, "wheel_speed_{}_m_s"), Reduction.MAX),
-        Metric("peak_wheel_accel_m_s2", " m/s²", lambda log, ts: sample_wheel_accel_m_s2(log, ts), Reduction.MAX),
-        Metric("wheel_speed_error_max_m_s", " m/s", lambda log, ts: wheel_speed_error_m_s(log, ts), Reduction.MAX),
-        Metric(
-            "peak_wheel_accel_instant_m_s2",
-            " m/s²",
-            lambda log, ts: _either(log, "wheel_accel_peak_{}_m_s2"),
-            Reduction.MAX,
-        ),
-        Metric("peak_motor_current_a", " A", lambda log, ts: _either(log, "current_peak_{}_a"), Reduction.MAX),
-        Metric("da_saturation_fraction", "", _clipped, Reduction.MEAN, "intervals"),
-        Metric("current_limited_fraction", "", _current_limited, Reduction.MEAN, "intervals"),
-        Metric("solve_time_p50_ms", " ms", _solve_time_ms, Reduction.P50),
-        Metric("solve_time_p99_ms", " ms", _solve_time_ms, Reduction.P99),
-        Metric("deadline_misses", "", lambda log, ts: _flags(log["solve_time_s"] > ts), Reduction.COUNT),
-        Metric("solver_failures", "", lambda log, ts: _flags(log["solver_status"] > 0), Reduction.COUNT),
-        Metric(
-            "non_finite_commands",
-            "",
-            lambda log, ts: _flags(log["solver_status"] == NON_FINITE_COMMAND_STATUS),
-            Reduction.COUNT,
-        ),
-        Metric("estimate_error_rms_m", " m", lambda log, ts: estimate_position_error_m(log), Reduction.RMS),
-        Metric("estimate_error_max_m", " m", lambda log, ts: estimate_position_error_m(log), Reduction.MAX),
-        Metric(
-            "heading_estimate_error_max_deg",
-            "°",
-            lambda log, ts: estimate_heading_error_rad(log) * _DEG,
-            Reduction.MAX,
-        ),
+        _metric("tracking_error_rms_m", " m", "position_error_m", Reduction.RMS, absolute=True),
+        _metric("tracking_error_max_m", " m", "position_error_m", Reduction.MAX, absolute=True),
+        _metric("heading_error_max_deg", "°", "heading_error_deg", Reduction.MAX, absolute=True),
+        _metric("final_position_error_m", " m", "position_error_m", Reduction.FINAL, absolute=True),
+        _metric("final_heading_error_deg", "°", "heading_error_deg", Reduction.FINAL, absolute=True),
+        _metric("cross_track_error_max_m", " m", "cross_track_error_m", Reduction.MAX, absolute=True),
+        _metric("cross_track_error_rms_m", " m", "cross_track_error_m", Reduction.RMS, absolute=True),
+        _metric("cross_track_error_max_joined_m", " m", "cross_track_error_joined_m", Reduction.MAX),
+        _metric("along_track_lag_max_m", " m", "along_track_lag_m", Reduction.MAX, absolute=True),
+        _metric("path_heading_error_max_deg", "°", "path_heading_error_deg", Reduction.MAX, absolute=True),
+        _metric("peak_wheel_speed_m_s", " m/s", "wheel_speed_m_s", Reduction.MAX),
+        _metric("peak_wheel_accel_m_s2", " m/s²", "wheel_accel_m_s2", Reduction.MAX),
+        _metric("wheel_speed_error_max_m_s", " m/s", "wheel_speed_error_m_s", Reduction.MAX),
+        _metric("peak_wheel_accel_instant_m_s2", " m/s²", "wheel_accel_instant_m_s2", Reduction.MAX),
+        _metric("peak_motor_current_a", " A", "motor_current_peak_a", Reduction.MAX),
+        _metric("da_saturation_fraction", "", "da_clipped", Reduction.MEAN, over="intervals"),
+        _metric("current_limited_fraction", "", "current_limited_share", Reduction.MEAN, over="intervals"),
+        _metric("solve_time_p50_ms", " ms", "solve_time_ms", Reduction.P50),
+        _metric("solve_time_p99_ms", " ms", "solve_time_ms", Reduction.P99),
+        _metric("deadline_misses", "", "deadline_missed", Reduction.COUNT),
+        _metric("solver_failures", "", "solver_failed", Reduction.COUNT),
+        _metric("non_finite_commands", "", "non_finite_command", Reduction.COUNT),
+        _metric("estimate_error_rms_m", " m", "estimate_error_m", Reduction.RMS),
+        _metric("estimate_error_max_m", " m", "estimate_error_m", Reduction.MAX),
+        _metric("heading_estimate_error_max_deg", "°", "heading_estimate_error_deg", Reduction.MAX),
     )
 }
 """Every metric defined by a per-sample signal and a reduction, by name. Each limit of

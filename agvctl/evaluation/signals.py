@@ -149,6 +149,11 @@ class Metric:
     over: Literal["samples", "intervals"] = "samples"
     """``samples``: every row of the log (the n + 1 controller steps and states); ``intervals``: the n hold
     intervals [t_k, t_k+1), the final row (the state at the end, held over no interval) left out."""
+    signal_name: str = ""
+    """The name of the run's signal it reduces (a log column or a derived signal,
+    :data:`~agvctl.evaluation.metrics.SIGNALS`), as a requirement's formula names it."""
+    absolute: bool = False
+    """Whether it reduces that signal's magnitude (``abs(signal_name)`` in a formula)."""
 
     def series(self, log: SimLog, sample_period_s: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The samples the scalar is made of.

@@ -209,6 +209,10 @@ def scenario_files(spec: FuzzSpec, scenario: Scenario, controller: str) -> dict[
         "controller": {"pose": absolute_reference(controller, base_dir), **table},
         "limits": spec.limits.to_file(),
     }
+    if spec.requirements:
+        experiment["requirements"] = [
+            {"name": r.name, "formula": r.formula, "anchor": r.anchor} for r in spec.requirements
+        ]
     return {
         path_name: dump_toml(scenario.path, header=f"{origin}: the path"),
         exp_name: dump_toml(experiment, header=f"{origin}, pose controller {controller!r}\nrun: agvctl run {exp_name}"),

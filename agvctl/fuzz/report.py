@@ -15,7 +15,7 @@ import numpy as np
 
 from agvctl.checks.junit import JUnitCase, JUnitSuite, junit_suites
 from agvctl.config import document_fields
-from agvctl.evaluation.limits import LimitResult
+from agvctl.evaluation.limits import LimitResult, smallest_normalised_margin
 from agvctl.fileio import json_safe
 from agvctl.fuzz.spec import FuzzSpec
 
@@ -83,7 +83,13 @@ class FuzzOutcome:
         """Why it failed: the error, or the messages of the violated limits."""
         if self.error is not None:
             return [self.error]
-        return [r.message for r in self.limits if not r.passed or math.isnan(r.value)]
+        return [r.message for r in self.limits if not r.passed or (r.kind == "limit" and math.isnan(r.value))]
+
+    @property
+    def min_normalised_margin(self) -> float:
+        """The smallest margin over its bound of its verdicts
+        (:func:`~agvctl.evaluation.limits.smallest_normalised_margin`; NaN if the run crashed)."""
+        return math.nan if self.error is not None else smallest_normalised_margin(self.limits)
 
     def value(self, metric: str) -> float:
         """A metric, NaN if the run crashed."""
@@ -213,6 +219,7 @@ class FuzzReport:
                     "passed": o.passed,
                     "error": o.error,
                     "reasons": o.reasons,
+                    "min_normalised_margin": json_safe({"m": o.min_normalised_margin})["m"],
                     "experiment_file": None if o.passed else task.files[-1][0],
                     "metrics": json_safe(o.metrics),
                     "warnings": list(o.warnings),
@@ -227,6 +234,9 @@ class FuzzReport:
             "scenarios": len({t.scenario for t in self.tasks}),
             "controllers": list(self.spec.controllers),
             "limits": self.spec.limits.to_file(),
+            "requirements": [
+                {"name": r.name, "formula": r.formula, "anchor": r.anchor} for r in self.spec.requirements
+            ],
             "passed": self.passed,
             "wall_time_s": self.wall_time_s,
             "statistics": self.statistics(),

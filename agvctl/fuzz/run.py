@@ -36,7 +36,7 @@ import numpy as np
 from agvctl.checks.executors import ExecutorKind, execute, open_executor, resolved_jobs
 from agvctl.config import document_fields
 from agvctl.errors import ConfigError, caused_by_interrupt, exception_line
-from agvctl.evaluation.limits import LimitResult, judge_run
+from agvctl.evaluation.limits import LimitResult, all_passed, judge_run
 from agvctl.fuzz.generate import generate_scenario, scenario_files
 from agvctl.fuzz.report import FuzzOutcome, FuzzReport, FuzzTask
 from agvctl.fuzz.spec import FuzzSpec, check_against_vehicle
@@ -109,7 +109,9 @@ def run_fuzz_task(task: FuzzTask) -> FuzzOutcome:
             experiment = load_experiment(Path(tmp, task.files[-1][0]))
             result = run_experiment(experiment)
             simulated_s = result.n_samples * result.sample_period_s
-            verdict = judge_run(result, experiment.spec.limits, experiment.controller_vehicle)
+            verdict = judge_run(
+                result, experiment.spec.limits, experiment.controller_vehicle, experiment.spec.requirements
+            )
             metrics, limits = verdict.metrics, verdict.limits
             error = _non_finite(result.log, metrics)
         except Exception as exc:  # any crash of a run is a finding, reported with its scenario
@@ -117,7 +119,7 @@ def run_fuzz_task(task: FuzzTask) -> FuzzOutcome:
                 raise
             error = exception_line(exc)
     notes = tuple(sorted({_one_line(f"{w.category.__name__}: {w.message}") for w in caught}))
-    passed = error is None and all(r.passed and not math.isnan(r.value) for r in limits)
+    passed = error is None and all_passed(list(limits))
     return FuzzOutcome(
         task.scenario,
         task.controller,

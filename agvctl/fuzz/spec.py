@@ -85,6 +85,7 @@ from agvctl.controllers.registry import pose_controllers
 from agvctl.errors import ConfigError
 from agvctl.estimation.registry import pose_estimators, wheel_speed_estimators
 from agvctl.evaluation.limits import LimitsSpec
+from agvctl.evaluation.requirements import RequirementSpec, check_requirement_names
 from agvctl.fuzz.tables import (
     DEFAULT_ENVELOPE,
     EstimatorsSpec,
@@ -97,7 +98,7 @@ from agvctl.fuzz.tables import (
 )
 from agvctl.params import VehicleParams, load_vehicle
 from agvctl.scenario.pose_settings import load_settings_table, merged_settings
-from agvctl.scenario.spec import ControllerSpec
+from agvctl.scenario.spec import LOG_COLUMNS, ControllerSpec
 
 __all__ = [  # the tables under the top level are agvctl.fuzz.tables's, and still importable from here
     "DEFAULT_ENVELOPE",
@@ -149,6 +150,8 @@ class FuzzSpec:
     """``[estimators]``: the estimators each scenario draws from."""
     limits: LimitsSpec = dataclasses.field(default_factory=LimitsSpec)
     """``[limits]``: bounds over the default gate's, as in an experiment file."""
+    requirements: tuple[RequirementSpec, ...] = ()
+    """``[[requirements]]``: formulas every run is judged by too, as in an experiment file."""
     pose_settings: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
     """Per controller, the settings of its settings file, under the ``controller`` keys of every run."""
     search: dict[str, Any] = dataclasses.field(default_factory=dict)
@@ -196,6 +199,7 @@ class FuzzSpec:
             _ordered(pair, source, join_key(join_key(prefix, "plant"), k), low=-0.99)
         if self.name:
             check_plain_name(self.name, source, join_key(prefix, "name"), "out/fuzz/<name>")
+        check_requirement_names(self.requirements, LOG_COLUMNS, source=source, prefix=join_key(prefix, "requirements"))
         key = join_key(prefix, "controllers")
         if not self.controllers:
             raise ConfigError(source, key, "give at least one pose controller")

@@ -3,6 +3,7 @@ resolved experiment file."""
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 from typing import Any
@@ -48,16 +49,37 @@ def _figure(outcome: RunOutcome) -> bytes | None:
     return again.figures.get(PANEL)
 
 
+def _with_unit(value: float, unit: str, *, signed: bool = False) -> str:
+    """A value with its unit as the page shows it (``+∞``, ``−∞``; ``—`` for NaN)."""
+    if math.isnan(value):
+        return "—"
+    if math.isinf(value):
+        return "+∞" if value > 0 else "−∞"
+    return f"{value:+.6g}{unit}" if signed else f"{value:.6g}{unit}"
+
+
 def _limit_row(v: LimitVerdict) -> dict[str, Any]:
     sample = ""
     if not v.passed and v.sample is not None:
         params = ", ".join(f"{k} = {x:.6g}" for k, x in v.parameters.items())
         sample = f"sample {v.sample} of {v.runs} ({v.failed_runs} failed): {params}"
+    unit = v.unit if v.kind == "requirement" else None
+    window = (
+        ""
+        if v.window_s is None or not all(map(math.isfinite, v.window_s))
+        else "[{:.2f}, {:.2f}] s".format(*v.window_s)
+    )
     return {
         "passed": v.passed,
         "limit": v.limit,
-        "value": limit_value(v.limit, v.value),
-        "bound": limit_value(v.limit, v.bound),
+        "kind": v.kind,
+        "formula": " ".join(v.formula.split()) if v.kind == "requirement" else "",
+        "note": v.note,
+        "value": limit_value(v.limit, v.value) if unit is None else _with_unit(v.value, unit),
+        "bound": limit_value(v.limit, v.bound) if unit is None else _with_unit(v.bound, unit),
+        "margin": _with_unit(v.margin, v.unit, signed=True),
+        "normalised_margin": "—" if math.isnan(v.normalised_margin) else f"{v.normalised_margin:+.3g}",
+        "window": window,
         "default": v.default,
         "reason": v.reason,
         "worst": time_text(v.worst_time_s),

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 from agvctl.errors import expect_instance
@@ -23,7 +24,8 @@ def worst_mark(limits: Sequence[LimitResult]) -> tuple[float | None, str]:
     """The instant the page marks on a run's figure, and its label: where the limit that matters most was worst.
 
     That limit is the first violated one with a time, or else, when every limit passed, the one closest to its
-    bound (the largest value over bound, of those with a positive bound and a time).
+    bound (the smallest finite margin over bound, of those with a positive bound and a time: for a limit, the
+    largest value over bound).
 
     Parameters
     ----------
@@ -42,10 +44,14 @@ def worst_mark(limits: Sequence[LimitResult]) -> tuple[float | None, str]:
     if failed:
         mark = failed[0]
     else:
-        scored = [r for r in timed if r.bound > 0]
+
+        def closeness(r: LimitResult) -> float:
+            return 1.0 - r.value / r.bound if r.kind == "limit" else r.normalised_margin
+
+        scored = [r for r in timed if r.bound > 0 and math.isfinite(closeness(r))]
         if not scored:
             return None, ""
-        mark = max(scored, key=lambda r: r.value / r.bound)
+        mark = min(scored, key=closeness)
     return mark.worst_time_s, f"{mark.limit}: worst at t = {mark.worst_time_s:.2f} s"
 
 

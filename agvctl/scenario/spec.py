@@ -31,9 +31,12 @@ from agvctl.controllers.registry import POSE_CONTROLLERS, pose_controllers, whee
 from agvctl.errors import ConfigError
 from agvctl.estimation.registry import pose_estimators, wheel_speed_estimators
 from agvctl.evaluation.limits import LimitsSpec
+from agvctl.evaluation.path_metrics import PATH_LOG_COLUMNS
+from agvctl.evaluation.requirements import RequirementSpec, check_requirement_names
+from agvctl.log import PLANT_LOG_COLUMNS
 from agvctl.planning.spec import StartPose
 from agvctl.scenario.pose_settings import load_pose_settings, merged_settings
-from agvctl.sim.loop import MAX_INITIAL_POSE, ComputeDelay
+from agvctl.sim.loop import CONTROL_LOG_COLUMNS, MAX_INITIAL_POSE, ComputeDelay
 
 __all__ = ["ControllerSpec", "ExperimentSpec", "PlantSpec", "RobustnessSpec", "Spread"]
 
@@ -309,6 +312,10 @@ class RobustnessSpec:
         return {"samples": self.samples, "seed": self.seed, "spread": spread}
 
 
+LOG_COLUMNS = (*PLANT_LOG_COLUMNS, *CONTROL_LOG_COLUMNS, *PATH_LOG_COLUMNS)
+"""The columns of a closed-loop run's log, which a requirement's formula may name."""
+
+
 @document_fields
 @dataclass(frozen=True)
 class ExperimentSpec:
@@ -338,6 +345,9 @@ class ExperimentSpec:
     """``[controller]``: the controllers and estimators."""
     limits: LimitsSpec = dataclasses.field(default_factory=LimitsSpec)
     """``[limits]``: the bounds the run is judged by, over the default gate."""
+    requirements: tuple[RequirementSpec, ...] = ()
+    """``[[requirements]]``: formulas over the run's signals the run is judged by too
+    (:mod:`agvctl.evaluation.requirements`)."""
     robustness: RobustnessSpec | None = None
     """``[robustness]``: Monte Carlo runs for ``agvctl check`` (None: one run)."""
     source: str = dataclasses.field(default="<experiment>", metadata={"derived": True})
@@ -352,6 +362,7 @@ class ExperimentSpec:
 
     def validate(self, *, source: str, prefix: str) -> None:
         check_plain_name(self.name, source, join_key(prefix, "name"), "out/<name>")
+        check_requirement_names(self.requirements, LOG_COLUMNS, source=source, prefix=join_key(prefix, "requirements"))
 
     def resolve(self, relative: str) -> Path:
         path = Path(relative)
