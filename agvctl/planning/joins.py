@@ -44,7 +44,7 @@ FloatArray = NDArray[np.float64]
 
 _MODES = 6
 _DEVIATION_SAMPLES = 257
-_SCAN = 48
+_SCAN = 24
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(32)
 _TAU, _W = 0.5 * (_GL_X + 1.0), 0.5 * _GL_W
 _SMOOTHSTEP = np.array([0.0, 0.0, 3.0, -2.0])
