@@ -2,10 +2,14 @@
 planner leaves the drawn path at a few tolerances, what the tolerance costs in path duration and planning time, and
 whether the reported distance ever exceeds the tolerance (design record 0038).
 
-Run: ``PYTHONPATH=. python experiments/drawn_path_acceptance.py [--paths 200] [--seed 38]``. Each path is planned once
-without a bound (a tolerance of 1 m, above any deviation the joins make) and once per tolerance; the reported
+Run: ``PYTHONPATH=. python experiments/drawn_path_acceptance.py [--paths 200] [--seed 38] [--write-paths DIR]``.
+
+Each path is planned once without a bound (a tolerance of 1 m, above any deviation the joins make) and once per
+tolerance; the reported
 ``drawn_path_deviation_m`` is checked against the tolerance, and against an independent measure: the reference
-sampled every millisecond, each point's distance to the drawn path.
+sampled every millisecond, each point's distance to the drawn path. ``--write-paths DIR`` writes every path as a
+path file (the random ones too) for ``experiments/benchmarks/plan_folder.py``, which times another version of the
+planner on the same files.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ import argparse
 import dataclasses
 import math
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -49,17 +54,17 @@ def random_segment_paths(count: int, seed: int) -> list[PathSpec]:
     out = []
     for i in range(count):
         path = generate_scenario(spec, vehicle, i).path
-        text = _toml(path)
-        file = Path("/tmp") / f"drawn-path-acceptance-{seed}-{i}.toml"
-        file.write_text(text, encoding="utf-8")
-        out.append(dataclasses.replace(load_path(file), join="smooth"))
+        out.append(dataclasses.replace(load_path(_written(path)), join="smooth"))
     return out
 
 
-def _toml(data: dict[str, object]) -> str:
+def _written(data: dict[str, object]) -> Path:
+    """The path file of a drawn path's data, in the temporary folder (the loader reads files)."""
     from agvctl.config import dump_toml
 
-    return dump_toml(data)
+    file = Path(tempfile.gettempdir()) / f"drawn-path-acceptance-{data['name']}.toml"
+    file.write_text(dump_toml(data), encoding="utf-8")
+    return file
 
 
 def random_waypoint_paths(count: int, seed: int) -> list[PathSpec]:
@@ -85,6 +90,31 @@ def random_waypoint_paths(count: int, seed: int) -> list[PathSpec]:
             continue
         out.append(spec)
     return out
+
+
+def write_paths(folder: Path, specs: list[PathSpec]) -> None:
+    """Each path as a path file of the default tolerance (numbered, in the order given)."""
+    from agvctl.config import dump_toml
+
+    folder.mkdir(parents=True, exist_ok=True)
+    for i, spec in enumerate(specs):
+        data: dict[str, object] = {"name": spec.name, "join": spec.join}
+        limits = {k: v for k, v in dataclasses.asdict(spec.limits).items() if v is not None}
+        limits.pop("drawn_path_tolerance_m")
+        if limits:
+            data["limits"] = limits
+        if spec.waypoints:
+            data["waypoints"] = [
+                {k: v for k, v in dataclasses.asdict(w).items() if v is not None} for w in spec.waypoints
+            ]
+        else:
+            start = dataclasses.asdict(spec.start)
+            if any(start.values()):
+                data["start"] = start
+            data["segments"] = [
+                {k: v for k, v in dataclasses.asdict(s).items() if v is not None} for s in spec.segments
+            ]
+        (folder / f"{i:03d}.toml").write_text(dump_toml(data), encoding="utf-8")
 
 
 def dense_deviation_m(reference: Reference) -> float:
@@ -150,12 +180,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--paths", type=int, default=200, help="random paths, half of segments, half of waypoints")
     parser.add_argument("--seed", type=int, default=38)
     parser.add_argument("--no-dense", action="store_true", help="skip the independent millisecond check")
+    parser.add_argument("--write-paths", type=Path, default=None, metavar="DIR", help="write every path file here")
     args = parser.parse_args(argv)
-    ok = measure("shipped paths", shipped_paths(), not args.no_dense)
-    ok &= measure("random segment paths", random_segment_paths(args.paths // 2, args.seed), not args.no_dense)
-    ok &= measure(
-        "random waypoint paths", random_waypoint_paths(args.paths - args.paths // 2, args.seed), not args.no_dense
-    )
+    groups = {
+        "shipped paths": shipped_paths(),
+        "random segment paths": random_segment_paths(args.paths // 2, args.seed),
+        "random waypoint paths": random_waypoint_paths(args.paths - args.paths // 2, args.seed),
+    }
+    if args.write_paths is not None:
+        write_paths(args.write_paths, [spec for specs in groups.values() for spec in specs])
+    ok = True
+    for group, specs in groups.items():
+        ok &= measure(group, specs, not args.no_dense)
     print("\nthe reported distance never exceeds the tolerance" if ok else "\nSOME PATH EXCEEDS ITS TOLERANCE")
     return 0 if ok else 1
 
