@@ -158,7 +158,7 @@ def measure(group: str, specs: list[PathSpec], dense: bool) -> bool:
     print(
         f"\n{group}: {len(specs)} paths; unbounded deviation: median {np.median(devs) * 1e3:.2f} mm, "
         f"p90 {np.percentile(devs, 90) * 1e3:.2f} mm, max {devs.max() * 1e3:.2f} mm, "
-        f"{np.count_nonzero(devs > 0)} with a smooth join driven"
+        f"{np.count_nonzero(devs > 0)} off it at all"
     )
     print(
         "  tolerance   duration (sum)   vs unbounded   planning (sum)  vs unbounded  "

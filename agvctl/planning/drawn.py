@@ -32,8 +32,8 @@ __all__ = ["CHORD_ERROR_M", "SPACING_M", "DrawnPath", "arc_points", "piece_dista
 
 FloatArray = NDArray[np.float64]
 
-CHORD_ERROR_M = 1e-6
-"""The largest distance between an arc of the drawn path and the chords that stand for it, m: a thousandth of the
+CHORD_ERROR_M = 1e-5
+"""The largest distance between an arc of the drawn path and the chords that stand for it, m: a tenth of the
 finest tolerance a path file may set."""
 
 SPACING_M = 0.01
@@ -45,7 +45,7 @@ MAX_VERTICES = 2_000_000
 """The most vertices of one drawn path's polyline (tens of megabytes); a longer path's vertices are spread
 further apart than :data:`SPACING_M`."""
 
-_NEIGHBOURS = 16
+_NEIGHBOURS = 8
 
 
 def arc_points(pose: Pose, displacement_m: float, curvature_1_m: float, count: int) -> tuple[FloatArray, FloatArray]:

@@ -127,15 +127,15 @@ def _cusp_check(spline: BSpline, u_i: FloatArray, waypoints: Sequence[Waypoint],
     )
 
 
-def _drawn(spline: BSpline, u_end: float, kappa_max: float) -> tuple[DrawnPath, float]:
-    """The spline as a drawn path (chords within :data:`~agvctl.planning.drawn.CHORD_ERROR_M` of it, at most
-    :data:`~agvctl.planning.drawn.SPACING_M` long) and the chord length that took, m."""
+def _drawn(spline: BSpline, u_end: float, kappa_max: float) -> DrawnPath:
+    """The spline as a drawn path: chords within :data:`~agvctl.planning.drawn.CHORD_ERROR_M` of it, at most
+    :data:`~agvctl.planning.drawn.SPACING_M` long."""
     step = SPACING_M if kappa_max <= 0 else min(SPACING_M, math.sqrt(8.0 * CHORD_ERROR_M / kappa_max))
     u = np.linspace(0.0, u_end, 64 * 8)
     pace = float(np.max(np.hypot(*spline.derivative(1)(u).T)))  # |dr/du|: chord length per unit of u
     n = min(MAX_VERTICES - 1, max(1, math.ceil(u_end * pace / step)))
     points = spline(np.linspace(0.0, u_end, n + 1))
-    return DrawnPath(points[:, 0], points[:, 1]), step
+    return DrawnPath(points[:, 0], points[:, 1])
 
 
 @document_fields
@@ -150,8 +150,9 @@ class WaypointCurve:
     drawn: DrawnPath
     """The spline, the path the waypoints draw."""
     deviation_m: float
-    """The largest distance from a point of the curve to the spline, m (the curve sampled as finely as the
-    spline's chords, and at every piece's end)."""
+    """The largest distance from a point of the curve to the spline, m (the curve sampled at every quarter of each
+    of its pieces, a centimetre or so apart: the distance between the two smooth curves changes over lengths like
+    the pieces')."""
     pieces_per_span: int
     """The curve's pieces per knot span of the spline (half a waypoint interval)."""
 
@@ -193,9 +194,9 @@ def waypoint_curve(
     while True:
         curve, s_nodes, s_i, kappa_max = _hermite(spline, u_i, points[0], pieces)
         if drawn is None:
-            drawn, step = _drawn(spline, float(u_i[-1]), kappa_max)
-        n = min(MAX_VERTICES, math.ceil(curve.length_m / step))
-        at = curve.evaluate(np.union1d(np.linspace(0.0, curve.length_m, n + 1), s_nodes))
+            drawn = _drawn(spline, float(u_i[-1]), kappa_max)
+        quarters = s_nodes[:-1, None] + np.diff(s_nodes)[:, None] * np.array([0.0, 0.25, 0.5, 0.75])
+        at = curve.evaluate(np.append(quarters.ravel(), s_nodes[-1]))
         deviation = float(np.max(drawn.distance_m(at.x_m, at.y_m)))
         if deviation <= max_deviation_m or 2 * pieces > MAX_NODES_PER_SPAN:
             return WaypointCurve(curve, s_i, drawn, deviation, pieces)
