@@ -17,9 +17,10 @@ pose, and the lines and arcs themselves are kept exactly; inside a window the pa
 it smooths, by :attr:`JoinWindow.deviation_m` (the largest distance from a point of the window to the corner).
 
 The window length comes from the limits: the shortest window through which the speed the neighbouring
-segments allow (:func:`~agvctl.planning.speed.section_limits`) can be kept, within half of each neighbour, and
-no longer than keeps the deviation within the path's tolerance (``limits.drawn_path_tolerance_m``): a shorter
-window turns faster, so the speed planner slows down through it.
+segments allow (:func:`~agvctl.planning.speed.section_limits`) can be kept, within half of each neighbour; where
+that one leaves the corner by more than the path's tolerance (``limits.drawn_path_tolerance_m``), the window of
+the highest speed limit among those within it (the speed planner slows down through a window that cannot keep
+the speed).
 """
 
 from __future__ import annotations

@@ -96,13 +96,14 @@ over a quarter of an hour, and the motion-profile solver's times grow past what 
 
 
 DRAWN_PATH_TOLERANCE_M = 0.005
-"""The default of ``limits.drawn_path_tolerance_m``: the planned path leaves the drawn one by at most 5 mm (design
-record 0038: on the shipped paths and random ones it costs a few percent of the duration where joins bind, nothing
-elsewhere)."""
+"""The default of ``limits.drawn_path_tolerance_m``: the planned path leaves the drawn one by at most 5 mm, the
+tightest tolerance at which no shipped path takes longer (joins within it are found by a scan that also makes them
+quicker on random paths; design record 0038), half the default gate's 1 cm at the final pose."""
 
 MIN_DRAWN_PATH_TOLERANCE_M = 1e-4
-"""The smallest ``limits.drawn_path_tolerance_m`` a path file may set, 0.1 mm: a hundred times what a waypoint
-path's curve leaves its spline by, below what any wheel's odometry resolves."""
+"""The smallest ``limits.drawn_path_tolerance_m`` a path file may set, 0.1 mm: ten times the chords that stand for
+the drawn path's arcs (:data:`~agvctl.planning.drawn.CHORD_ERROR_M`), below what a wheel's odometry resolves over a
+path."""
 
 
 @document_fields

@@ -35,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
             best = min(best, time.perf_counter() - start)
         planning += best
         duration += ref.duration_s
-    print(f"{len(files)} paths: planning {planning:.3f} s in all ({1e3 * planning / len(files):.1f} ms a path), ")
+    print(f"{len(files)} paths: planning {planning:.3f} s in all ({1e3 * planning / len(files):.1f} ms a path)")
     print(f"path duration {duration:.2f} s in all")
     return 0
 
