@@ -222,28 +222,36 @@ def design_join(
     def speed(w: JoinWindow) -> float:
         return section_limits(w.length_m, w.bounds, cap_m_s, limits, half_b_m).speed_m_s
 
-    def fast_enough(w: JoinWindow) -> bool:
-        return speed(w) >= speed_m_s * (1.0 - 1e-6)
-
     hi = max_length_m
     while best is None and hi > 1e-4 * max_length_m:
         best = attempt(hi)
         hi = hi if best is not None else 0.5 * hi
     if best is None:
         raise ValueError(f"no smooth join between curvatures {k1:g} and {k2:g} 1/m converges")
-    if fast_enough(best):
-        lo = 1e-3 * hi
-        for _ in range(14):  # bisection on log L: the shortest window that keeps the speed
-            mid = math.sqrt(lo * hi)
-            w = attempt(mid)
-            if w is not None and fast_enough(w):
-                hi, best = mid, w
-            else:
-                lo = mid
+    best = _shortest_keeping(best, lambda w: speed(w) >= speed_m_s * (1.0 - 1e-6), attempt)
     if best.deviation_m <= max_deviation_m:
         return best
     guess = None
     return _within(max_length_m, max_deviation_m, attempt, speed)
+
+
+def _shortest_keeping(
+    longest: JoinWindow, fast_enough: Callable[[JoinWindow], bool], attempt: Callable[[float], JoinWindow | None]
+) -> JoinWindow:
+    """The shortest window that keeps the speed, by bisection on log L down from ``longest`` (``longest`` itself if
+    it cannot keep it)."""
+    if not fast_enough(longest):
+        return longest
+    best, hi = longest, longest.length_m
+    lo = 1e-3 * hi
+    for _ in range(14):
+        mid = math.sqrt(lo * hi)
+        w = attempt(mid)
+        if w is not None and fast_enough(w):
+            hi, best = mid, w
+        else:
+            lo = mid
+    return best
 
 
 def _within(
