@@ -150,5 +150,6 @@ def write_run_outputs(
             out_dir,
             title=exp.name,
             wheel_accel_bound_m_s2=gate.get("peak_wheel_accel_m_s2"),
+            drawn_path=experiment.reference.drawn_path,
         )
     return written

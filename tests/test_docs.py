@@ -120,7 +120,7 @@ def test_the_table_of_shipped_paths_gives_what_planning_them_gives():
         summary = plan(path, vehicle).summary()
         assert duration == f"{summary['duration_s']:.2f} s", name
         assert length == f"{summary['path_length_m']:.2f} m", name
-        deviation_mm = summary["geometry_deviation_m"] * 1e3
+        deviation_mm = summary["drawn_path_deviation_m"] * 1e3
         if deviation == "0":
             assert deviation_mm == 0.0, name
         elif deviation.startswith("<"):

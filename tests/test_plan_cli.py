@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from agvctl.cli import main
-from agvctl.planning import CSV_COLUMNS, load_path, plan
+from agvctl.planning import CSV_COLUMNS, DRAWN_PATH_TOLERANCE_M, load_path, plan
 
 ROOT = Path(__file__).resolve().parents[1]
 SQUARE = ROOT / "trajectories" / "square.toml"
@@ -46,7 +46,8 @@ def test_json_summary(capsys):
         "peak_wheel_speed_m_s",
         "peak_wheel_accel_m_s2",
         "peak_wheel_jerk_m_s3",
-        "geometry_deviation_m",
+        "drawn_path_deviation_m",
+        "drawn_path_tolerance_m",
         "final_pose",
     }
     assert set(out["final_pose"]) == {"x_m", "y_m", "theta_rad"}
@@ -56,6 +57,8 @@ def test_json_summary(capsys):
     assert out["final_pose"]["theta_rad"] == pytest.approx(2 * math.pi)
     assert out["peak_wheel_speed_m_s"] <= 0.8 and out["peak_wheel_accel_m_s2"] <= 0.657
     assert out["peak_wheel_jerk_m_s3"] <= 3.0
+    assert out["drawn_path_deviation_m"] == 0.0  # lines and turns in place: nothing to smooth
+    assert out["drawn_path_tolerance_m"] == DRAWN_PATH_TOLERANCE_M
 
 
 def test_text_summary(capsys):

@@ -33,7 +33,8 @@ def register(sub: Any) -> None:
         "--json",
         action="store_true",
         help='print {"name", "duration_s", "path_length_m", "peak_wheel_speed_m_s", '
-        '"peak_wheel_accel_m_s2", "peak_wheel_jerk_m_s3", "geometry_deviation_m", "final_pose"}',
+        '"peak_wheel_accel_m_s2", "peak_wheel_jerk_m_s3", "drawn_path_deviation_m", "drawn_path_tolerance_m", '
+        '"final_pose"}',
     )
     p.add_argument(
         "--out",
@@ -65,10 +66,15 @@ def format_summary(summary: dict[str, Any]) -> str:
             f"  peak wheel speed      {summary['peak_wheel_speed_m_s']:10.4f} m/s",
             f"  peak wheel accel      {summary['peak_wheel_accel_m_s2']:10.4f} m/s²",
             f"  peak wheel jerk       {summary['peak_wheel_jerk_m_s3']:10.4f} m/s³",
-            f"  path deviation        {summary['geometry_deviation_m'] * 1e3:10.2f} mm (largest, from the file's path)",
+            f"  off the drawn path    {summary['drawn_path_deviation_m'] * 1e3:10.2f} mm (largest; tolerance "
+            f"{_mm(summary['drawn_path_tolerance_m'])}, limits.drawn_path_tolerance_m)",
             f"  final pose            x {pose['x_m']:.4f} m, y {pose['y_m']:.4f} m, θ {pose['theta_rad']:.4f} rad",
         ]
     )
+
+
+def _mm(value_m: float | None) -> str:
+    return "none" if value_m is None else f"{value_m * 1e3:g} mm"
 
 
 def _write_bytes(path: str, data: bytes) -> None:

@@ -56,6 +56,12 @@ def format_summary(summary: dict[str, Any]) -> str:
         )
     )
     lines.append(f"  cross-track error rms {xr} mm   max {xt} mm   (off the path)")
+    if "reference_drawn_path_deviation_m" in m:
+        drawn, plan = (
+            _fixed(m["drawn_cross_track_error_max_m"], 1e3),
+            _fixed(m["reference_drawn_path_deviation_m"], 1e3),
+        )
+        lines.append(f"  drawn path        max {drawn} mm off it   (the plan leaves it by {plan} mm)")
     lines.append(f"  along-track lag   max {lag} mm   (behind or ahead of the clock, along the path)")
     lines.append(f"  path heading      max {hd}° from the path's at the nearest point")
     t2 = m["time_to_2cm_s"]

@@ -112,6 +112,7 @@ _LIMIT_VALUES: dict[str, Literal["positive", "fraction", "count"]] = {
     "final_heading_error_deg": "positive",
     "cross_track_error_max_m": "positive",
     "cross_track_error_rms_m": "positive",
+    "drawn_cross_track_error_max_m": "positive",
     "along_track_lag_max_m": "positive",
     "path_heading_error_max_deg": "positive",
     "estimate_error_rms_m": "positive",

@@ -310,6 +310,7 @@ METRICS: dict[str, Metric] = {
         _metric("cross_track_error_max_m", " m", "cross_track_error_m", Reduction.MAX, absolute=True),
         _metric("cross_track_error_rms_m", " m", "cross_track_error_m", Reduction.RMS, absolute=True),
         _metric("cross_track_error_max_joined_m", " m", "cross_track_error_joined_m", Reduction.MAX),
+        _metric("drawn_cross_track_error_max_m", " m", "drawn_cross_track_error_m", Reduction.MAX, absolute=True),
         _metric("along_track_lag_max_m", " m", "along_track_lag_m", Reduction.MAX, absolute=True),
         _metric("path_heading_error_max_deg", "°", "path_heading_error_deg", Reduction.MAX, absolute=True),
         _metric("peak_wheel_speed_m_s", " m/s", "wheel_speed_m_s", Reduction.MAX),
@@ -348,8 +349,9 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
     acceleration over a sample (:func:`sample_wheel_accel_m_s2`), ``peak_wheel_accel_instant_m_s2`` the largest
     within one. Besides the time-indexed tracking error ``|p(t) − p_d(t)|``, the errors against the reference's path
     separate being off the path from being behind the clock (:mod:`agvctl.evaluation.path_metrics`):
-    ``cross_track_error_*_m`` (distance to the path), ``along_track_lag_max_m`` (the largest ``|lag|`` along the
-    path, behind or ahead) and ``path_heading_error_max_deg`` (heading against the path's at the nearest point).
+    ``cross_track_error_*_m`` (distance to the path; ``drawn_cross_track_error_max_m`` to the path its file draws,
+    before the planner smooths its joins), ``along_track_lag_max_m`` (the largest ``|lag|`` along the path, behind
+    or ahead) and ``path_heading_error_max_deg`` (heading against the path's at the nearest point).
     ``wheel_speed_error_max_m_s`` is how far a wheel stays from its setpoint where its loop has authority
     (:func:`wheel_speed_error_m_s`). ``da_saturation_fraction`` and ``current_limited_fraction`` are shares of the
     run's hold intervals; the solve times, ``deadline_misses``, ``solver_failures`` and ``non_finite_commands``
@@ -359,7 +361,9 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
     an off-path start does not hide what follows. ``time_to_2cm_s`` is the first time after which the vehicle stays
     within 2 cm of the reference; ``completion_time_s`` the first time after which it stays within 2 cm of the
     reference's final position (inf if it never does), against the reference's ``reference_duration_s`` (for a
-    run with a reference).
+    run with a reference), and the planned path's largest distance from the drawn one,
+    ``reference_drawn_path_deviation_m`` (what a vehicle exactly on the reference scores as
+    ``drawn_cross_track_error_max_m``).
 
     Parameters
     ----------
@@ -386,7 +390,8 @@ def closed_loop_metrics(result: RunRecord) -> dict[str, float]:
 
 
 def _completion(log: SimLog, reference: Any) -> dict[str, float]:
-    """``completion_time_s`` and ``reference_duration_s`` of a run on ``reference`` (none without one)."""
+    """``completion_time_s``, ``reference_duration_s`` and ``reference_drawn_path_deviation_m`` of a run on
+    ``reference`` (none without one)."""
     if reference is None:
         return {}
     end = reference.final_pose
@@ -394,6 +399,7 @@ def _completion(log: SimLog, reference: Any) -> dict[str, float]:
     return {
         "completion_time_s": time_to_converge_s(log["t_s"], to_end, 0.02),
         "reference_duration_s": float(reference.duration_s),
+        "reference_drawn_path_deviation_m": float(reference.drawn_path_deviation_m),
     }
 
 

@@ -53,9 +53,10 @@ __all__ = ["PATH_LOG_COLUMNS", "PathErrors", "ReferencePath", "path_error_column
 
 FloatArray = NDArray[np.float64]
 
-PATH_LOG_COLUMNS = ("cross_track_error_m", "along_track_lag_m", "path_heading_error_rad")
+PATH_LOG_COLUMNS = ("cross_track_error_m", "along_track_lag_m", "path_heading_error_rad", "drawn_cross_track_error_m")
 """The log columns of :func:`path_error_columns`: :class:`PathErrors`' cross-track error, along-track lag and
-heading error, per sample."""
+heading error, and the distance to the path the file draws (``Reference.drawn_path``: its lines and arcs, or the
+curve through its waypoints, before the planner smooths its joins), per sample."""
 
 
 _BRANCH_SPAN = 8.0
@@ -291,7 +292,8 @@ def path_error_columns(
     Returns
     -------
     dict of str to ndarray
-        Each column by name; samples whose pose is not finite (a run that diverged) get NaN.
+        Each column by name; samples whose pose is not finite (a run that diverged) get NaN. Without a drawn path
+        (``reference.drawn_path`` None) the planned path is the drawn one.
     """
     t, x, y, th = (np.atleast_1d(np.asarray(a, dtype=np.float64)).ravel() for a in (t_s, x_m, y_m, theta_rad))
     out = {name: np.full(len(t), np.nan) for name in PATH_LOG_COLUMNS}
@@ -299,7 +301,9 @@ def path_error_columns(
     if np.any(ok):
         e = ReferencePath(reference).errors(t[ok], x[ok], y[ok], th[ok])
         for name, values in zip(
-            PATH_LOG_COLUMNS, (e.cross_track_m, e.along_track_lag_m, e.heading_error_rad), strict=True
+            PATH_LOG_COLUMNS[:3], (e.cross_track_m, e.along_track_lag_m, e.heading_error_rad), strict=True
         ):
             out[name][ok] = values
+        drawn = reference.drawn_path
+        out["drawn_cross_track_error_m"][ok] = e.cross_track_m if drawn is None else drawn.distance_m(x[ok], y[ok])
     return out

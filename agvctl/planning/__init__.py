@@ -7,6 +7,7 @@ Offline::
     ref = plan(load_path("trajectories/square.toml"), vehicle)   # a Reference
     ref.grid.x_m, ref.grid.wheel_speed_left_m_s                   # on the 40 ms control grid
     ref.sample(t_s)                                               # anywhere, vectorised
+    ref.drawn_path_deviation_m                                    # how far it leaves the path the file draws
 
 Online (velocity-command mode)::
 
@@ -16,6 +17,7 @@ Online (velocity-command mode)::
 Ruckig's intermediate waypoints are never used (the free edition computes them with a network service).
 """
 
+from agvctl.planning.drawn import DrawnPath
 from agvctl.planning.geometry import Pose, advance, path_end_pose, segment_end_pose
 from agvctl.planning.limits import PhysicalLimitWarning, default_jerk_limit_m_s3, resolve_limits
 from agvctl.planning.online import VelocityCommandPlanner, WheelCommand
@@ -23,6 +25,7 @@ from agvctl.planning.planner import plan, plan_file, plan_segments, plan_waypoin
 from agvctl.planning.profile import JerkProfile, rest_to_rest
 from agvctl.planning.reference import CSV_COLUMNS, Motion, Reference, ReferenceSamples
 from agvctl.planning.spec import (
+    DRAWN_PATH_TOLERANCE_M,
     ArcSegment,
     HeadroomWarning,
     LineSegment,
@@ -38,7 +41,9 @@ from agvctl.planning.spec import (
 
 __all__ = [
     "CSV_COLUMNS",
+    "DRAWN_PATH_TOLERANCE_M",
     "ArcSegment",
+    "DrawnPath",
     "JerkProfile",
     "LineSegment",
     "Motion",

@@ -9,12 +9,21 @@ from agvctl.errors import ConfigError
 from agvctl.params.schema import check_sample_count
 from agvctl.planning.geometry import segment_kinematics
 from agvctl.planning.reference import Reference
-from agvctl.planning.spec import MAX_SEGMENTS, ArcSegment, LineSegment, Segment, Waypoint, WheelLimits
+from agvctl.planning.spec import (
+    MAX_SEGMENTS,
+    MIN_DRAWN_PATH_TOLERANCE_M,
+    ArcSegment,
+    LineSegment,
+    Segment,
+    Waypoint,
+    WheelLimits,
+)
 
 __all__ = [
     "MAX_DURATION_S",
     "MAX_REFERENCE_SAMPLES",
     "check_arguments",
+    "check_drawn_path",
     "check_extent",
     "check_geometry",
     "check_reference",
@@ -63,6 +72,60 @@ def check_reference(reference: Reference, source: str, key: str) -> None:
     if not samples <= MAX_REFERENCE_SAMPLES:
         raise ConfigError(
             source, key, f"{what} would take {samples:.4g} samples, above the maximum {MAX_REFERENCE_SAMPLES}"
+        )
+
+
+def check_tolerance(source: str, tolerance_m: float) -> None:
+    """Check a drawn-path tolerance given to a planner's function as a path file's is checked.
+
+    Parameters
+    ----------
+    source : str
+        The function, as the error names it.
+    tolerance_m : float
+        The tolerance, finite and >= :data:`~agvctl.planning.spec.MIN_DRAWN_PATH_TOLERANCE_M`, m.
+
+    Raises
+    ------
+    ConfigError
+        ``<source>: drawn_path_tolerance_m: …``.
+    """
+    if (
+        isinstance(tolerance_m, bool)
+        or not isinstance(tolerance_m, (int, float))
+        or not (math.isfinite(tolerance_m) and tolerance_m >= MIN_DRAWN_PATH_TOLERANCE_M)
+    ):
+        raise ConfigError(
+            source,
+            "drawn_path_tolerance_m",
+            f"must be finite and >= {MIN_DRAWN_PATH_TOLERANCE_M:g} (got {tolerance_m!r})",
+        )
+
+
+def check_drawn_path(reference: Reference, source: str, key: str) -> None:
+    """Refuse a reference whose path leaves the drawn one by more than its tolerance.
+
+    Parameters
+    ----------
+    reference : Reference
+        The planned reference.
+    source : str
+        What the error names as the file or function.
+    key : str
+        The tolerance's key (``limits.drawn_path_tolerance_m`` in a path file).
+
+    Raises
+    ------
+    ConfigError
+        ``<source>: <key>: the planned path leaves the drawn one by … mm, more than … mm; …``.
+    """
+    if not reference.drawn_path_deviation_m <= reference.drawn_path_tolerance_m:
+        raise ConfigError(
+            source,
+            key,
+            f"the planned path leaves the drawn one by {reference.drawn_path_deviation_m * 1e3:.3g} mm, more than "
+            f"{reference.drawn_path_tolerance_m * 1e3:.3g} mm (raise the tolerance, or add waypoints where the "
+            "path bends)",
         )
 
 

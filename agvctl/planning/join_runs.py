@@ -33,12 +33,19 @@ curvature polynomial (coefficients over powers of its length) overflows, and no 
 
 
 def _window(
-    parts: list[_Part], k: int, left: bool, right: bool, limits: WheelLimits, half_b: float, designed: _Designed
+    parts: list[_Part],
+    k: int,
+    left: bool,
+    right: bool,
+    limits: WheelLimits,
+    half_b: float,
+    designed: _Designed,
+    max_deviation_m: float,
 ) -> JoinWindow | bool:
     """The smooth join between parts k and k + 1 (their curvatures differ), or ``False`` where the segments are too
     short for a join worth driving (the reference stops there). ``left``/``right``: whether part k has a join on
     its left and part k + 1 one on its right, in the run being planned (then it shares its length between them
-    in proportion to their jumps)."""
+    in proportion to their jumps). The window leaves the corner by at most ``max_deviation_m``."""
     a, b = parts[k], parts[k + 1]
     jump = abs(b[2] - a[2])
     room_a = a[1] * (jump / (jump + abs(a[2] - parts[k - 1][2])) if left else 1.0)
@@ -53,7 +60,14 @@ def _window(
     if key not in designed:  # a path that repeats a corner designs it once
         try:
             designed[key] = design_join(
-                a[2], b[2], speed_m_s=speed, cap_m_s=cap, limits=limits, half_b_m=half_b, max_length_m=key[4]
+                a[2],
+                b[2],
+                speed_m_s=speed,
+                cap_m_s=cap,
+                limits=limits,
+                half_b_m=half_b,
+                max_length_m=key[4],
+                max_deviation_m=max_deviation_m,
             )
         except ValueError:
             designed[key] = None
@@ -65,7 +79,7 @@ def _window(
 
 
 def _runs(
-    parts: list[_Part], limits: WheelLimits, half_b: float, designed: _Designed
+    parts: list[_Part], limits: WheelLimits, half_b: float, designed: _Designed, max_deviation_m: float
 ) -> list[tuple[int, int, list[JoinWindow | None]]]:
     """The motions of a run of lines and arcs as ``(first part, end part, join after each part)``: one motion, or
     several where a join is not worth driving (the reference stops after the part before it).
@@ -73,7 +87,8 @@ def _runs(
     A run is split at its first join not worth driving; the joins next to the cut are designed again (a part
     at the cut no longer shares its length with a join there), then each side is split the same way. A join
     depends only on its two parts and whether each neighbour has another join, so each is designed at most
-    four times and the work grows linearly with the parts.
+    four times and the work grows linearly with the parts. No window leaves its corner by more than
+    ``max_deviation_m``.
     """
     n = len(parts)
     joins = [parts[k][2] != parts[k + 1][2] for k in range(n - 1)]
@@ -85,7 +100,7 @@ def _runs(
             return None
         key = (k, k > lo and joins[k - 1], k + 2 < hi and joins[k + 1])
         if key not in cache:
-            cache[key] = _window(parts, k, key[1], key[2], limits, half_b, designed)
+            cache[key] = _window(parts, k, key[1], key[2], limits, half_b, designed, max_deviation_m)
         return cache[key]
 
     refused = [k for k in range(n - 1) if at(k, 0, n) is False]  # away from a cut, a join is the same

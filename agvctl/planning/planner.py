@@ -26,8 +26,16 @@ import numpy as np
 
 from agvctl.errors import ConfigError, PlanningError, expect_instance
 from agvctl.params import VehicleParams, load_vehicle
-from agvctl.planning.arguments import MAX_DURATION_S, check_arguments, check_extent, check_reference
+from agvctl.planning.arguments import (
+    MAX_DURATION_S,
+    check_arguments,
+    check_drawn_path,
+    check_extent,
+    check_reference,
+    check_tolerance,
+)
 from agvctl.planning.curve import Curve
+from agvctl.planning.drawn import DrawnPath
 from agvctl.planning.geometry import Pose, segment_kinematics
 from agvctl.planning.join_runs import _Designed, _Part, _runs
 from agvctl.planning.joins import JoinWindow
@@ -35,9 +43,9 @@ from agvctl.planning.limits import resolve_limits
 from agvctl.planning.motion import PlanFailure, motion_starts, path_motion
 from agvctl.planning.profile import _Solver, rest_to_rest
 from agvctl.planning.reference import Motion, Reference
-from agvctl.planning.spec import PathSpec, Segment, WheelLimits, load_path
+from agvctl.planning.spec import DRAWN_PATH_TOLERANCE_M, PathSpec, Segment, WheelLimits, load_path
 from agvctl.planning.speed import section_limits
-from agvctl.planning.waypoint_plan import plan_waypoints
+from agvctl.planning.waypoint_plan import plan_waypoints, waypoints_reference
 
 __all__ = ["MAX_DURATION_S", "plan", "plan_file", "plan_segments", "plan_waypoints"]
 
@@ -68,7 +76,8 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
     ------
     ConfigError
         One line naming the file and the segment or waypoint: a failure to plan (numerical ones included), a
-        limit above the physical one without ``force``, a reference longer than :data:`MAX_DURATION_S`.
+        limit above the physical one without ``force``, a reference longer than :data:`MAX_DURATION_S`; or naming
+        ``limits.drawn_path_tolerance_m``, a planned path that would leave the drawn one by more.
 
     Examples
     --------
@@ -97,10 +106,11 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
         "separation_m": vehicle.wheels.separation_m,
         "sample_period_s": vehicle.control.sample_period_s,
         "name": spec.name,
+        "drawn_path_tolerance_m": spec.limits.drawn_path_tolerance_m,
     }
     try:
         if spec.waypoints:
-            reference = plan_waypoints(spec.waypoints, source=spec.source, **common)  # type: ignore[arg-type]
+            reference = waypoints_reference(spec.waypoints, source=spec.source, **common)  # type: ignore[arg-type]
         else:
             start = Pose.from_start(spec.start)
             reference = _segments_reference(spec.segments, start_pose=start, join=spec.join, **common)  # type: ignore[arg-type]
@@ -112,6 +122,7 @@ def plan(spec: PathSpec, vehicle: VehicleParams | None = None, *, force: bool = 
         key = "waypoints" if spec.waypoints else "segments"
         raise ConfigError(spec.source, key, f"cannot be planned: {exc}") from None
     check_reference(reference, spec.source, "waypoints" if spec.waypoints else "segments")
+    check_drawn_path(reference, spec.source, "limits.drawn_path_tolerance_m")
     return reference
 
 
@@ -168,6 +179,7 @@ def plan_segments(
     start_pose: Pose | None = None,
     name: str = "path",
     join: Join = "smooth",
+    drawn_path_tolerance_m: float = DRAWN_PATH_TOLERANCE_M,
 ) -> Reference:
     """Plan segments with explicit limits and geometry (no vehicle file): the core of :func:`plan`.
 
@@ -187,6 +199,9 @@ def plan_segments(
         The reference's name.
     join : {'smooth', 'stop'}
         ``"smooth"`` drives through curvature changes, ``"stop"`` stops at each.
+    drawn_path_tolerance_m : float
+        The largest distance from a point of the planned path to the segments' lines and arcs, m (a path file's
+        ``limits.drawn_path_tolerance_m``).
 
     Returns
     -------
@@ -199,11 +214,13 @@ def plan_segments(
         ``plan_segments: <argument>: <problem>``: no segment or more than :data:`~agvctl.planning.spec.MAX_SEGMENTS`,
         a segment of zero length or angle, ``join`` not ``"smooth"`` or ``"stop"``, ``separation_m`` or
         ``sample_period_s`` not finite and > 0, or a reference longer than :data:`MAX_DURATION_S` or of more than
-        :data:`~agvctl.params.schema.MAX_SAMPLES_PER_RUN` samples.
+        :data:`~agvctl.params.schema.MAX_SAMPLES_PER_RUN` samples, ``drawn_path_tolerance_m`` not finite and at
+        least :data:`~agvctl.planning.spec.MIN_DRAWN_PATH_TOLERANCE_M`.
     PlanningError
         One line naming the segment (``segments[i]: …``) if a motion cannot be planned.
     """
     check_arguments(segments, join, separation_m, sample_period_s)
+    check_tolerance("plan_segments", drawn_path_tolerance_m)
     expect_instance(limits, WheelLimits, "plan_segments", "limits")
     check_extent(segments, (), limits, separation_m, sample_period_s, "plan_segments")
     reference = _segments_reference(
@@ -214,8 +231,10 @@ def plan_segments(
         start_pose=start_pose,
         name=name,
         join=join,
+        drawn_path_tolerance_m=drawn_path_tolerance_m,
     )
     check_reference(reference, "plan_segments", "segments")
+    check_drawn_path(reference, "plan_segments", "drawn_path_tolerance_m")
     return reference
 
 
@@ -228,6 +247,7 @@ def _segments_reference(
     start_pose: Pose | None = None,
     name: str = "path",
     join: Join = "smooth",
+    drawn_path_tolerance_m: float = DRAWN_PATH_TOLERANCE_M,
 ) -> Reference:
     """:func:`plan_segments` of arguments checked already."""
     half_b = 0.5 * separation_m
@@ -241,7 +261,7 @@ def _segments_reference(
             if kind == "spin":
                 new = [_spin(parts, direction, pose, t, limits, half_b, solver)]
             else:
-                new, dev = _paths(parts, direction, pose, t, limits, half_b, solver, designed)
+                new, dev = _paths(parts, direction, pose, t, limits, half_b, solver, designed, drawn_path_tolerance_m)
                 deviation = max(deviation, dev)
         except PlanFailure:
             raise
@@ -257,7 +277,9 @@ def _segments_reference(
         sample_period_s=sample_period_s,
         start_pose=motions[0].start_pose,
         segment_count=len(segments),
-        geometry_deviation_m=deviation,
+        drawn_path_deviation_m=deviation,
+        drawn_path_tolerance_m=drawn_path_tolerance_m,
+        drawn_path=DrawnPath.of_segments(segments, motions[0].start_pose),
     )
     return reference
 
@@ -298,11 +320,13 @@ def _paths(
     half_b: float,
     solver: _Solver,
     designed: _Designed,
+    max_deviation_m: float,
 ) -> tuple[list[Motion], float]:
-    """The motions of a run of lines and arcs: one, or several where a join is not worth driving."""
+    """The motions of a run of lines and arcs: one, or several where a join is not worth driving; and the largest
+    distance of its joins from the corners they replace (at most ``max_deviation_m``)."""
     motions: list[Motion] = []
     deviation = 0.0
-    for lo, hi, windows in _runs(parts, limits, half_b, designed):
+    for lo, hi, windows in _runs(parts, limits, half_b, designed, max_deviation_m):
         new, dev = _path(parts[lo:hi], windows, direction, pose, t, limits, half_b, solver)
         motions += new
         deviation = max(deviation, dev)

@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvctl.config import document_fields
 from agvctl.planning.curve import Curve
+from agvctl.planning.drawn import DrawnPath
 from agvctl.planning.geometry import Pose
 from agvctl.planning.profile import JerkProfile
 from agvctl.planning.spec import WheelLimits
@@ -172,8 +173,13 @@ class Reference:
         Where it starts.
     segment_count : int
         The path's segments (or waypoint intervals).
-    geometry_deviation_m : float
-        The largest distance between the planned path and the one the file asks for (its smooth joins), m.
+    drawn_path_deviation_m : float
+        The largest distance from a point of the planned path to the drawn one (where its smooth joins, or the
+        interpolation of a waypoint spline, leave it), m.
+    drawn_path_tolerance_m : float
+        The tolerance it was planned within (the path file's ``limits.drawn_path_tolerance_m``), m.
+    drawn_path : DrawnPath or None
+        The path as the file draws it; None: the planned path is the drawn one.
 
     Raises
     ------
@@ -191,7 +197,9 @@ class Reference:
         sample_period_s: float,
         start_pose: Pose,
         segment_count: int,
-        geometry_deviation_m: float = 0.0,
+        drawn_path_deviation_m: float = 0.0,
+        drawn_path_tolerance_m: float = math.inf,
+        drawn_path: DrawnPath | None = None,
     ) -> None:
         if not motions:
             raise ValueError("a reference needs at least one motion")
@@ -202,8 +210,13 @@ class Reference:
         self.sample_period_s = float(sample_period_s)
         self.start_pose = start_pose
         self.segment_count = segment_count
-        self.geometry_deviation_m = float(geometry_deviation_m)
-        """Largest distance between the planned path and the one the file asks for (see ``joins``)."""
+        self.drawn_path_deviation_m = float(drawn_path_deviation_m)
+        """The largest distance from a point of the planned path to the path the file draws, m
+        (:mod:`agvctl.planning.drawn`)."""
+        self.drawn_path_tolerance_m = float(drawn_path_tolerance_m)
+        """The largest :attr:`drawn_path_deviation_m` the planner was asked to keep, m."""
+        self.drawn_path = drawn_path
+        """The path as the file draws it (None: the planned path is the drawn one)."""
         self.duration_s = self.motions[-1].t_end_s
         travelled = [m.distance if m.kind == "path" else 0.0 for m in self.motions]
         self._s0 = np.concatenate(([0.0], np.cumsum(travelled)[:-1]))
@@ -373,13 +386,14 @@ class Reference:
 
     def summary(self) -> dict[str, object]:
         """The ``agvctl plan --json`` object."""
-        pose = self.final_pose
+        pose, tolerance = self.final_pose, self.drawn_path_tolerance_m
         return {
             "name": self.name,
             "duration_s": self.duration_s,
             "path_length_m": self.path_length_m,
             **self.peaks(),
-            "geometry_deviation_m": self.geometry_deviation_m,
+            "drawn_path_deviation_m": self.drawn_path_deviation_m,
+            "drawn_path_tolerance_m": tolerance if math.isfinite(tolerance) else None,
             "final_pose": {"x_m": pose.x_m, "y_m": pose.y_m, "theta_rad": pose.theta_rad},
         }
 

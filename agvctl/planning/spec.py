@@ -9,6 +9,7 @@ A path file names a start pose, optional per-wheel limits, how segments join, an
     wheel_speed_m_s = 0.8
     wheel_accel_m_s2 = 0.657
     wheel_jerk_m_s3 = 3.0
+    drawn_path_tolerance_m = 0.005   # optional: how far the planned path may leave the drawn one (smooth joins)
 
     [[segments]]
     type = "line"        # straight, length_m (negative = reverse)
@@ -51,6 +52,7 @@ from agvctl.errors import ConfigError
 from agvctl.feasibility import HeadroomWarning
 
 __all__ = [
+    "DRAWN_PATH_TOLERANCE_M",
     "ArcSegment",
     "HeadroomWarning",
     "LineSegment",
@@ -93,11 +95,23 @@ MIN_LIMIT = 1e-3
 over a quarter of an hour, and the motion-profile solver's times grow past what it resolves."""
 
 
+DRAWN_PATH_TOLERANCE_M = 0.005
+"""The default of ``limits.drawn_path_tolerance_m``: the planned path leaves the drawn one by at most 5 mm, the
+tightest tolerance at which no shipped path takes longer (joins within it are found by a scan that also makes them
+quicker on random paths; design record 0038), half the default gate's 1 cm at the final pose."""
+
+MIN_DRAWN_PATH_TOLERANCE_M = 1e-4
+"""The smallest ``limits.drawn_path_tolerance_m`` a path file may set, 0.1 mm: ten times the chords that stand for
+the drawn path's arcs (:data:`~agvctl.planning.drawn.CHORD_ERROR_M`), below what a wheel's odometry resolves over a
+path."""
+
+
 @document_fields
 @dataclass(frozen=True)
 class PathLimits:
-    """Per-wheel limits as written in a path file; ``None`` takes the vehicle's value
-    (:func:`~agvctl.planning.resolve_limits`). Each is at least :data:`MIN_LIMIT`."""
+    """Limits as written in a path file: per wheel (``None`` takes the vehicle's value,
+    :func:`~agvctl.planning.resolve_limits`; each at least :data:`MIN_LIMIT`) and how far the planned path may
+    leave the drawn one."""
 
     wheel_speed_m_s: float | None = number(
         ge=MIN_LIMIT, default=None, doc="The largest ``|speed|`` of either wheel, m/s."
@@ -107,6 +121,13 @@ class PathLimits:
     )
     wheel_jerk_m_s3: float | None = number(
         ge=MIN_LIMIT, default=None, doc="The largest ``|jerk|`` of either wheel, m/s³."
+    )
+    drawn_path_tolerance_m: float = number(
+        ge=MIN_DRAWN_PATH_TOLERANCE_M,
+        default=DRAWN_PATH_TOLERANCE_M,
+        doc="The largest distance from a point of the planned path to the path the file draws (its lines and "
+        "arcs, or the curve through its waypoints), m: the smooth joins are shortened, and driven slower, to keep "
+        "within it.",
     )
 
     def __post_init__(self) -> None:

@@ -9,8 +9,10 @@ one with the least ∫ |r'''|² du (plus 10⁻³ ∫ |r''|² du, which makes two
 quintic, minimum-jerk-in-u choice of WPILib's splines, with the free headings chosen by the same criterion.
 
 For the planner the spline is turned into a :class:`~agvctl.planning.curve.Curve`: κ(s) as a cubic Hermite
-interpolant in arc length of the spline's κ and dκ/ds at 16 nodes per waypoint interval. The curve starts at
-the first waypoint and passes the others within a few micrometres (reported as ``geometry_deviation_m``).
+interpolant in arc length of the spline's κ and dκ/ds at 16 nodes per waypoint interval, more where that would
+leave the spline by more than the path's tolerance (sharp turns between close waypoints). The curve starts at
+the first waypoint and stays within the tolerance of the spline, the path the file draws (the largest distance is
+``drawn_path_deviation_m`` of the reference; :mod:`agvctl.planning.drawn`).
 A spline whose speed |r'| drops below :data:`CUSP_SPEED` (it nearly stops and turns back: a cusp, which a
 forward-driving vehicle cannot follow) is refused with a one-line :class:`~agvctl.errors.ConfigError`.
 """
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,12 +29,14 @@ from scipy import sparse
 from scipy.interpolate import BSpline
 from scipy.sparse.linalg import splu
 
+from agvctl.config import document_fields
 from agvctl.errors import ConfigError
 from agvctl.planning.curve import Curve
+from agvctl.planning.drawn import CHORD_ERROR_M, MAX_VERTICES, SPACING_M, DrawnPath
 from agvctl.planning.geometry import Pose
 from agvctl.planning.spec import Waypoint
 
-__all__ = ["CUSP_SPEED", "waypoint_curve"]
+__all__ = ["CUSP_SPEED", "MAX_NODES_PER_SPAN", "NODES_PER_SPAN", "WaypointCurve", "waypoint_curve"]
 
 FloatArray = NDArray[np.float64]
 
@@ -40,7 +45,13 @@ CUSP_SPEED = 0.2
 
 _K = 5
 _SPANS = 2  # knot spans per waypoint interval
-_NODES = 8  # Hermite pieces per knot span
+NODES_PER_SPAN = 8
+"""Hermite pieces of the curve per knot span of the spline, unless the curve would leave the spline by more than
+the path's tolerance."""
+
+MAX_NODES_PER_SPAN = 256
+"""The most Hermite pieces per knot span: a curve that still leaves the spline by more than the path's tolerance is
+refused, naming ``limits.drawn_path_tolerance_m``."""
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
 
 
@@ -116,8 +127,43 @@ def _cusp_check(spline: BSpline, u_i: FloatArray, waypoints: Sequence[Waypoint],
     )
 
 
-def waypoint_curve(waypoints: Sequence[Waypoint], *, source: str = "<path>") -> tuple[Curve, FloatArray, float]:
+def _drawn(spline: BSpline, u_end: float, kappa_max: float) -> DrawnPath:
+    """The spline as a drawn path: chords within :data:`~agvctl.planning.drawn.CHORD_ERROR_M` of it, at most
+    :data:`~agvctl.planning.drawn.SPACING_M` long."""
+    step = SPACING_M if kappa_max <= 0 else min(SPACING_M, math.sqrt(8.0 * CHORD_ERROR_M / kappa_max))
+    u = np.linspace(0.0, u_end, 64 * 8)
+    pace = float(np.max(np.hypot(*spline.derivative(1)(u).T)))  # |dr/du|: chord length per unit of u
+    n = min(MAX_VERTICES - 1, max(1, math.ceil(u_end * pace / step)))
+    points = spline(np.linspace(0.0, u_end, n + 1))
+    return DrawnPath(points[:, 0], points[:, 1])
+
+
+@document_fields
+@dataclass(frozen=True, eq=False)
+class WaypointCurve:
+    """The curve the planner drives through waypoints, and the spline it stands for."""
+
+    curve: Curve
+    """The path through the waypoints."""
+    s_i: FloatArray
+    """The arc length at each waypoint, m."""
+    drawn: DrawnPath
+    """The spline, the path the waypoints draw."""
+    deviation_m: float
+    """The largest distance from a point of the curve to the spline, m (the curve sampled at every quarter of each
+    of its pieces, a centimetre or so apart: the distance between the two smooth curves changes over lengths like
+    the pieces')."""
+    pieces_per_span: int
+    """The curve's pieces per knot span of the spline (half a waypoint interval)."""
+
+
+def waypoint_curve(
+    waypoints: Sequence[Waypoint], *, source: str = "<path>", max_deviation_m: float = math.inf
+) -> WaypointCurve:
     """The smooth path through waypoints as a polynomial-curvature curve.
+
+    The curve has :data:`NODES_PER_SPAN` pieces per knot span of the spline, twice as many (up to
+    :data:`MAX_NODES_PER_SPAN`) as long as it leaves the spline by more than ``max_deviation_m``.
 
     Parameters
     ----------
@@ -125,15 +171,13 @@ def waypoint_curve(waypoints: Sequence[Waypoint], *, source: str = "<path>") -> 
         The points, with their headings where given.
     source : str
         What errors name as the file.
+    max_deviation_m : float
+        How far the curve may leave the spline, m.
 
     Returns
     -------
-    curve : Curve
-        The path through the waypoints.
-    s_i : ndarray
-        The arc length at each waypoint, m.
-    deviation_m : float
-        The largest distance from a waypoint to the curve at its arc length, m.
+    WaypointCurve
+        The curve, the spline as a drawn path, and how far the one leaves the other.
 
     Raises
     ------
@@ -145,10 +189,29 @@ def waypoint_curve(waypoints: Sequence[Waypoint], *, source: str = "<path>") -> 
     headings = [None if w.theta_deg is None else math.radians(w.theta_deg) for w in waypoints]
     spline, u_i = _fit(points, headings)
     _cusp_check(spline, u_i, waypoints, source)
+    drawn: DrawnPath | None = None
+    pieces = NODES_PER_SPAN
+    while True:
+        curve, s_nodes, s_i, kappa_max = _hermite(spline, u_i, points[0], pieces)
+        if drawn is None:
+            drawn = _drawn(spline, float(u_i[-1]), kappa_max)
+        quarters = s_nodes[:-1, None] + np.diff(s_nodes)[:, None] * np.array([0.0, 0.25, 0.5, 0.75])
+        at = curve.evaluate(np.append(quarters.ravel(), s_nodes[-1]))
+        deviation = float(np.max(drawn.distance_m(at.x_m, at.y_m)))
+        if deviation <= max_deviation_m or 2 * pieces > MAX_NODES_PER_SPAN:
+            return WaypointCurve(curve, s_i, drawn, deviation, pieces)
+        pieces *= 2
+
+
+def _hermite(
+    spline: BSpline, u_i: FloatArray, start_point: FloatArray, pieces: int
+) -> tuple[Curve, FloatArray, FloatArray, float]:
+    """The curve of ``pieces`` Hermite pieces per knot span; the arc length at its nodes and at the waypoints, and
+    the spline's largest |κ| at the nodes."""
     d1, d2, d3 = (spline.derivative(k) for k in (1, 2, 3))
     edges = np.unique(spline.t)
     nodes = np.concatenate(
-        [np.linspace(a, b, _NODES + 1)[:-1] for a, b in zip(edges[:-1], edges[1:], strict=True)] + [edges[-1:]]
+        [np.linspace(a, b, pieces + 1)[:-1] for a, b in zip(edges[:-1], edges[1:], strict=True)] + [edges[-1:]]
     )
     r1, r2, r3 = d1(nodes), d2(nodes), d3(nodes)
     speed = np.hypot(r1[:, 0], r1[:, 1])
@@ -169,10 +232,7 @@ def waypoint_curve(waypoints: Sequence[Waypoint], *, source: str = "<path>") -> 
             (slope[:-1] + slope[1:] - 2.0 * dk / ds) / ds**2,
         ]
     )
-    start = Pose(float(points[0, 0]), float(points[0, 1]), math.atan2(r1[0, 1], r1[0, 0]))
+    start = Pose(float(start_point[0]), float(start_point[1]), math.atan2(r1[0, 1], r1[0, 0]))
     curve = Curve(start, ds, coeffs)
     s_nodes = np.concatenate(([0.0], np.cumsum(ds)))
-    s_i = np.interp(u_i, nodes, s_nodes)
-    at = curve.evaluate(s_i)
-    deviation = float(np.max(np.hypot(at.x_m - points[:, 0], at.y_m - points[:, 1])))
-    return curve, s_i, deviation
+    return curve, s_nodes, np.interp(u_i, nodes, s_nodes), float(np.max(np.abs(kappa)))

@@ -14,11 +14,13 @@ from agvctl.angles import wrap_angle
 from agvctl.feasibility import torque_accel_limit_m_s2
 from agvctl.log import SimLog
 from agvctl.params import VehicleParams
+from agvctl.planning.drawn import DrawnPath
 from agvctl.plots.figures import save_png, subplots
 
 __all__ = [
     "CLOSED_LOOP_PLOTS",
     "draw_both_sides",
+    "draw_drawn_path",
     "draw_errors",
     "draw_path",
     "draw_wheel_accel",
@@ -52,6 +54,7 @@ def save_closed_loop_plots(
     title: str = "",
     *,
     wheel_accel_bound_m_s2: float | None = None,
+    drawn_path: DrawnPath | None = None,
 ) -> list[Path]:
     """Write the closed-loop figures of :data:`CLOSED_LOOP_PLOTS` into ``out_dir``; returns their paths.
 
@@ -68,6 +71,9 @@ def save_closed_loop_plots(
     wheel_accel_bound_m_s2 : float or None
         The gate's bound on the per-sample wheel acceleration, drawn in ``wheel_accel.png`` (m/s²); by default the
         default gate's, :func:`~agvctl.feasibility.torque_accel_limit_m_s2`.
+    drawn_path : DrawnPath or None
+        The path as its file draws it (``Reference.drawn_path``), drawn under the reference in ``path.png``; None:
+        not drawn.
 
     Returns
     -------
@@ -76,7 +82,7 @@ def save_closed_loop_plots(
     """
     out = Path(out_dir)
     figures: list[tuple[str, Callable[[], Any]]] = [
-        ("path.png", lambda: _path_figure(log)),
+        ("path.png", lambda: _path_figure(log, drawn_path)),
         ("tracking_error.png", lambda: _tracking_error_figure(log)),
         ("path_error.png", lambda: _path_error_figure(log)),
         ("wheel_speeds.png", lambda: _wheel_speed_figure(log)),
@@ -103,19 +109,26 @@ def save_closed_loop_plots(
     return written
 
 
-def _path_figure(log: SimLog) -> Any:
-    """The vehicle's path (and its estimate, where it differs) against the reference."""
+def _path_figure(log: SimLog, drawn_path: DrawnPath | None) -> Any:
+    """The vehicle's path (and its estimate, where it differs) against the reference and the drawn path."""
     fig, ax = subplots(figsize=(6.5, 6))
-    draw_path(ax, log)
+    draw_path(ax, log, drawn_path=drawn_path)
     return fig
 
 
-def draw_path(ax: Any, log: SimLog, *, mark_time_s: float | None = None, mark_label: str = "") -> None:
+def draw_path(
+    ax: Any,
+    log: SimLog,
+    *,
+    mark_time_s: float | None = None,
+    mark_label: str = "",
+    drawn_path: DrawnPath | None = None,
+) -> None:
     """Draw on an axes the vehicle's path against the reference: the ``path.png`` figure and the page's path panel.
 
-    The reference (dashed), the true path with its start, and the estimated path where it differs from the true
-    one, in the plane: x and y in m, equal scale, with a grid and a legend in a band left free above the path (it
-    never covers it).
+    The drawn path (wide, light grey, under everything), the reference (dashed), the true path with its start, and
+    the estimated path where it differs from the true one, in the plane: x and y in m, equal scale, with a grid and
+    a legend in a band left free above the path (it never covers it).
 
     Parameters
     ----------
@@ -128,7 +141,11 @@ def draw_path(ax: Any, log: SimLog, *, mark_time_s: float | None = None, mark_la
         mark).
     mark_label : str
         The mark's legend entry (empty: none).
+    drawn_path : DrawnPath or None
+        The path as its file draws it (``Reference.drawn_path``); None: not drawn.
     """
+    if drawn_path is not None:
+        draw_drawn_path(ax, drawn_path)
     ax.plot(log["ref_x_m"], log["ref_y_m"], "k--", lw=1, label="reference")
     ax.plot(log["x_m"], log["y_m"], "C0", lw=1.5, label="vehicle (true)")
     if not np.allclose(log["est_x_m"], log["x_m"]):
@@ -142,6 +159,19 @@ def draw_path(ax: Any, log: SimLog, *, mark_time_s: float | None = None, mark_la
     ax.set_ylim(y_min, y_max + LEGEND_BAND * (y_max - y_min))
     ax.legend(loc="upper center", ncol=2, fontsize=8)
     ax.grid(alpha=0.3)
+
+
+def draw_drawn_path(ax: Any, drawn_path: DrawnPath) -> None:
+    """Draw on an axes the path as its file draws it: a wide, light grey line under what is drawn next.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes to draw on.
+    drawn_path : DrawnPath
+        The drawn path (``Reference.drawn_path``).
+    """
+    ax.plot(drawn_path.x_m, drawn_path.y_m, color="0.75", lw=5, solid_capstyle="round", zorder=0, label="drawn path")
 
 
 def _tracking_error_figure(log: SimLog) -> Any:

@@ -14,6 +14,7 @@ import numpy as np
 
 from agvctl.fileio import atomic_open
 from agvctl.planning.reference import Reference
+from agvctl.plots.closed_loop import draw_drawn_path
 
 __all__ = ["plot_reference", "render_reference_png", "save_reference_plot"]
 
@@ -21,9 +22,10 @@ __all__ = ["plot_reference", "render_reference_png", "save_reference_plot"]
 def plot_reference(ref: Reference, *, dense_period_s: float = 0.005) -> Any:
     """The figure of a reference: its path, its curvature, and its wheel speeds and accelerations against the limits.
 
-    Four panels, top to bottom: the path in the plane (x, y in m, equal scale) with its start, its end and the stops
-    between its motions, titled with its length and duration; the curvature κ (1/m) against arc length s (m), titled
-    with the largest deviation from the requested path (mm); each wheel's rim speed (m/s) and rim acceleration
+    Four panels, top to bottom: the path in the plane (x, y in m, equal scale) over the path its file draws (wide,
+    light grey), with its start, its end and the stops between its motions, titled with its length and duration;
+    the curvature κ (1/m) against arc length s (m), titled with the planned path's largest distance from the drawn
+    one and its tolerance (mm); each wheel's rim speed (m/s) and rim acceleration
     (m/s²) against time (s), with the plan's wheel limits as ± lines.
 
     Parameters
@@ -46,7 +48,9 @@ def plot_reference(ref: Reference, *, dense_period_s: float = 0.005) -> Any:
     fig = Figure(figsize=(6.4, 10.0), layout="constrained")
     ax_path, ax_k, ax_v, ax_a = fig.subplots(4, 1, height_ratios=[1.4, 0.8, 1.0, 1.0])
 
-    ax_path.plot(s.x_m, s.y_m, color="C0", lw=1.5)
+    if ref.drawn_path is not None:
+        draw_drawn_path(ax_path, ref.drawn_path)
+    ax_path.plot(s.x_m, s.y_m, color="C0", lw=1.5, label="planned path")
     ax_path.plot(s.x_m[0], s.y_m[0], "o", color="C2", label="start")
     ax_path.plot(s.x_m[-1], s.y_m[-1], "x", color="C3", ms=9, label="end")
     stops = np.array([[m.start_pose.x_m, m.start_pose.y_m] for m in ref.motions[1:]]).reshape(-1, 2)
@@ -63,8 +67,11 @@ def plot_reference(ref: Reference, *, dense_period_s: float = 0.005) -> Any:
     ax_k.plot(s.path_length_m[moving], s.curvature_1_m[moving], color="C0", lw=1.5)
     ax_k.set_xlabel("arc length s [m]")
     ax_k.set_ylabel("curvature κ [1/m]")
+    tolerance = (
+        f" (tolerance {ref.drawn_path_tolerance_m * 1e3:g} mm)" if np.isfinite(ref.drawn_path_tolerance_m) else ""
+    )
     ax_k.set_title(
-        f"largest deviation from the requested path {ref.geometry_deviation_m * 1e3:.1f} mm", fontsize="small"
+        f"largest distance from the drawn path {ref.drawn_path_deviation_m * 1e3:.1f} mm{tolerance}", fontsize="small"
     )
     ax_k.grid(True, alpha=0.3)
 

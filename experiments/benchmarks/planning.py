@@ -151,7 +151,7 @@ def shipped(vehicle, with_toppra: bool) -> None:
         print(
             f"  {Path(file).stem:<13}{old.duration_s:8.2f}{ref.duration_s:10.2f}"
             f"{1 - ref.duration_s / old.duration_s:7.1%}{low:11.2f}{ref.duration_s / low:7.3f}"
-            f"{ref.geometry_deviation_m * 1e3:8.2f}{len(ref.motions) - 1:6d}"
+            f"{ref.drawn_path_deviation_m * 1e3:8.2f}{len(ref.motions) - 1:6d}"
             f"   {v / lim.wheel_speed_m_s:7.4f}  {a / lim.wheel_accel_m_s2:7.4f}  {j / lim.wheel_jerk_m_s3:7.4f}"
         )
 
@@ -167,8 +167,8 @@ def main() -> None:
     seg = PathSpec(segments=twenty_segments(), name="bench-20-segments")
     ref_wp, ref_seg = plan(wp, vehicle), plan(seg, vehicle)
     print(
-        f"20-waypoint path: {ref_wp.path_length_m:.2f} m in {ref_wp.duration_s:.2f} s, waypoints passed "
-        f"within {ref_wp.geometry_deviation_m * 1e6:.1f} µm"
+        f"20-waypoint path: {ref_wp.path_length_m:.2f} m in {ref_wp.duration_s:.2f} s, within "
+        f"{ref_wp.drawn_path_deviation_m * 1e6:.1f} µm of the spline through the waypoints"
     )
     print(
         f"20-segment path: {len(ref_seg.motions)} motions, {ref_seg.path_length_m:.2f} m in {ref_seg.duration_s:.2f} s"
