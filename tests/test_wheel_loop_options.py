@@ -14,7 +14,7 @@ from cli_runs import one_line, run
 from agvctl.calibration.friction.experiment import FRICTION_WHEEL_LOOPS
 from agvctl.calibration.umbmark.experiment import UMBMARK_WHEEL_LOOPS
 from agvctl.controllers.pi import PIWheelController, WheelLoopOptions, default_pi_gains
-from agvctl.controllers.pi.wheel_loop import Braking
+from agvctl.controllers.pi.options import Braking
 from agvctl.controllers.registry import design_wheel_loops
 from agvctl.errors import ConfigError
 from agvctl.params import load_vehicle
