@@ -33,9 +33,11 @@ from agvctl.plant.codegen import compiled_library
 __all__ = [
     "STRICT_C_FLAGS",
     "CompiledPIWheelController",
+    "StaticMemory",
     "WheelLoopsC",
     "compile_wheel_loops",
     "render_wheel_loops_c",
+    "static_memory",
 ]
 
 STRICT_C_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-O2")
@@ -190,6 +192,53 @@ def compile_wheel_loops(code: WheelLoopsC) -> ctypes.CDLL:
         raise AgvctlError(f"the generated wheel loops cannot be compiled or loaded: {exc}") from None
 
 
+@dataclass(frozen=True)
+class StaticMemory:
+    """The memory the generated loops use, all of it static (they allocate nothing).
+
+    Parameters
+    ----------
+    state_bytes : int
+        sizeof the state struct the caller owns, bytes.
+    constant_bytes : int
+        The ``static const`` data (gains and vehicle constants), bytes.
+    """
+
+    state_bytes: int
+    constant_bytes: int
+
+
+def _size_function(lib: ctypes.CDLL, name: str) -> Any:
+    function = getattr(lib, name)
+    function.restype = ctypes.c_size_t
+    return function
+
+
+def static_memory(code: WheelLoopsC) -> StaticMemory:
+    """The state's and the constants' sizes, as the compiler lays them out (compiles ``code`` once).
+
+    Parameters
+    ----------
+    code : WheelLoopsC
+        The generated C.
+
+    Returns
+    -------
+    StaticMemory
+        The bytes of the state struct and of the constant data.
+
+    Raises
+    ------
+    AgvctlError
+        No C compiler, or the generated code does not compile.
+    """
+    lib = compile_wheel_loops(code)
+    return StaticMemory(
+        int(_size_function(lib, f"{code.prefix}_state_size")()),
+        int(_size_function(lib, f"{code.prefix}_constant_size")()),
+    )
+
+
 class CompiledPIWheelController:
     """The PI wheel loops as generated C, compiled and called through ctypes: a
     :class:`~agvctl.controllers.base.WheelSpeedController` and
@@ -234,15 +283,9 @@ class CompiledPIWheelController:
         self._init.restype = None
         self._step = getattr(lib, f"{prefix}_step")
         self._step.restype = ctypes.c_uint
-        state_size = getattr(lib, f"{prefix}_state_size")
-        state_size.restype = ctypes.c_size_t
-        constant_size = getattr(lib, f"{prefix}_constant_size")
-        constant_size.restype = ctypes.c_size_t
-        self.state_bytes = int(state_size())
-        """sizeof the C state struct, bytes."""
-        self.constant_bytes = int(constant_size())
-        """The bytes of constant data the C loops read."""
-        self._state = (ctypes.c_double * -(-self.state_bytes // 8))()  # caller-owned, double-aligned
+        self.memory = static_memory(self.code)
+        """The C state's and constants' sizes."""
+        self._state = (ctypes.c_double * -(-self.memory.state_bytes // 8))()  # caller-owned, double-aligned
         self._setpoint = (ctypes.c_double * 2)()
         self._measured = (ctypes.c_double * 2)()
         self._da = (ctypes.c_double * 2)()
