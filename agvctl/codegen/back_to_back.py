@@ -32,8 +32,8 @@ class SideBySideWheelLoops:
     ----------
     driving : PIWheelController
         The loops whose DA voltages go to the plant (the Python ones).
-    beside : WheelSpeedController
-        The loops stepped beside them (the C ones), with a ``limited`` property.
+    beside : CompiledPIWheelController
+        The loops stepped beside them (the C ones).
     """
 
     def __init__(self, driving: PIWheelController, beside: CompiledPIWheelController) -> None:
