@@ -33,6 +33,9 @@ COMMANDS: dict[str, Command] = {
         "agvctl.cli.tune_cmd",
         "design the PI wheel-speed loops (or, with --pose, search a pose controller's settings)",
     ),
+    "codegen": Command(
+        "agvctl.cli.codegen_cmd", "write an experiment's PI wheel loops as dependency-free C99 (header, source, README)"
+    ),
     "identify": Command(
         "agvctl.cli.identify_cmd", "identify vehicle constants: mass, friction, wheel geometry (appendix A.1)"
     ),

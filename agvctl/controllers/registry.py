@@ -36,6 +36,7 @@ from agvctl.controllers.baselines.ramsete import RamseteConfig, RamseteControlle
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.nonlinear import NonlinearMpcController
+from agvctl.controllers.pi.c_loops import CompiledPIWheelController
 from agvctl.controllers.pi.gains_file import load_gains
 from agvctl.controllers.pi.options import WheelLoopOptions
 from agvctl.controllers.pi.tuning import WheelLoopDesign, closed_loop_time_constant_s, default_pi_gains
@@ -298,10 +299,16 @@ WHEEL_LOOPS: dict[str, WheelLoopKind] = {
         None,
         "PI speed loops per motor (gains designed, or from [controller] pi_gains)",
     ),
+    "pi_c": WheelLoopKind(
+        lambda vehicle, settings, designed: CompiledPIWheelController(vehicle, designed.design.gains, designed.options),
+        None,
+        "the same PI loops as generated C99, compiled and called through ctypes (software-in-the-loop)",
+    ),
 }
 """The built-in wheel loops by the name an experiment's ``[controller] wheel_loops`` gives (entries of
 :data:`wheel_loops`)."""
 
 wheel_loops: Registry[WheelLoopKind] = Registry("agvctl.wheel_loops", "wheel loops", WHEEL_LOOPS, _wheel_kind)
-"""Every wheel-speed loop ``[controller] wheel_loops`` can name: the built-in ``pi``, installed packages' (group
+"""Every wheel-speed loop ``[controller] wheel_loops`` can name: the built-in ``pi`` and ``pi_c`` (the same loops
+as generated C), installed packages' (group
 ``agvctl.wheel_loops``) and import references."""

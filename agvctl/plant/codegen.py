@@ -26,7 +26,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["NumericFunction", "cache_dir", "native_functions"]
+__all__ = ["NumericFunction", "c_compiler", "cache_dir", "compiled_library", "native_functions"]
 
 NumericFunction = Callable[..., tuple[NDArray[np.float64], ...]]
 """A CasADi function evaluated on numpy arrays: inputs in its order, outputs as 2-D arrays (rows × columns)."""
@@ -132,40 +132,106 @@ class _CCall:
         return tuple(o.copy().T for o in buffers.outputs)
 
 
-def _compile(functions: Sequence[ca.Function], name: str) -> list[NumericFunction]:
-    """Generate C for ``functions``, compile it into the cache (unless already there) and load it."""
-    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+def c_compiler() -> str | None:
+    """The system C compiler: ``$CC``, else ``cc``, else ``gcc`` on the path.
+
+    Returns
+    -------
+    str or None
+        Its command, or None when there is none.
+    """
+    return os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+
+
+_LIBRARIES: dict[Path, ctypes.CDLL] = {}
+_LIBRARIES_LOCK = threading.Lock()
+
+
+def compiled_library(
+    source: str | bytes,
+    name: str,
+    *,
+    flags: Sequence[str] = _COMPILER_FLAGS,
+    try_openmp: bool = False,
+    key: str = "",
+) -> ctypes.CDLL:
+    """One C file compiled into a shared object in :func:`cache_dir` (unless already there) and loaded.
+
+    The library's name carries a hash of the source, the flags, ``key`` and the platform, so a changed source never
+    loads a stale library; it is compiled into a temporary file beside its place and moved there atomically, so
+    processes that compile the same source at once each see the whole library or none. A process loads each
+    library once.
+
+    Parameters
+    ----------
+    source : str or bytes
+        The C file's text (UTF-8).
+    name : str
+        Stem of the C file and of the cached shared object (``<name>_<hash>.so``).
+    flags : sequence of str
+        The compiler's flags; they must make a shared object (``-fPIC -shared``).
+    try_openmp : bool
+        Compile with ``-fopenmp`` first, and without it if that fails.
+    key : str
+        More text the cache key depends on (the version of the generator that wrote the source).
+
+    Returns
+    -------
+    ctypes.CDLL
+        The loaded library.
+
+    Raises
+    ------
+    OSError
+        No C compiler, or the library cannot be written or loaded.
+    subprocess.CalledProcessError
+        The compiler refused the source (its messages in ``stderr``).
+    """
+    cc = c_compiler()
     if not cc:
         raise OSError("no C compiler (cc/gcc) found")
+    data = source.encode("utf-8") if isinstance(source, str) else source
+    digest = hashlib.sha256(
+        data + " ".join(flags).encode() + str(try_openmp).encode() + key.encode() + sys.platform.encode()
+    ).hexdigest()[:20]
+    target = cache_dir() / f"{name}_{digest}.so"
+    with _LIBRARIES_LOCK:
+        lib = _LIBRARIES.get(target)
+        if lib is not None:
+            return lib
+        if not target.exists():
+            target.parent.mkdir(parents=True, exist_ok=True)
+            with tempfile.TemporaryDirectory(prefix="agvctl-cg-") as tmp:
+                c_file = Path(tmp, f"{name}.c")
+                c_file.write_bytes(data)
+                fd, partial = tempfile.mkstemp(prefix=f".{name}_", suffix=".so", dir=target.parent)
+                os.close(fd)
+                try:
+                    cmd = [cc, *flags, "-o", partial, str(c_file), "-lm"]
+                    try:
+                        subprocess.run([*cmd, "-fopenmp"] if try_openmp else cmd, check=True, capture_output=True)
+                    except subprocess.CalledProcessError:
+                        if not try_openmp:
+                            raise
+                        subprocess.run(cmd, check=True, capture_output=True)
+                    os.replace(partial, target)  # atomic: a concurrent process sees the whole library or none
+                finally:
+                    if os.path.exists(partial):
+                        os.unlink(partial)
+        lib = ctypes.CDLL(str(target))
+        _LIBRARIES[target] = lib
+        return lib
+
+
+def _compile(functions: Sequence[ca.Function], name: str) -> list[NumericFunction]:
+    """Generate C for ``functions``, compile it into the cache (unless already there) and load it."""
     with tempfile.TemporaryDirectory(prefix="agvctl-cg-") as tmp:
         gen = ca.CodeGenerator(f"{name}.c", {"with_header": False})
         for f in functions:
             gen.add(f)
         gen.generate(tmp + os.sep)
-        c_file = Path(tmp, f"{name}.c")
-        source = c_file.read_bytes()
-        key = hashlib.sha256(
-            source
-            + " ".join(_COMPILER_FLAGS).encode()
-            + str(getattr(ca, "__version__", "")).encode()
-            + sys.platform.encode()
-        ).hexdigest()[:20]
-        target = cache_dir() / f"{name}_{key}.so"
-        if not target.exists():
-            target.parent.mkdir(parents=True, exist_ok=True)
-            fd, partial = tempfile.mkstemp(prefix=f".{name}_", suffix=".so", dir=target.parent)
-            os.close(fd)
-            try:
-                cmd = [cc, *_COMPILER_FLAGS, "-o", partial, str(c_file), "-lm"]
-                try:
-                    subprocess.run([*cmd, "-fopenmp"], check=True, capture_output=True)
-                except subprocess.CalledProcessError:
-                    subprocess.run(cmd, check=True, capture_output=True)
-                os.replace(partial, target)  # atomic: a concurrent process sees the whole library or none
-            finally:
-                if os.path.exists(partial):
-                    os.unlink(partial)
-    lib = ctypes.CDLL(str(target))
+        source = Path(tmp, f"{name}.c").read_bytes()
+    lib = compiled_library(source, name, try_openmp=True, key=str(getattr(ca, "__version__", "")))
     return [_CCall(lib, f) for f in functions]
 
 

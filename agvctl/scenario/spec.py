@@ -164,7 +164,7 @@ class ControllerSpec:
     :data:`~agvctl.estimation.registry.wheel_speed_estimators`."""
     wheel_loops: str = "pi"
     """The wheel-speed loops: a name or reference of :data:`~agvctl.controllers.registry.wheel_loops` (``"pi"``:
-    the PI loops below)."""
+    the PI loops below; ``"pi_c"``: the same loops as generated C, compiled and run through ctypes)."""
     pi_gains: str | None = None
     """A gains file written by ``agvctl tune --out`` (relative to the experiment); None: tuned on the fly."""
     coulomb_feedforward: bool = _LOOPS.coulomb_feedforward

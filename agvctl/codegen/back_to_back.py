@@ -1,0 +1,159 @@
+"""Back-to-back: an experiment's generated C wheel loops beside its Python loops, on the same inputs, in the closed
+loop (software-in-the-loop, as an embedded code generator checks its code against the model).
+
+:func:`back_to_back` runs the experiment twice. First the Python loops drive the plant while the C loops
+(:class:`~agvctl.controllers.pi.c_loops.CompiledPIWheelController`) are stepped beside them on the same setpoints
+and measurements (:class:`SideBySideWheelLoops`): the largest difference of their DA voltages and of their
+clamped flags, sample by sample. Then the C loops drive the plant alone. Both runs are judged against the
+experiment's gate, limit by limit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.controllers.base import WheelSpeedController
+from agvctl.controllers.pi.c_loops import CompiledPIWheelController
+from agvctl.controllers.pi.wheel_loop import PIWheelController
+from agvctl.evaluation.limits import RunVerdict, judge_run
+from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
+
+__all__ = ["BackToBack", "SideBySideWheelLoops", "back_to_back"]
+
+
+class SideBySideWheelLoops:
+    """Two wheel-loop implementations stepped on the same inputs; the first one's outputs are commanded.
+
+    Parameters
+    ----------
+    driving : PIWheelController
+        The loops whose DA voltages go to the plant (the Python ones).
+    beside : CompiledPIWheelController
+        The loops stepped beside them (the C ones).
+    """
+
+    def __init__(self, driving: PIWheelController, beside: CompiledPIWheelController) -> None:
+        self.driving = driving
+        self.beside = beside
+        self.samples = 0
+        """The samples stepped since the last reset."""
+        self.max_da_difference_v = 0.0
+        """The largest absolute difference of the DA voltages over both wheels and every sample, V."""
+        self.limited_mismatches = 0
+        """The samples where the two disagree on which loops were clamped."""
+
+    def reset(self) -> None:
+        """Reset both (and the comparison)."""
+        self.driving.reset()
+        self.beside.reset()
+        self.samples = 0
+        self.max_da_difference_v = 0.0
+        self.limited_mismatches = 0
+
+    @property
+    def limited(self) -> tuple[bool, bool]:
+        """The driving loops' clamped flags (left, right)."""
+        return self.driving.limited
+
+    def update(self, setpoint_rad_s: NDArray[np.float64], measured_rad_s: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Both loops' step on the same inputs; the driving loops' DA voltages (V).
+
+        Parameters
+        ----------
+        setpoint_rad_s : ndarray
+            The motor-speed setpoints (left, right), rad/s.
+        measured_rad_s : ndarray
+            The measured motor speeds (left, right), rad/s.
+
+        Returns
+        -------
+        ndarray
+            The driving loops' DA voltages (left, right), V.
+        """
+        da = self.driving.update(setpoint_rad_s, measured_rad_s)
+        other = self.beside.update(setpoint_rad_s, measured_rad_s)
+        self.samples += 1
+        self.max_da_difference_v = max(self.max_da_difference_v, float(np.max(np.abs(da - other))))
+        if self.driving.limited != self.beside.limited:
+            self.limited_mismatches += 1
+        return da
+
+
+@dataclass(frozen=True)
+class BackToBack:
+    """The comparison of an experiment's Python and C wheel loops.
+
+    Parameters
+    ----------
+    experiment : str
+        The experiment's name.
+    samples : int
+        The samples compared (of the run the Python loops drive).
+    max_da_difference_v : float
+        The largest absolute difference of the two's DA voltages on the same inputs, V.
+    limited_mismatches : int
+        The samples where they disagree on which loops were clamped.
+    python : RunVerdict
+        The run with the Python loops, judged.
+    c : RunVerdict
+        The run with the C loops driving the plant, judged.
+    """
+
+    experiment: str
+    samples: int
+    max_da_difference_v: float
+    limited_mismatches: int
+    python: RunVerdict
+    c: RunVerdict
+
+    @property
+    def same_verdicts(self) -> bool:
+        """Whether every limit and requirement passes or fails alike in the two runs."""
+        ours = [(v.limit, v.passed) for v in self.python.limits]
+        return ours == [(v.limit, v.passed) for v in self.c.limits]
+
+
+def _judged(experiment: Experiment, wheel_controller: WheelSpeedController) -> RunVerdict:
+    result = run_experiment(experiment, wheel_controller=wheel_controller)
+    return judge_run(result, experiment.spec.limits, experiment.controller_vehicle, experiment.spec.requirements)
+
+
+def back_to_back(experiment: str | Path | Experiment) -> BackToBack:
+    """Run an experiment with its Python wheel loops and the C ones beside them, then with the C ones alone.
+
+    Parameters
+    ----------
+    experiment : str, Path or Experiment
+        The experiment file, or one loaded (:func:`~agvctl.scenario.experiment.load_experiment`). Its wheel loops'
+        gains and options are used whatever its ``controller.wheel_loops`` names.
+
+    Returns
+    -------
+    BackToBack
+        The largest DA difference on the same inputs and both runs' verdicts.
+
+    Raises
+    ------
+    AgvctlError
+        No C compiler, or the generated code does not compile.
+    """
+    loaded = experiment if isinstance(experiment, Experiment) else load_experiment(experiment)
+    vehicle = loaded.controller_vehicle
+    gains, options = loaded.wheel_loops.design.gains, loaded.wheel_loops.options
+    side_by_side = SideBySideWheelLoops(
+        PIWheelController(vehicle, gains, options), CompiledPIWheelController(vehicle, gains, options)
+    )
+    python = _judged(loaded, side_by_side)
+    c = _judged(loaded, CompiledPIWheelController(vehicle, gains, options))
+    return BackToBack(
+        loaded.spec.name,
+        side_by_side.samples,
+        side_by_side.max_da_difference_v,
+        side_by_side.limited_mismatches,
+        python,
+        c,
+    )

@@ -1,0 +1,76 @@
+"""Back-to-back of the generated C wheel loops against the Python ones over the acceptance fuzz's scenarios.
+
+For each of the first N scenarios of ``experiments/fuzz/acceptance.toml`` and each of its pose controllers, the
+closed loop runs with the Python PI wheel loops driving the plant and the generated C loops (``wheel_loops =
+"pi_c"``, compiled once) stepped beside them on the same setpoints and measurements; then with the C loops driving
+alone (:func:`agvctl.codegen.back_to_back`). Prints the largest DA voltage difference over every sample, the
+samples where the two disagree on which loops were clamped, and whether every limit's verdict is the same in the two
+runs. Warnings of a scenario (a path near the voltage headroom) are noted, as ``agvctl fuzz`` notes them.
+
+Run:  python experiments/codegen_back_to_back.py [--scenarios 100] [--jobs 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+import warnings
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from agvctl.codegen import back_to_back
+from agvctl.fuzz.report import FuzzTask
+from agvctl.fuzz.run import fuzz_tasks
+from agvctl.fuzz.spec import load_fuzz_config
+
+FUZZ_FILE = Path(__file__).parent / "fuzz" / "acceptance.toml"
+
+
+def compare(task: FuzzTask) -> tuple[int, str, int, float, int, bool, bool, bool]:
+    """One scenario with one pose controller: (scenario, controller, samples, largest DA difference in V, clamped
+    mismatches, same verdicts, Python passed, C passed)."""
+    with tempfile.TemporaryDirectory(prefix="agvctl-b2b-") as tmp, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for name, text in task.files:
+            Path(tmp, name).write_text(text, encoding="utf-8")
+        r = back_to_back(Path(tmp, task.files[-1][0]))
+    return (
+        task.scenario,
+        task.controller,
+        r.samples,
+        r.max_da_difference_v,
+        r.limited_mismatches,
+        r.same_verdicts,
+        r.python.passed,
+        r.c.passed,
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenarios", type=int, default=100)
+    parser.add_argument("--jobs", type=int, default=2)
+    args = parser.parse_args()
+    spec = load_fuzz_config(FUZZ_FILE)
+    tasks = fuzz_tasks(spec, list(range(args.scenarios))).tasks
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(args.jobs) as pool:
+        rows = list(pool.map(compare, tasks))
+    wall = time.perf_counter() - t0
+    print(
+        f"{len(rows)} runs ({args.scenarios} scenarios of {FUZZ_FILE.name} x {', '.join(spec.controllers)}), "
+        f"{wall:.1f} s on {args.jobs} jobs"
+    )
+    for controller in spec.controllers:
+        mine = [r for r in rows if r[1] == controller]
+        print(
+            f"  {controller:<8} samples {sum(r[2] for r in mine):>7}   largest DA difference "
+            f"{max(r[3] for r in mine):.3g} V   clamped mismatches {sum(r[4] for r in mine)}   "
+            f"verdicts differ in {sum(not r[5] for r in mine)} runs   "
+            f"passed: Python {sum(r[6] for r in mine)}, C {sum(r[7] for r in mine)} of {len(mine)}"
+        )
+
+
+if __name__ == "__main__":
+    main()
