@@ -67,10 +67,12 @@ class Scenario:
     """``[plant] sensor_seed``: the true sensors' noise."""
     estimators: dict[str, str] = field(default_factory=dict)
     """The ``[controller]`` estimator keys drawn (``localization``, ``wheel_speed``)."""
+    prefix: str = "s"
+    """The name's prefix: ``s`` for a random scenario, ``search`` for one a search proposed."""
 
     @property
     def name(self) -> str:
-        return f"s{self.seed}_{self.index:05d}"
+        return f"{self.prefix}{self.seed}_{self.index:05d}"
 
 
 def _sig(value: float, digits: int = 6) -> float:
@@ -201,7 +203,7 @@ def generate_scenario(spec: FuzzSpec, vehicle: VehicleParams, index: int) -> Sce
     return draw_scenario(spec, vehicle, RandomDraws(np.random.default_rng([spec.seed, index])), index)
 
 
-def draw_scenario(spec: FuzzSpec, vehicle: VehicleParams, draws: Draws, index: int) -> Scenario:
+def draw_scenario(spec: FuzzSpec, vehicle: VehicleParams, draws: Draws, index: int, prefix: str = "s") -> Scenario:
     """A scenario of the envelope of ``spec`` with every value taken from ``draws``, in the order of the module
     notes: the one definition of the envelope that random fuzzing and a search share.
 
@@ -214,7 +216,9 @@ def draw_scenario(spec: FuzzSpec, vehicle: VehicleParams, draws: Draws, index: i
     draws : Draws
         Where the values come from (:class:`RandomDraws` for scenario ``index`` of a seed).
     index : int
-        The scenario's number, 0 ≤ index: its name (``s<seed>_<index>``).
+        The scenario's number, 0 ≤ index: its name (``<prefix><seed>_<index>``).
+    prefix : str
+        The name's prefix (``s`` for a random scenario).
 
     Returns
     -------
@@ -226,7 +230,7 @@ def draw_scenario(spec: FuzzSpec, vehicle: VehicleParams, draws: Draws, index: i
     ConfigError
         The drawn plant values together give an invalid vehicle.
     """
-    name = f"s{spec.seed}_{index:05d}"
+    name = f"{prefix}{spec.seed}_{index:05d}"
     path = _path(draws, spec.paths, vehicle, name)
     plant = _plant(draws, spec, vehicle)
     radius = draws.uniform("start.offset_m", 0.0, spec.start.offset_max_m)
@@ -243,7 +247,7 @@ def draw_scenario(spec: FuzzSpec, vehicle: VehicleParams, draws: Draws, index: i
         raise ConfigError(spec.source, "plant", f"scenario {index} gives an invalid vehicle: {exc}") from None
     sensor_seed = draws.integer("sensor_seed", 0, 2**31 - 1)
     estimators = {key: draws.choice(f"estimators.{key}", choices) for key, choices in spec.estimators.items()}
-    return Scenario(spec.seed, index, path, plant, pose, sensor_seed, estimators)
+    return Scenario(spec.seed, index, path, plant, pose, sensor_seed, estimators, prefix)
 
 
 def scenario_files(spec: FuzzSpec, scenario: Scenario, controller: str) -> dict[str, str]:
@@ -268,7 +272,11 @@ def scenario_files(spec: FuzzSpec, scenario: Scenario, controller: str) -> dict[
     label = plain_label(controller)
     exp_name = f"{scenario.name}_{label}.toml"
     base_dir = Path(spec.source).parent
-    origin = f"fuzz scenario {scenario.index} of seed {scenario.seed} ({spec.source})"
+    origin = (
+        f"fuzz scenario {scenario.index} of seed {scenario.seed} ({spec.source})"
+        if scenario.prefix == "s"
+        else f"run {scenario.index} of the search of seed {scenario.seed} over the envelope of {spec.source}"
+    )
     table = {**merged_settings(spec.pose_settings.get(controller, {}), spec.controller), **scenario.estimators}
     for key in ("wheel_loops", "localization", "wheel_speed"):  # code it names, from any folder
         if isinstance(table.get(key), str):

@@ -1,0 +1,30 @@
+"""Falsification: a search over a fuzz file's envelope for the scenario with the smallest requirement margin.
+
+* :mod:`~agvctl.falsify.search` — the search: Optuna proposes the scenario generator's values, each scenario runs
+  as ``agvctl fuzz`` runs it, the run's smallest normalised margin is minimised.
+* :mod:`~agvctl.falsify.output` — what a search reports: the JSON, the readable summary, the figure.
+"""
+
+from agvctl.falsify.output import report_dict, search_figure, summary_text
+from agvctl.falsify.search import (
+    SAMPLERS,
+    FalsifyResult,
+    SearchRun,
+    TrialDraws,
+    check_falsify,
+    falsify,
+    searched_margin,
+)
+
+__all__ = [
+    "SAMPLERS",
+    "FalsifyResult",
+    "SearchRun",
+    "TrialDraws",
+    "check_falsify",
+    "falsify",
+    "report_dict",
+    "search_figure",
+    "searched_margin",
+    "summary_text",
+]
