@@ -51,6 +51,9 @@ def register(sub: Any) -> None:
     budget.add_argument("--budget-s", type=float, default=None, metavar="S", help="wall time, s, instead of runs")
     p.add_argument("--seed", type=int, default=None, help="the search's seed (default: the file's)")
     p.add_argument("--controller", metavar="REF", help="the pose controller (default: the file's first)")
+    p.add_argument(
+        "--requirement", metavar="NAME", help="search this one limit or requirement's margin (default: the smallest)"
+    )
     p.add_argument("--batch", type=int, default=4, metavar="N", help="trials proposed together (default 4)")
     p.add_argument("--sampler", choices=SAMPLERS, default="tpe", help="the optimiser (default tpe)")
     p.add_argument("--keep-going", action="store_true", help="search the whole budget after a falsification")
@@ -103,6 +106,7 @@ def run(args: argparse.Namespace) -> int:
         "budget_s": args.budget_s,
         "seed": args.seed,
         "controller": args.controller,
+        "requirement": args.requirement,
         "batch": args.batch,
         "sampler": args.sampler,
         "baseline": args.baseline,

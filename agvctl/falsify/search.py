@@ -37,7 +37,7 @@ from agvctl.checks.executors import ExecutorKind, open_executor, resolved_jobs
 from agvctl.checks.report import TIMING_METRICS
 from agvctl.config import document_fields
 from agvctl.errors import ConfigError
-from agvctl.evaluation.limits import LimitResult, smallest_normalised_margin
+from agvctl.evaluation.limits import LIMITS, LimitResult, smallest_normalised_margin
 from agvctl.fuzz.generate import Scenario, draw_scenario, generate_scenario, scenario_files
 from agvctl.fuzz.report import FuzzOutcome, FuzzTask
 from agvctl.fuzz.run import run_fuzz_tasks
@@ -49,6 +49,14 @@ __all__ = ["SAMPLERS", "FalsifyResult", "SearchRun", "TrialDraws", "check_falsif
 SAMPLERS = ("tpe", "random", "cmaes")
 """The optimisers: Optuna's TPE (the default), random search over the same parameters, and CMA-ES (needs the
 ``cmaes`` package; the categorical parameters are then drawn at random)."""
+
+LOCAL_SHARE = 0.5
+"""The share of a batch (rounded down) proposed near the smallest margin so far rather than by TPE."""
+LOCAL_AFTER = 20
+"""Finished runs before the local moves start: until then TPE's model (and its random start) alone."""
+LOCAL_STEP = 0.15
+"""A local move's step: the normal step's standard deviation as a share of a number's range, and the chance
+that a choice is redrawn."""
 
 IMPORTANCE_MIN_RUNS = 20
 """Finished runs below which no importances are given: over fewer, the lowest tenth is one or two runs."""
@@ -92,20 +100,24 @@ class TrialDraws:
         return bool(self.trial.suggest_categorical(name, [False, True]))
 
 
-def searched_margin(limits: Sequence[LimitResult]) -> float:
-    """The smallest normalised margin of a run's verdicts, the measured solve times excepted: what the search
-    minimises (negative: a limit or requirement is falsified).
+def searched_margin(limits: Sequence[LimitResult], requirement: str | None = None) -> float:
+    """The smallest normalised margin of a run's verdicts, the measured solve times excepted, or that of one
+    limit or requirement: what the search minimises (negative: falsified).
 
     Parameters
     ----------
     limits : sequence of LimitResult
         The run's verdicts.
+    requirement : str or None
+        Only the verdict of this limit or requirement (None: every one).
 
     Returns
     -------
     float
         The smallest :attr:`~agvctl.evaluation.verdicts.LimitResult.normalised_margin` (+∞ with none).
     """
+    if requirement is not None:
+        return smallest_normalised_margin([r for r in limits if r.limit == requirement])
     return smallest_normalised_margin([r for r in limits if r.limit not in TIMING_METRICS])
 
 
@@ -128,6 +140,8 @@ class SearchRun:
     """Why the run crashed (one line), or None."""
     wall_time_s: float
     """The run's own wall time, s."""
+    requirement: str | None = None
+    """The one limit or requirement searched (None: every one)."""
 
     @property
     def falsified(self) -> bool:
@@ -138,6 +152,8 @@ class SearchRun:
     def binding(self) -> str:
         """The verdict with the smallest normalised margin (``""`` if the run crashed or had none)."""
         searched = [v for v in self.verdicts if v["name"] not in TIMING_METRICS]
+        if self.requirement is not None:
+            return self.requirement
         if self.error is not None or not searched:
             return ""
         return str(min(searched, key=lambda v: _ordered_margin(v["normalised_margin"]))["name"])
@@ -238,6 +254,33 @@ def _sampler(optuna: Any, name: str, seed: int, runs_done: int) -> Any:
         return optuna.samplers.TPESampler(seed=batch_seed, multivariate=True, group=True, constant_liar=True)
 
 
+def _local_moves(optuna: Any, study: Any, sampler: str, seed: int, runs_done: int, n: int) -> list[dict[str, Any]]:
+    """Proposals near the smallest margin so far, for a share :data:`LOCAL_SHARE` of a batch (TPE only, after
+    :data:`LOCAL_AFTER` runs): each number moved by a normal step of :data:`LOCAL_STEP` of its range and clipped
+    to it (so a move reaches the envelope's faces and corners), each choice redrawn with probability
+    :data:`LOCAL_STEP`; seeded from (seed, runs done)."""
+    complete = [t for t in study.trials if t.state.name == "COMPLETE"]
+    if sampler != "tpe" or len(complete) < LOCAL_AFTER:
+        return []
+    best = min(complete, key=lambda t: (t.value, t.number))
+    rng = np.random.default_rng([seed, runs_done, 1])
+    moves = []
+    for _ in range(int(LOCAL_SHARE * n)):
+        params: dict[str, Any] = {}
+        for name, dist in best.distributions.items():
+            value = best.params[name]
+            if isinstance(dist, optuna.distributions.CategoricalDistribution):
+                redraw = rng.random() < LOCAL_STEP
+                params[name] = dist.choices[int(rng.integers(len(dist.choices)))] if redraw else value
+            else:
+                span = dist.high - dist.low
+                moved = float(np.clip(value + rng.normal(0.0, LOCAL_STEP * span), dist.low, dist.high))
+                is_int = isinstance(dist, optuna.distributions.IntDistribution)
+                params[name] = int(round(moved)) if is_int else moved
+        moves.append(params)
+    return moves
+
+
 def _envelope_digest(spec: FuzzSpec, controller: str) -> str:
     """What makes a run's scenario and verdicts: changed, a journal's runs are another search's."""
     parts = (spec.paths, spec.start, sorted(spec.plant.items()), spec.controller, spec.estimators, spec.limits)
@@ -283,12 +326,13 @@ def _scenario_attrs(s: Scenario) -> dict[str, Any]:
     return dataclasses.asdict(s)
 
 
-def _run_from_trial(t: Any) -> SearchRun:
+def _run_from_trial(t: Any, requirement: str | None) -> SearchRun:
     a = t.user_attrs
     scenario = Scenario(**a["scenario"])
     margin = math.nan if a["margin"] is None else float(a["margin"])
     verdicts = tuple({**v, "normalised_margin": _float(v["normalised_margin"])} for v in a["verdicts"])
-    return SearchRun(a["run"], dict(t.params), scenario, margin, verdicts, a["error"], float(a["wall_time_s"]))
+    wall_s = float(a["wall_time_s"])
+    return SearchRun(a["run"], dict(t.params), scenario, margin, verdicts, a["error"], wall_s, requirement)
 
 
 def _float(value: float | None) -> float:
@@ -299,8 +343,12 @@ def _json_number(value: float) -> float | None:
     return float(value) if math.isfinite(value) else None
 
 
-def _finished_runs(study: Any) -> list[SearchRun]:
-    runs = [_run_from_trial(t) for t in study.trials if "run" in t.user_attrs and t.state.name in ("COMPLETE", "FAIL")]
+def _finished_runs(study: Any, requirement: str | None) -> list[SearchRun]:
+    runs = [
+        _run_from_trial(t, requirement)
+        for t in study.trials
+        if "run" in t.user_attrs and t.state.name in ("COMPLETE", "FAIL")
+    ]
     return sorted(runs, key=lambda r: r.run)
 
 
@@ -316,8 +364,10 @@ def _ask(optuna: Any, study: Any, spec: FuzzSpec, vehicle: VehicleParams, index:
     raise ConfigError(spec.source, "plant", f"{MAX_REDRAWS} proposals in a row gave an invalid vehicle")
 
 
-def _tell(study: Any, trial: Any, run: int, scenario: Scenario, outcome: FuzzOutcome) -> SearchRun:
-    margin = math.nan if outcome.error is not None else searched_margin(outcome.limits)
+def _tell(
+    study: Any, trial: Any, run: int, scenario: Scenario, outcome: FuzzOutcome, requirement: str | None
+) -> SearchRun:
+    margin = math.nan if outcome.error is not None else searched_margin(outcome.limits, requirement)
     verdicts = tuple(_verdict_dict(r) for r in outcome.limits)
     attrs = {
         "run": run,
@@ -336,7 +386,8 @@ def _tell(study: Any, trial: Any, run: int, scenario: Scenario, outcome: FuzzOut
         study.tell(trial, state=_optuna().trial.TrialState.FAIL)
     else:
         study.tell(trial, margin)
-    return SearchRun(run, dict(trial.params), scenario, margin, verdicts, outcome.error, outcome.wall_time_s)
+    wall_s = outcome.wall_time_s
+    return SearchRun(run, dict(trial.params), scenario, margin, verdicts, outcome.error, wall_s, requirement)
 
 
 def _importances(optuna: Any, study: Any) -> dict[str, float]:
@@ -387,6 +438,7 @@ def check_falsify(
     budget_s: float | None,
     seed: int | None,
     controller: str | None,
+    requirement: str | None,
     batch: int,
     sampler: str,
     baseline: bool,
@@ -402,7 +454,9 @@ def check_falsify(
     ----------
     spec : FuzzSpec
         As :func:`falsify`'s.
-    budget_runs, budget_s, seed, controller, batch, sampler, baseline, jobs, executor, scheduler, storage, progress
+    budget_runs, budget_s, seed, controller, requirement, batch, sampler, baseline, jobs, executor, scheduler
+        As :func:`falsify`'s.
+    storage, progress
         As :func:`falsify`'s.
 
     Returns
@@ -425,6 +479,9 @@ def check_falsify(
     if not isinstance(controller, str):
         raise ConfigError("--controller", "", f"expected a pose controller's name (got {controller!r:.60})")
     spec = override_fuzz_config(spec, seed=seed, controllers=[controller])
+    names = sorted({*LIMITS, *(r.name for r in spec.requirements)})
+    if requirement is not None and requirement not in names:
+        raise ConfigError("--requirement", "", f"must name a limit or a requirement of the file (got {requirement!r})")
     check_against_vehicle(spec, load_vehicle(None if spec.vehicle == "default" else spec.vehicle))
     resolved_jobs(jobs, executor, scheduler, progress)
     _optuna()
@@ -438,6 +495,7 @@ def falsify(
     budget_s: float | None = None,
     seed: int | None = None,
     controller: str | None = None,
+    requirement: str | None = None,
     batch: int = 4,
     sampler: str = "tpe",
     stop_at_first: bool = True,
@@ -463,6 +521,9 @@ def falsify(
     controller : str or None
         The pose controller, a name or a reference ``package.module:Name`` (default: the first of
         ``spec.controllers``).
+    requirement : str or None
+        Search the margin of this one limit (a ``[limits]`` key) or requirement (a ``[[requirements]]`` name)
+        instead of the smallest of all: a weakness the others' smaller margins hide.
     batch : int
         Trials proposed, run and told together, 1 to 1024: the results depend on it, not on ``jobs``. Keep it at
         least ``jobs`` for the workers to be busy.
@@ -503,6 +564,7 @@ def falsify(
         budget_s=budget_s,
         seed=seed,
         controller=controller,
+        requirement=requirement,
         batch=batch,
         sampler=sampler,
         baseline=baseline,
@@ -516,9 +578,10 @@ def falsify(
     jobs = resolved_jobs(jobs, executor, scheduler, progress)
     optuna = _optuna()
     setup = {"fuzz": spec.name, "controller": controller, "seed": seed, "batch": batch, "sampler": sampler}
+    setup["requirement"] = requirement
     setup["envelope"] = _envelope_digest(spec, controller)
     study = _open_study(optuna, None if storage is None else Path(storage), setup)
-    runs = _finished_runs(study)
+    runs = _finished_runs(study, requirement)
     resumed = len(runs)
     run_time_s = 0.0
 
@@ -544,14 +607,19 @@ def falsify(
         while more():
             n = batch if budget_runs is None else min(batch, budget_runs - len(runs))
             study.sampler = _sampler(optuna, sampler, seed, len(runs))
-            asked = [_ask(optuna, study, spec, vehicle, len(runs) + k) for k in range(n)]
+            moves = _local_moves(optuna, study, sampler, seed, len(runs), n)
+            asked = []
+            for k in range(n):
+                if k < len(moves):
+                    study.enqueue_trial(moves[k], skip_if_exists=False)
+                asked.append(_ask(optuna, study, spec, vehicle, len(runs) + k))
             tasks = [
                 FuzzTask(s.index, s.name, controller, tuple(scenario_files(spec, s, controller).items()))
                 for _t, s in asked
             ]
             outcomes = run_fuzz_tasks(pool, tasks, after(len(runs)))
             for (trial, scenario), outcome in zip(asked, outcomes, strict=True):
-                runs.append(_tell(study, trial, scenario.index, scenario, outcome))
+                runs.append(_tell(study, trial, scenario.index, scenario, outcome, requirement))
                 run_time_s += outcome.wall_time_s
         baseline_margins: list[float] = []
         if baseline and runs:
@@ -560,7 +628,7 @@ def falsify(
                 s = generate_scenario(spec, vehicle, i)
                 random_tasks.append(FuzzTask(i, s.name, controller, tuple(scenario_files(spec, s, controller).items())))
             for o in run_fuzz_tasks(pool, random_tasks):
-                baseline_margins.append(-math.inf if o.error is not None else searched_margin(o.limits))
+                baseline_margins.append(-math.inf if o.error is not None else searched_margin(o.limits, requirement))
                 run_time_s += o.wall_time_s
     return FalsifyResult(
         spec,
