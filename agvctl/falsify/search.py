@@ -54,6 +54,8 @@ LOCAL_SHARE = 0.5
 """The share of a batch (rounded down) proposed near the smallest margin so far rather than by TPE."""
 LOCAL_AFTER = 20
 """Finished runs before the local moves start: until then TPE's model (and its random start) alone."""
+LOCAL_CENTRES = 3
+"""The runs with the smallest margins the local moves start from."""
 LOCAL_STEP = 0.15
 """A local move's step: the normal step's standard deviation as a share of a number's range, and the chance
 that a choice is redrawn."""
@@ -255,28 +257,34 @@ def _sampler(optuna: Any, name: str, seed: int, runs_done: int) -> Any:
 
 
 def _local_moves(optuna: Any, study: Any, sampler: str, seed: int, runs_done: int, n: int) -> list[dict[str, Any]]:
-    """Proposals near the smallest margin so far, for a share :data:`LOCAL_SHARE` of a batch (TPE only, after
-    :data:`LOCAL_AFTER` runs): each number moved by a normal step of :data:`LOCAL_STEP` of its range and clipped
-    to it (so a move reaches the envelope's faces and corners), each choice redrawn with probability
-    :data:`LOCAL_STEP`; seeded from (seed, runs done)."""
-    complete = [t for t in study.trials if t.state.name == "COMPLETE"]
+    """Proposals near the smallest margins so far, for a share :data:`LOCAL_SHARE` of a batch (TPE only, after
+    :data:`LOCAL_AFTER` runs), each around one of the :data:`LOCAL_CENTRES` runs with the smallest margins, drawn
+    at random. Every other move is a step: each number moved by a normal step of :data:`LOCAL_STEP` of its range
+    and clipped to it, each choice redrawn with probability :data:`LOCAL_STEP`; the others go towards the faces:
+    each number moved a uniform fraction of the way to its nearer bound, the choices kept (the envelope's corners
+    are where margins are least). Seeded from (seed, runs done)."""
+    complete = sorted((t for t in study.trials if t.state.name == "COMPLETE"), key=lambda t: (t.value, t.number))
     if sampler != "tpe" or len(complete) < LOCAL_AFTER:
         return []
-    best = min(complete, key=lambda t: (t.value, t.number))
     rng = np.random.default_rng([seed, runs_done, 1])
     moves = []
-    for _ in range(int(LOCAL_SHARE * n)):
+    for k in range(int(LOCAL_SHARE * n)):
+        centre = complete[int(rng.integers(min(LOCAL_CENTRES, len(complete))))]
+        towards_faces = k % 2 == 1
         params: dict[str, Any] = {}
-        for name, dist in best.distributions.items():
-            value = best.params[name]
+        for name, dist in centre.distributions.items():
+            value = centre.params[name]
             if isinstance(dist, optuna.distributions.CategoricalDistribution):
-                redraw = rng.random() < LOCAL_STEP
+                redraw = not towards_faces and rng.random() < LOCAL_STEP
                 params[name] = dist.choices[int(rng.integers(len(dist.choices)))] if redraw else value
+                continue
+            if towards_faces:
+                face = dist.low if value - dist.low < dist.high - value else dist.high
+                moved = value + rng.random() * (face - value)
             else:
-                span = dist.high - dist.low
-                moved = float(np.clip(value + rng.normal(0.0, LOCAL_STEP * span), dist.low, dist.high))
-                is_int = isinstance(dist, optuna.distributions.IntDistribution)
-                params[name] = int(round(moved)) if is_int else moved
+                moved = value + rng.normal(0.0, LOCAL_STEP * (dist.high - dist.low))
+            moved = float(np.clip(moved, dist.low, dist.high))
+            params[name] = int(round(moved)) if isinstance(dist, optuna.distributions.IntDistribution) else moved
         moves.append(params)
     return moves
 
