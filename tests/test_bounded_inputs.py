@@ -176,3 +176,14 @@ def test_a_file_edited_between_two_checks_in_one_process_is_checked_as_it_is_now
     assert check_experiments([path], jobs=1).passed
     path.write_text(path.read_text().replace("final_position_error_m = 0.5", "final_position_error_m = 1e-6"))
     assert not check_experiments([path], jobs=1).passed
+
+
+def test_a_settings_file_edited_between_two_checks_in_one_process_is_checked_as_it_is_now(tmp_path: Path) -> None:
+    # a pose controller held to 1 mm/s cannot reach the end of a 3 m line: 0.5 m from it fails
+    settings = tmp_path / "tuned.toml"
+    settings.write_text('pose = "mpc"\n')
+    path = _experiment(tmp_path, controller='pose_settings = "tuned.toml"\n', limits="final_position_error_m = 0.5\n")
+    assert settings in load_experiment(path).input_files
+    assert check_experiments([path], jobs=1).passed
+    settings.write_text('pose = "mpc"\nmax_wheel_speed_m_s = 0.001\n')
+    assert not check_experiments([path], jobs=1).passed

@@ -82,13 +82,16 @@ class Experiment:
     @property
     def input_files(self) -> tuple[Path, ...]:
         """The files the experiment is read from: its own, its trajectory, its vehicle (the shipped one by default)
-        its gains file and the Python files it names, if any — what a command must never write over."""
+        and, if it names them, its gains file, its pose controller's settings file and Python files — what a command
+        must never write over, and what a check looks at to see whether the experiment changed."""
         spec = self.spec
         c = spec.controller
         files = [Path(spec.source), spec.resolve(spec.trajectory)]
         files.append(default_vehicle_path() if spec.vehicle == "default" else spec.resolve(spec.vehicle))
         if c.pi_gains is not None:
             files.append(spec.resolve(c.pi_gains))
+        if c.pose_settings_file is not None:
+            files.append(c.pose_settings_file)
         for name in (c.pose, c.wheel_loops, c.localization, c.wheel_speed):
             code = reference_file(name, spec.base_dir)
             if code is not None:

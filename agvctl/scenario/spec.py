@@ -26,7 +26,7 @@ from agvctl.config import (
     to_dict,
 )
 from agvctl.config.references import Registry
-from agvctl.controllers.pi.wheel_loop import Braking, WheelLoopOptions
+from agvctl.controllers.pi.options import Braking, WheelLoopOptions
 from agvctl.controllers.registry import POSE_CONTROLLERS, pose_controllers, wheel_loops
 from agvctl.errors import ConfigError
 from agvctl.estimation.registry import pose_estimators, wheel_speed_estimators
@@ -44,7 +44,7 @@ _LOOPS = WheelLoopOptions()
 """The wheel loops' defaults, which the ``[controller]`` keys for them take."""
 
 BrakingName = Literal["full", "symmetric", "gentle_stop"]
-"""The names of :class:`~agvctl.controllers.pi.wheel_loop.Braking`'s values, as files give them."""
+"""The names of :class:`~agvctl.controllers.pi.options.Braking`'s values, as files give them."""
 
 
 @document_fields
@@ -126,9 +126,10 @@ def _part_settings(key: str, name: str, table: Any, base_dir: Path | None, sourc
 
 def _with_settings_file(
     name: Any, pose: str, settings: type | None, rest: Mapping[str, Any], source: str, prefix: str
-) -> dict[str, Any]:
+) -> tuple[dict[str, Any], Path]:
     """``rest`` over the keys of the settings file ``name`` (``[controller] pose_settings``, relative to the
-    experiment file), which are checked on their own first so that their errors name the settings file."""
+    experiment file), which are checked on their own first so that their errors name the settings file; and that
+    file."""
     key = join_key(prefix, "pose_settings")
     if not isinstance(name, str) or not name:
         raise ConfigError(source, key, f"expected the name of a settings file (got {name!r})")
@@ -137,7 +138,7 @@ def _with_settings_file(
     path = Path(name) if Path(name).is_absolute() else Path(source).parent / name
     keys = load_pose_settings(path, pose, source=source, key=key)
     build(settings, keys, source=str(path))
-    return merged_settings(keys, rest)
+    return merged_settings(keys, rest), path
 
 
 @document_fields
@@ -169,11 +170,11 @@ class ControllerSpec:
     coulomb_feedforward: bool = _LOOPS.coulomb_feedforward
     """Add the Coulomb-friction voltage τ_c R/k_t to the PI output (ramped in near zero speed): the wheels then
     answer small setpoints instead of sitting in the friction until the integrator winds up
-    (:attr:`~agvctl.controllers.pi.wheel_loop.WheelLoopOptions.coulomb_feedforward`)."""
+    (:attr:`~agvctl.controllers.pi.options.WheelLoopOptions.coulomb_feedforward`)."""
     braking: BrakingName = _LOOPS.braking.value
     """How hard the PI loops may brake a wheel: ``"full"`` (the current limit), ``"symmetric"`` (always no harder
     than a_lim, eq 5, friction helping) or ``"gentle_stop"`` (so only in the last sample before a wheel stops;
-    for paths that stop wheels to reverse them) (:class:`~agvctl.controllers.pi.wheel_loop.Braking`)."""
+    for paths that stop wheels to reverse them) (:class:`~agvctl.controllers.pi.options.Braking`)."""
     steering_priority: bool = _LOOPS.steering_priority
     """When both wheel loops ask for more current than the amplifier gives, the same way, keep the difference of
     the currents they ask (the torque that steers) and give up speed instead
@@ -186,6 +187,8 @@ class ControllerSpec:
     """A user's pose estimator's settings (``[controller.localization_settings]``), validated once."""
     wheel_speed_settings: Any = dataclasses.field(default=None, metadata={"derived": True})
     """A user's wheel-speed estimator's settings (``[controller.wheel_speed_settings]``), validated once."""
+    pose_settings_file: Path | None = dataclasses.field(default=None, metadata={"derived": True})
+    """The settings file ``pose_settings = "FILE"`` names, resolved (None: none): an input of the experiment."""
 
     @property
     def wheel_loop_options(self) -> WheelLoopOptions:
@@ -226,8 +229,11 @@ class ControllerSpec:
         pose_key = join_key(prefix, "pose")
         kind = pose_controllers.resolve(base.pose, source=source, key=pose_key, base_dir=base_dir)
         rest = {k: v for k, v in data.items() if k not in own and k != "pose_settings" and k not in settings_keys}
+        settings_file = None
         if "pose_settings" in data:
-            rest = _with_settings_file(data["pose_settings"], base.pose, kind.settings, rest, source, prefix)
+            rest, settings_file = _with_settings_file(
+                data["pose_settings"], base.pose, kind.settings, rest, source, prefix
+            )
         if kind.settings is None:
             if rest:
                 key = next(iter(rest))
@@ -238,7 +244,7 @@ class ControllerSpec:
                 )
             return dataclasses.replace(base, pose_settings=None, **parts)
         pose_settings: Any = build(kind.settings, rest, source=source, prefix=prefix)
-        return dataclasses.replace(base, pose_settings=pose_settings, **parts)
+        return dataclasses.replace(base, pose_settings=pose_settings, pose_settings_file=settings_file, **parts)
 
     def to_file(self) -> dict[str, Any]:
         own = {
