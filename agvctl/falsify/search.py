@@ -50,12 +50,15 @@ SAMPLERS = ("tpe", "random", "cmaes")
 """The optimisers: Optuna's TPE (the default), random search over the same parameters, and CMA-ES (needs the
 ``cmaes`` package; the categorical parameters are then drawn at random)."""
 
-LOCAL_SHARE = 0.5
-"""The share of a batch (rounded down) proposed near the smallest margin so far rather than by TPE."""
+LOCAL_SHARE = 0.75
+"""The share of a batch (rounded down) proposed near the smallest margins so far rather than by TPE: three of a
+batch of four, so TPE's model (about 50 ms a proposal over this space) is fitted once a batch."""
 LOCAL_AFTER = 20
-"""Finished runs before the local moves start: until then TPE's model (and its random start) alone."""
+"""Finished runs before the local moves start: until then TPE's random start alone."""
 LOCAL_CENTRES = 3
-"""The runs with the smallest margins the local moves start from."""
+"""The runs with the smallest margins of a verdict the local moves start from."""
+LOCAL_VERDICTS = 3
+"""The verdicts whose smallest margins so far are least that the local moves start from."""
 LOCAL_STEP = 0.15
 """A local move's step: the normal step's standard deviation as a share of a number's range, and the chance
 that a choice is redrawn."""
@@ -253,23 +256,62 @@ def _sampler(optuna: Any, name: str, seed: int, runs_done: int) -> Any:
             except ImportError:
                 raise ConfigError("--sampler", "cmaes", "needs the cmaes package: pip install cmaes") from None
             return optuna.samplers.CmaEsSampler(seed=batch_seed, warn_independent_sampling=False)
-        return optuna.samplers.TPESampler(seed=batch_seed, multivariate=True, group=True, constant_liar=True)
+        return optuna.samplers.TPESampler(
+            seed=batch_seed, multivariate=True, group=True, constant_liar=True, n_startup_trials=LOCAL_AFTER
+        )
 
 
-def _local_moves(optuna: Any, study: Any, sampler: str, seed: int, runs_done: int, n: int) -> list[dict[str, Any]]:
+def _verdict_margins(trial: Any, requirement: str | None) -> dict[str, float]:
+    """A finished run's searched verdicts' normalised margins, by name (a non-finite one is left out)."""
+    out = {}
+    for v in trial.user_attrs.get("verdicts", ()):
+        m = v["normalised_margin"]
+        searched = v["name"] == requirement if requirement is not None else v["name"] not in TIMING_METRICS
+        if searched and m is not None and math.isfinite(m):
+            out[str(v["name"])] = float(m)
+    return out
+
+
+def _centres(complete: list[Any], requirement: str | None) -> list[list[Any]]:
+    """For each of the :data:`LOCAL_VERDICTS` verdicts with the smallest margins so far, its
+    :data:`LOCAL_CENTRES` runs with the smallest margins of that verdict (the runs with the smallest margin of
+    all are the first verdict's)."""
+    margins = [(t, _verdict_margins(t, requirement)) for t in complete]
+    best: dict[str, float] = {}
+    for _t, ms in margins:
+        for name, m in ms.items():
+            best[name] = min(m, best.get(name, math.inf))
+    verdicts = sorted(best, key=lambda name: (best[name], name))[:LOCAL_VERDICTS]
+    return [
+        [t for t, ms in sorted(((t, ms) for t, ms in margins if v in ms), key=lambda p: (p[1][v], p[0].number))][
+            :LOCAL_CENTRES
+        ]
+        for v in verdicts
+    ]
+
+
+def _local_moves(
+    optuna: Any, study: Any, sampler: str, seed: int, runs_done: int, n: int, requirement: str | None
+) -> list[dict[str, Any]]:
     """Proposals near the smallest margins so far, for a share :data:`LOCAL_SHARE` of a batch (TPE only, after
-    :data:`LOCAL_AFTER` runs), each around one of the :data:`LOCAL_CENTRES` runs with the smallest margins, drawn
-    at random. Every other move is a step: each number moved by a normal step of :data:`LOCAL_STEP` of its range
-    and clipped to it, each choice redrawn with probability :data:`LOCAL_STEP`; the others go towards the faces:
-    each number moved a uniform fraction of the way to its nearer bound, the choices kept (the envelope's corners
-    are where margins are least). Seeded from (seed, runs done)."""
-    complete = sorted((t for t in study.trials if t.state.name == "COMPLETE"), key=lambda t: (t.value, t.number))
+    :data:`LOCAL_AFTER` runs). Each starts from a run drawn at random among the :data:`LOCAL_CENTRES` with the
+    smallest margins of one verdict, itself drawn among the :data:`LOCAL_VERDICTS` whose margins have come
+    closest to failing: the smallest margin of a run hides how close its other verdicts come, and one of those may
+    be the one that can fail. Every other move is a step: each number moved by a normal step of :data:`LOCAL_STEP`
+    of its range and clipped to it, each choice redrawn with probability :data:`LOCAL_STEP`; the others go towards
+    the faces: each number moved a uniform fraction of the way to its nearer bound, the choices kept (the
+    envelope's corners are where margins are least). Seeded from (seed, runs done)."""
+    complete = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
     if sampler != "tpe" or len(complete) < LOCAL_AFTER:
+        return []
+    groups = _centres(complete, requirement)
+    if not groups:
         return []
     rng = np.random.default_rng([seed, runs_done, 1])
     moves = []
     for k in range(int(LOCAL_SHARE * n)):
-        centre = complete[int(rng.integers(min(LOCAL_CENTRES, len(complete))))]
+        group = groups[int(rng.integers(len(groups)))]
+        centre = group[int(rng.integers(len(group)))]
         towards_faces = k % 2 == 1
         params: dict[str, Any] = {}
         for name, dist in centre.distributions.items():
@@ -296,27 +338,38 @@ def _envelope_digest(spec: FuzzSpec, controller: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def _open_study(optuna: Any, storage: Path | None, setup: dict[str, Any]) -> Any:
-    backend: Any = None
-    if storage is not None:
-        from optuna.storages import JournalStorage
-        from optuna.storages.journal import JournalFileBackend
+def _open_study(optuna: Any, storage: Path | None, setup: dict[str, Any]) -> tuple[Any, Any]:
+    """The study the sampler works on (in memory) and its journal (None without ``storage``), the journal's
+    finished trials copied into the study in order: a resumed search has the same trials, numbered alike."""
+    study = optuna.create_study(direction="minimize")
+    if storage is None:
+        return study, None
+    from optuna.storages import JournalStorage
+    from optuna.storages.journal import JournalFileBackend
 
-        try:
-            backend = JournalStorage(JournalFileBackend(str(storage)))
-        except OSError as exc:
-            raise ConfigError(str(storage), "", f"cannot open the search journal: {exc.strerror}") from None
-    study = optuna.create_study(study_name="falsify", storage=backend, direction="minimize", load_if_exists=True)
-    held = {k: study.user_attrs.get(k) for k in setup}
-    if study.trials and held != setup:
+    try:
+        backend = JournalStorage(JournalFileBackend(str(storage)))
+    except OSError as exc:
+        raise ConfigError(str(storage), "", f"cannot open the search journal: {exc.strerror}") from None
+    journal = optuna.create_study(study_name="falsify", storage=backend, direction="minimize", load_if_exists=True)
+    held = {k: journal.user_attrs.get(k) for k in setup}
+    if journal.trials and held != setup:
         changed = ", ".join(k for k in setup if held[k] != setup[k])
         raise ConfigError(str(storage), "", f"holds a search of another setup ({changed}); use another --out")
     for k, v in setup.items():
-        study.set_user_attr(k, v)
-    for t in study.trials:  # asked and never told: the batch an interrupt stopped, proposed again now
-        if t.state.name == "RUNNING":
-            study.tell(t.number, state=optuna.trial.TrialState.FAIL)
-    return study
+        journal.set_user_attr(k, v)
+    study.add_trials([t for t in journal.trials if t.state.is_finished()])
+    return study, journal
+
+
+def _record(study: Any, journal: Any, recorded: int) -> int:
+    """Append the study's trials from number ``recorded`` on to the journal (the batch just told), one entry each:
+    a journal write per finished trial, not per parameter, and a batch an interrupt stopped is proposed again on
+    resuming. Returns the trials recorded in all."""
+    trials = study.get_trials(deepcopy=False)
+    if journal is not None:
+        journal.add_trials(trials[recorded:])
+    return len(trials)
 
 
 def _verdict_dict(r: LimitResult) -> dict[str, Any]:
@@ -588,9 +641,9 @@ def falsify(
     setup = {"fuzz": spec.name, "controller": controller, "seed": seed, "batch": batch, "sampler": sampler}
     setup["requirement"] = requirement
     setup["envelope"] = _envelope_digest(spec, controller)
-    study = _open_study(optuna, None if storage is None else Path(storage), setup)
+    study, journal = _open_study(optuna, None if storage is None else Path(storage), setup)
     runs = _finished_runs(study, requirement)
-    resumed = len(runs)
+    resumed, recorded = len(runs), len(study.trials)
     run_time_s = 0.0
 
     def more() -> bool:
@@ -615,7 +668,7 @@ def falsify(
         while more():
             n = batch if budget_runs is None else min(batch, budget_runs - len(runs))
             study.sampler = _sampler(optuna, sampler, seed, len(runs))
-            moves = _local_moves(optuna, study, sampler, seed, len(runs), n)
+            moves = _local_moves(optuna, study, sampler, seed, len(runs), n, requirement)
             asked = []
             for k in range(n):
                 if k < len(moves):
@@ -629,6 +682,7 @@ def falsify(
             for (trial, scenario), outcome in zip(asked, outcomes, strict=True):
                 runs.append(_tell(study, trial, scenario.index, scenario, outcome, requirement))
                 run_time_s += outcome.wall_time_s
+            recorded = _record(study, journal, recorded)
         baseline_margins: list[float] = []
         if baseline and runs:
             random_tasks = []
