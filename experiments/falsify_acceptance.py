@@ -1,7 +1,9 @@
 """Acceptance measurements of ``agvctl falsify`` (not part of the test suite; figures in decision record 0039).
 
 (a) The planted weakness (experiments/falsify/weak_braking.py): on each seed, the runs the search needs to falsify
-    the gate within 100 runs, and the failures among 100 random scenarios of the same seed (``agvctl fuzz``).
+    the gate within 100 runs, the verdicts the first falsifying scenario fails and those the default MPC fails on it
+    (none: the planted weakness alone broke it), and the failures among 100 random scenarios of the same seed
+    (``agvctl fuzz``).
 (b) The default controller on the acceptance envelope (experiments/fuzz/acceptance.toml): on each seed, the
     smallest margin of 200 searched runs against that of 200 random scenarios of the same seed.
 
@@ -17,9 +19,19 @@ from pathlib import Path
 
 from agvctl.falsify import falsify, searched_margin
 from agvctl.fuzz import fuzz, load_fuzz_config
-from agvctl.fuzz.spec import override_fuzz_config
+from agvctl.fuzz.generate import Scenario, scenario_files
+from agvctl.fuzz.report import FuzzTask
+from agvctl.fuzz.run import run_fuzz_task
+from agvctl.fuzz.spec import FuzzSpec, override_fuzz_config
 
 HERE = Path(__file__).parent
+
+
+def _plain_mpc_failures(spec: FuzzSpec, scenario: Scenario) -> list[str]:
+    """The verdicts the default MPC fails on a scenario: none where the planted weakness alone broke the run."""
+    task = FuzzTask(scenario.index, scenario.name, "mpc", tuple(scenario_files(spec, scenario, "mpc").items()))
+    outcome = run_fuzz_task(task)
+    return [r.limit for r in outcome.limits if not r.passed] + ([outcome.error] if outcome.error else [])
 
 
 def part_a(seeds: list[int], jobs: int, budget: int) -> dict[str, object]:
@@ -33,12 +45,21 @@ def part_a(seeds: list[int], jobs: int, budget: int) -> dict[str, object]:
         report = fuzz(override_fuzz_config(spec, seed=seed, scenarios=budget), jobs=jobs)
         random_failures = sum(not o.passed for o in report.outcomes)
         random_min = min(searched_margin(o.limits) for o in report.outcomes)
+        random_failed = sorted({r.limit for o in report.outcomes for r in o.limits if not r.passed})
+        found = result.falsifying[0] if result.falsified else None
         rows.append(
             {
                 "seed": seed,
                 "search_runs_to_falsify": first,
                 "search_min_margin": result.worst.margin,
+                "search_falsified": None if found is None else (found.error or found.binding),
+                "search_failed_verdicts": None
+                if found is None
+                else [v["name"] for v in found.verdicts if not v["passed"]],
+                "plain_mpc_failed_verdicts": None if found is None else _plain_mpc_failures(spec, found.scenario),
+                "search_start": None if found is None else found.scenario.initial_pose,
                 "random_failures": random_failures,
+                "random_falsified": random_failed,
                 "random_min_margin": random_min,
                 "search_s": search_s,
             }

@@ -162,3 +162,31 @@ def test_a_folder_of_the_users_is_refused_and_kept(tmp_path: Path, capsys: pytes
     assert main(["falsify", str(_config(tmp_path)), "--budget", "1", "--out", str(out)]) == 2
     assert (out / "notes.txt").read_text() == "keep me" and sorted(p.name for p in out.iterdir()) == ["notes.txt"]
     assert "--out" in capsys.readouterr().err
+
+
+def test_local_moves_start_from_the_runs_closest_to_failing_each_of_the_verdicts_closest_to_failing() -> None:
+    from agvctl.falsify.search import LOCAL_CENTRES, LOCAL_VERDICTS, _centres
+
+    # Verdict "a" binds every run (margins 0.1-0.3); "b" comes as close as 0.4 in runs that "a" ranks last, "c"
+    # to 0.6, "d" never below 0.9: the smallest margin of a run hides how close "b" and "c" come.
+    study = optuna.create_study()
+    x = optuna.distributions.FloatDistribution(0.0, 1.0)
+    for i in range(12):
+        verdicts = [
+            {"name": "a", "normalised_margin": 0.1 + 0.2 * i / 11},
+            {"name": "b", "normalised_margin": 0.4 + 0.1 * (11 - i)},
+            {"name": "c", "normalised_margin": 0.6 + 0.01 * abs(i - 5)},
+            {"name": "d", "normalised_margin": 0.9},
+            {"name": "solve_time_p99_ms", "normalised_margin": -1.0},
+        ]
+        value = min(v["normalised_margin"] for v in verdicts[:4])
+        study.add_trial(
+            optuna.trial.create_trial(
+                params={"x": i / 11}, distributions={"x": x}, value=value, user_attrs={"verdicts": verdicts}
+            )
+        )
+    complete = study.get_trials(deepcopy=False)
+    groups = [[t.number for t in g] for g in _centres(complete, None)]
+    assert LOCAL_VERDICTS == 3 and LOCAL_CENTRES == 3
+    assert groups == [[0, 1, 2], [11, 10, 9], [5, 4, 6]]
+    assert [[t.number for t in g] for g in _centres(complete, "c")] == [[5, 4, 6]]

@@ -8,9 +8,10 @@ is), the plant's values, the start offset and heading, the sensors' noise seed a
 the search share that one definition of the envelope.
 
 The trials go in batches of ``batch``: ask ``batch`` trials (Optuna's TPE with a constant liar, so a batch spreads
-out), run them on the executor of ``agvctl fuzz`` (this process, local processes or Dask), tell their values in
-order. The sampler of each batch is seeded from the search's seed and the number of runs done, so the same seed
-and batch give the same scenarios and margins whatever the number of jobs or the executor, and a search resumed
+out; after a random start, three in four are local moves around the runs closest to failing, :func:`_local_moves`),
+run them on the executor of ``agvctl fuzz`` (this process, local processes or Dask), tell their values in order.
+The sampler of each batch is seeded from the search's seed and the number of runs done, so the same seed and batch
+give the same scenarios and margins whatever the number of jobs or the executor, and a search resumed
 from its journal goes on exactly as one that never stopped.
 
 The objective is the run's smallest normalised margin (:func:`~agvctl.evaluation.verdicts.smallest_normalised_margin`)
@@ -294,7 +295,9 @@ def _local_moves(
     optuna: Any, study: Any, sampler: str, seed: int, runs_done: int, n: int, requirement: str | None
 ) -> list[dict[str, Any]]:
     """Proposals near the smallest margins so far, for a share :data:`LOCAL_SHARE` of a batch (TPE only, after
-    :data:`LOCAL_AFTER` runs). Each starts from a run drawn at random among the :data:`LOCAL_CENTRES` with the
+    :data:`LOCAL_AFTER` runs), asked through a random sampler: a value a move does not fix (a segment a move to a
+    larger count adds) is drawn at random, and no model is fitted for a proposal whose values are given.
+    Each starts from a run drawn at random among the :data:`LOCAL_CENTRES` with the
     smallest margins of one verdict, itself drawn among the :data:`LOCAL_VERDICTS` whose margins have come
     closest to failing: the smallest margin of a run hides how close its other verdicts come, and one of those may
     be the one that can fail. Every other move is a step: each number moved by a normal step of :data:`LOCAL_STEP`
@@ -667,12 +670,15 @@ def falsify(
     with open_executor(executor, jobs, scheduler, max(batch, 2)) as pool:
         while more():
             n = batch if budget_runs is None else min(batch, budget_runs - len(runs))
-            study.sampler = _sampler(optuna, sampler, seed, len(runs))
+            proposer = _sampler(optuna, sampler, seed, len(runs))
             moves = _local_moves(optuna, study, sampler, seed, len(runs), n, requirement)
             asked = []
             for k in range(n):
-                if k < len(moves):
+                if k < len(moves):  # a move's values are fixed: no model is fitted for it
+                    study.sampler = _sampler(optuna, "random", seed, len(runs))
                     study.enqueue_trial(moves[k], skip_if_exists=False)
+                else:
+                    study.sampler = proposer
                 asked.append(_ask(optuna, study, spec, vehicle, len(runs) + k))
             tasks = [
                 FuzzTask(s.index, s.name, controller, tuple(scenario_files(spec, s, controller).items()))
