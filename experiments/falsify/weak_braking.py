@@ -8,7 +8,8 @@ steadily with h · d. The run's end turns the bias into 0.9 to 1.8 times as much
 on the path, on top of the MPC's own 0.6-1.5 mm; so the bound breaks only near the corner (h · d above about
 0.85) and on paths of the larger factor. For h and d uniform, as the fuzz file draws them,
 P(h · d > t) = 1 − t + t · ln t: 1.2 % at t = 0.85, before the share of paths; decision record 0039 has the
-measured failure rate.
+measured failure rate. On a path that ends in a turn in place the MPC also turns to correct the shifted pose, so
+near the corner the weakness can break the final heading as well.
 
 Name it as ``"weak_braking.py:WeakBraking"`` from a file in this folder.
 """
