@@ -165,7 +165,7 @@ def test_a_folder_of_the_users_is_refused_and_kept(tmp_path: Path, capsys: pytes
 
 
 def test_local_moves_start_from_the_runs_closest_to_failing_each_of_the_verdicts_closest_to_failing() -> None:
-    from agvctl.falsify.search import LOCAL_CENTRES, LOCAL_VERDICTS, _centres
+    from agvctl.falsify.proposals import LOCAL_CENTRES, LOCAL_VERDICTS, _centres
 
     # Verdict "a" binds every run (margins 0.1-0.3); "b" comes as close as 0.4 in runs that "a" ranks last, "c"
     # to 0.6, "d" never below 0.9: the smallest margin of a run hides how close "b" and "c" come.

@@ -2,6 +2,9 @@
 
 * :mod:`~agvctl.falsify.search` — the search: Optuna proposes the scenario generator's values, each scenario runs
   as ``agvctl fuzz`` runs it, the run's smallest normalised margin is minimised.
+* :mod:`~agvctl.falsify.proposals` — where its scenarios come from: an Optuna trial's values, the samplers, the
+  local moves around the runs closest to failing.
+* :mod:`~agvctl.falsify.result` — what it found: each run, the whole search, the margin it minimises.
 * :mod:`~agvctl.falsify.output` — what a search reports: the JSON, the readable summary, the figure.
 """
 

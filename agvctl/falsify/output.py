@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from agvctl.falsify.search import FalsifyResult, SearchRun
+from agvctl.falsify.result import FalsifyResult, SearchRun
 
 __all__ = ["report_dict", "search_figure", "summary_text"]
 

@@ -8,7 +8,8 @@ is), the plant's values, the start offset and heading, the sensors' noise seed a
 the search share that one definition of the envelope.
 
 The trials go in batches of ``batch``: ask ``batch`` trials (Optuna's TPE with a constant liar, so a batch spreads
-out; after a random start, three in four are local moves around the runs closest to failing, :func:`_local_moves`),
+out; after a random start, three in four are local moves around the runs closest to failing,
+``agvctl.falsify.proposals``),
 run them on the executor of ``agvctl fuzz`` (this process, local processes or Dask), tell their values in order.
 The sampler of each batch is seeded from the search's seed and the number of runs done, so the same seed and batch
 give the same scenarios and margins whatever the number of jobs or the executor, and a search resumed
@@ -27,18 +28,15 @@ import hashlib
 import math
 import time
 import warnings
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from agvctl.checks.executors import ExecutorKind, open_executor, resolved_jobs
-from agvctl.checks.report import TIMING_METRICS
-from agvctl.config import document_fields
 from agvctl.errors import ConfigError
-from agvctl.evaluation.limits import LIMITS, LimitResult, smallest_normalised_margin
+from agvctl.evaluation.limits import LIMITS, LimitResult
+from agvctl.falsify.proposals import SAMPLERS, TrialDraws, local_moves, optuna_module, sampler_for
+from agvctl.falsify.result import FalsifyResult, SearchRun, searched_margin
 from agvctl.fuzz.generate import Scenario, draw_scenario, generate_scenario, scenario_files
 from agvctl.fuzz.report import FuzzOutcome, FuzzTask
 from agvctl.fuzz.run import run_fuzz_tasks
@@ -47,291 +45,11 @@ from agvctl.params import VehicleParams, load_vehicle
 
 __all__ = ["SAMPLERS", "FalsifyResult", "SearchRun", "TrialDraws", "check_falsify", "falsify", "searched_margin"]
 
-SAMPLERS = ("tpe", "random", "cmaes")
-"""The optimisers: Optuna's TPE (the default), random search over the same parameters, and CMA-ES (needs the
-``cmaes`` package; the categorical parameters are then drawn at random)."""
-
-LOCAL_SHARE = 0.75
-"""The share of a batch (rounded down) proposed near the smallest margins so far rather than by TPE: three of a
-batch of four, so TPE's model (about 50 ms a proposal over this space) is fitted once a batch."""
-LOCAL_AFTER = 20
-"""Finished runs before the local moves start: until then TPE's random start alone."""
-LOCAL_CENTRES = 3
-"""The runs with the smallest margins of a verdict the local moves start from."""
-LOCAL_VERDICTS = 3
-"""The verdicts whose smallest margins so far are least that the local moves start from."""
-LOCAL_STEP = 0.15
-"""A local move's step: the normal step's standard deviation as a share of a number's range, and the chance
-that a choice is redrawn."""
-
 IMPORTANCE_MIN_RUNS = 20
 """Finished runs below which no importances are given: over fewer, the lowest tenth is one or two runs."""
 
 MAX_REDRAWS = 100
 """Proposals in a row whose plant values together make an invalid vehicle before the search gives up."""
-
-
-class TrialDraws:
-    """:class:`~agvctl.fuzz.generate.Draws` from an Optuna trial: each value one parameter of the trial, by its name.
-
-    A range of one value and a single option are that value (no parameter); a chance strictly between 0 and 1 is a
-    categorical parameter (both outcomes are in the envelope: the search may pick either).
-
-    Parameters
-    ----------
-    trial : optuna.trial.Trial
-        The trial.
-    """
-
-    def __init__(self, trial: Any) -> None:
-        self.trial = trial
-
-    def uniform(self, name: str, low: float, high: float) -> float:
-        """``trial.suggest_float(name, low, high)``."""
-        return float(low) if low == high else float(self.trial.suggest_float(name, float(low), float(high)))
-
-    def integer(self, name: str, low: int, high: int) -> int:
-        """``trial.suggest_int(name, low, high)``."""
-        return int(low) if low == high else int(self.trial.suggest_int(name, int(low), int(high)))
-
-    def choice(self, name: str, options: Sequence[str]) -> str:
-        """``trial.suggest_categorical(name, options)`` (each option once)."""
-        unique = list(dict.fromkeys(str(o) for o in options))
-        return unique[0] if len(unique) == 1 else str(self.trial.suggest_categorical(name, unique))
-
-    def chance(self, name: str, probability: float) -> bool:
-        """Never for 0, always for 1, else ``trial.suggest_categorical(name, [False, True])``."""
-        if probability <= 0.0 or probability >= 1.0:
-            return probability >= 1.0
-        return bool(self.trial.suggest_categorical(name, [False, True]))
-
-
-def searched_margin(limits: Sequence[LimitResult], requirement: str | None = None) -> float:
-    """The smallest normalised margin of a run's verdicts, the measured solve times excepted, or that of one
-    limit or requirement: what the search minimises (negative: falsified).
-
-    Parameters
-    ----------
-    limits : sequence of LimitResult
-        The run's verdicts.
-    requirement : str or None
-        Only the verdict of this limit or requirement (None: every one).
-
-    Returns
-    -------
-    float
-        The smallest :attr:`~agvctl.evaluation.verdicts.LimitResult.normalised_margin` (+∞ with none).
-    """
-    if requirement is not None:
-        return smallest_normalised_margin([r for r in limits if r.limit == requirement])
-    return smallest_normalised_margin([r for r in limits if r.limit not in TIMING_METRICS])
-
-
-@document_fields
-@dataclass(frozen=True)
-class SearchRun:
-    """One run of a search: the scenario proposed, its verdicts and its margin."""
-
-    run: int
-    """Its number in the search, from 0."""
-    params: dict[str, Any]
-    """The optimiser's values, by parameter name (``segments``, ``plant.body.mass_kg``, ``start.heading_deg``, …)."""
-    scenario: Scenario
-    """The scenario they make."""
-    margin: float
-    """:func:`searched_margin` of the run (NaN if it crashed)."""
-    verdicts: tuple[dict[str, Any], ...]
-    """Per limit and requirement: ``name``, ``kind``, ``margin``, ``normalised_margin``, ``passed``, ``message``."""
-    error: str | None
-    """Why the run crashed (one line), or None."""
-    wall_time_s: float
-    """The run's own wall time, s."""
-    requirement: str | None = None
-    """The one limit or requirement searched (None: every one)."""
-
-    @property
-    def falsified(self) -> bool:
-        """Whether the run crashed or a searched verdict's margin is below zero."""
-        return self.error is not None or self.margin < 0.0
-
-    @property
-    def binding(self) -> str:
-        """The verdict with the smallest normalised margin (``""`` if the run crashed or had none)."""
-        searched = [v for v in self.verdicts if v["name"] not in TIMING_METRICS]
-        if self.requirement is not None:
-            return self.requirement
-        if self.error is not None or not searched:
-            return ""
-        return str(min(searched, key=lambda v: _ordered_margin(v["normalised_margin"]))["name"])
-
-
-def _ordered_margin(value: float | None) -> float:
-    return -math.inf if value is None or math.isnan(value) else float(value)
-
-
-@document_fields
-@dataclass(frozen=True)
-class FalsifyResult:
-    """What :func:`falsify` found: every run in order, the parameters' importances, the random baseline."""
-
-    spec: FuzzSpec
-    """The fuzz configuration searched (its one controller)."""
-    controller: str
-    """The pose controller."""
-    seed: int
-    """The search's seed."""
-    batch: int
-    """Trials proposed together."""
-    sampler: str
-    """The optimiser (:data:`SAMPLERS`)."""
-    runs: tuple[SearchRun, ...]
-    """Every run, those of a resumed journal first."""
-    resumed: int
-    """How many of them the journal held already."""
-    importances: dict[str, float]
-    """How much each parameter sets the runs with the smallest margins apart (Optuna's PED-ANOVA over the
-    lowest tenth of the margins, normalised to sum 1), largest first; empty below :data:`IMPORTANCE_MIN_RUNS` runs."""
-    baseline_margins: tuple[float, ...]
-    """The margins of random scenarios 0, 1, … of the configuration's seed (empty unless asked for)."""
-    wall_time_s: float
-    """This call's wall time, s."""
-    run_time_s: float
-    """The wall time of this call's runs and of its baseline, each measured in its worker, summed, s."""
-
-    @property
-    def worst(self) -> SearchRun | None:
-        """The run closest to failing: a crash first, then the smallest margin (the earliest of equals)."""
-        if not self.runs:
-            return None
-        return min(self.runs, key=lambda r: (r.error is None, _ordered_margin(r.margin), r.run))
-
-    @property
-    def falsifying(self) -> list[SearchRun]:
-        """The runs that crashed or falsified a limit or requirement."""
-        return [r for r in self.runs if r.falsified]
-
-    @property
-    def falsified(self) -> bool:
-        """Whether any run did."""
-        return bool(self.falsifying)
-
-    def files(self, run: SearchRun) -> dict[str, str]:
-        """A run's path file and experiment file (``{name: TOML text}``, path first), ready for ``agvctl check``.
-
-        Parameters
-        ----------
-        run : SearchRun
-            One of :attr:`runs`.
-
-        Returns
-        -------
-        dict of str to str
-            The files.
-        """
-        return scenario_files(self.spec, run.scenario, self.controller)
-
-    def margins_so_far(self) -> list[float]:
-        """The smallest margin after each run (a crash counts as −∞)."""
-        return list(np.minimum.accumulate([_ordered_margin(r.margin) for r in self.runs]))
-
-
-def _optuna() -> Any:
-    try:
-        import optuna
-    except ImportError:
-        raise ConfigError("falsify", "optuna", "the search needs Optuna: pip install 'agvctl[tune]'") from None
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
-    return optuna
-
-
-def _sampler(optuna: Any, name: str, seed: int, runs_done: int) -> Any:
-    """The sampler of the batch after ``runs_done`` runs, seeded from (seed, runs_done) alone."""
-    batch_seed = int(np.random.SeedSequence([seed, runs_done]).generate_state(1)[0])
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-        if name == "random":
-            return optuna.samplers.RandomSampler(seed=batch_seed)
-        if name == "cmaes":
-            try:
-                import cmaes  # noqa: F401
-            except ImportError:
-                raise ConfigError("--sampler", "cmaes", "needs the cmaes package: pip install cmaes") from None
-            return optuna.samplers.CmaEsSampler(seed=batch_seed, warn_independent_sampling=False)
-        return optuna.samplers.TPESampler(
-            seed=batch_seed, multivariate=True, group=True, constant_liar=True, n_startup_trials=LOCAL_AFTER
-        )
-
-
-def _verdict_margins(trial: Any, requirement: str | None) -> dict[str, float]:
-    """A finished run's searched verdicts' normalised margins, by name (a non-finite one is left out)."""
-    out = {}
-    for v in trial.user_attrs.get("verdicts", ()):
-        m = v["normalised_margin"]
-        searched = v["name"] == requirement if requirement is not None else v["name"] not in TIMING_METRICS
-        if searched and m is not None and math.isfinite(m):
-            out[str(v["name"])] = float(m)
-    return out
-
-
-def _centres(complete: list[Any], requirement: str | None) -> list[list[Any]]:
-    """For each of the :data:`LOCAL_VERDICTS` verdicts with the smallest margins so far, its
-    :data:`LOCAL_CENTRES` runs with the smallest margins of that verdict (the runs with the smallest margin of
-    all are the first verdict's)."""
-    margins = [(t, _verdict_margins(t, requirement)) for t in complete]
-    best: dict[str, float] = {}
-    for _t, ms in margins:
-        for name, m in ms.items():
-            best[name] = min(m, best.get(name, math.inf))
-    verdicts = sorted(best, key=lambda name: (best[name], name))[:LOCAL_VERDICTS]
-    return [
-        [t for t, ms in sorted(((t, ms) for t, ms in margins if v in ms), key=lambda p: (p[1][v], p[0].number))][
-            :LOCAL_CENTRES
-        ]
-        for v in verdicts
-    ]
-
-
-def _local_moves(
-    optuna: Any, study: Any, sampler: str, seed: int, runs_done: int, n: int, requirement: str | None
-) -> list[dict[str, Any]]:
-    """Proposals near the smallest margins so far, for a share :data:`LOCAL_SHARE` of a batch (TPE only, after
-    :data:`LOCAL_AFTER` runs), asked through a random sampler: a value a move does not fix (a segment a move to a
-    larger count adds) is drawn at random, and no model is fitted for a proposal whose values are given.
-    Each starts from a run drawn at random among the :data:`LOCAL_CENTRES` with the
-    smallest margins of one verdict, itself drawn among the :data:`LOCAL_VERDICTS` whose margins have come
-    closest to failing: the smallest margin of a run hides how close its other verdicts come, and one of those may
-    be the one that can fail. Every other move is a step: each number moved by a normal step of :data:`LOCAL_STEP`
-    of its range and clipped to it, each choice redrawn with probability :data:`LOCAL_STEP`; the others go towards
-    the faces: each number moved a uniform fraction of the way to its nearer bound, the choices kept (the
-    envelope's corners are where margins are least). Seeded from (seed, runs done)."""
-    complete = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
-    if sampler != "tpe" or len(complete) < LOCAL_AFTER:
-        return []
-    groups = _centres(complete, requirement)
-    if not groups:
-        return []
-    rng = np.random.default_rng([seed, runs_done, 1])
-    moves = []
-    for k in range(int(LOCAL_SHARE * n)):
-        group = groups[int(rng.integers(len(groups)))]
-        centre = group[int(rng.integers(len(group)))]
-        towards_faces = k % 2 == 1
-        params: dict[str, Any] = {}
-        for name, dist in centre.distributions.items():
-            value = centre.params[name]
-            if isinstance(dist, optuna.distributions.CategoricalDistribution):
-                redraw = not towards_faces and rng.random() < LOCAL_STEP
-                params[name] = dist.choices[int(rng.integers(len(dist.choices)))] if redraw else value
-                continue
-            if towards_faces:
-                face = dist.low if value - dist.low < dist.high - value else dist.high
-                moved = value + rng.random() * (face - value)
-            else:
-                moved = value + rng.normal(0.0, LOCAL_STEP * (dist.high - dist.low))
-            moved = float(np.clip(moved, dist.low, dist.high))
-            params[name] = int(round(moved)) if isinstance(dist, optuna.distributions.IntDistribution) else moved
-        moves.append(params)
-    return moves
 
 
 def _envelope_digest(spec: FuzzSpec, controller: str) -> str:
@@ -447,7 +165,7 @@ def _tell(
     for k, v in attrs.items():
         trial.set_user_attr(k, v)
     if outcome.error is not None or not math.isfinite(margin):
-        study.tell(trial, state=_optuna().trial.TrialState.FAIL)
+        study.tell(trial, state=optuna_module().trial.TrialState.FAIL)
     else:
         study.tell(trial, margin)
     wall_s = outcome.wall_time_s
@@ -548,7 +266,7 @@ def check_falsify(
         raise ConfigError("--requirement", "", f"must name a limit or a requirement of the file (got {requirement!r})")
     check_against_vehicle(spec, load_vehicle(None if spec.vehicle == "default" else spec.vehicle))
     resolved_jobs(jobs, executor, scheduler, progress)
-    _optuna()
+    optuna_module()
     return spec, seed, controller, budget_runs, budget_s
 
 
@@ -622,25 +340,57 @@ def falsify(
     import the calling script again).
     """
     t0 = time.perf_counter()
-    spec, seed, controller, budget_runs, budget_s = check_falsify(
-        spec,
-        budget_runs=budget_runs,
-        budget_s=budget_s,
-        seed=seed,
-        controller=controller,
-        requirement=requirement,
-        batch=batch,
-        sampler=sampler,
-        baseline=baseline,
-        jobs=jobs,
-        executor=executor,
-        scheduler=scheduler,
-        storage=storage,
-        progress=progress,
-    )
+    options = {k: v for k, v in locals().items() if k not in ("spec", "stop_at_first", "t0")}
+    return _search(t0, spec, stop_at_first, options)
+
+
+def _propose(
+    optuna: Any,
+    study: Any,
+    spec: FuzzSpec,
+    vehicle: VehicleParams,
+    sampler: str,
+    seed: int,
+    done: int,
+    n: int,
+    requirement: str | None,
+) -> list[tuple[Any, Scenario]]:
+    """A batch's ``n`` trials and scenarios: the local moves first (asked through a random sampler: a move's
+    values are fixed, so no model is fitted for it), then the sampler's proposals."""
+    proposer = sampler_for(optuna, sampler, seed, done)
+    moves = local_moves(optuna, study, sampler, seed, done, n, requirement)
+    asked = []
+    for k in range(n):
+        if k < len(moves):
+            study.sampler = sampler_for(optuna, "random", seed, done)
+            study.enqueue_trial(moves[k], skip_if_exists=False)
+        else:
+            study.sampler = proposer
+        asked.append(_ask(optuna, study, spec, vehicle, done + k))
+    return asked
+
+
+def _baseline(
+    pool: Any, spec: FuzzSpec, vehicle: VehicleParams, controller: str, n: int, requirement: str | None
+) -> tuple[list[float], float]:
+    """The margins of random scenarios 0 to n − 1 of the configuration's seed, and their runs' own time, s."""
+    tasks = []
+    for i in range(n):
+        s = generate_scenario(spec, vehicle, i)
+        tasks.append(FuzzTask(i, s.name, controller, tuple(scenario_files(spec, s, controller).items())))
+    outcomes = run_fuzz_tasks(pool, tasks)
+    margins = [-math.inf if o.error is not None else searched_margin(o.limits, requirement) for o in outcomes]
+    return margins, sum(o.wall_time_s for o in outcomes)
+
+
+def _search(t0: float, spec: FuzzSpec, stop_at_first: bool, options: dict[str, Any]) -> FalsifyResult:
+    """:func:`falsify` after its arguments are gathered: check them, then propose, run and tell batch by batch."""
+    spec, seed, controller, budget_runs, budget_s = check_falsify(spec, **options)
+    requirement, batch, sampler, progress = (options[k] for k in ("requirement", "batch", "sampler", "progress"))
+    executor, scheduler, storage = options["executor"], options["scheduler"], options["storage"]
     vehicle = load_vehicle(None if spec.vehicle == "default" else spec.vehicle)
-    jobs = resolved_jobs(jobs, executor, scheduler, progress)
-    optuna = _optuna()
+    jobs = resolved_jobs(options["jobs"], executor, scheduler, progress)
+    optuna = optuna_module()
     setup = {"fuzz": spec.name, "controller": controller, "seed": seed, "batch": batch, "sampler": sampler}
     setup["requirement"] = requirement
     setup["envelope"] = _envelope_digest(spec, controller)
@@ -670,16 +420,7 @@ def falsify(
     with open_executor(executor, jobs, scheduler, max(batch, 2)) as pool:
         while more():
             n = batch if budget_runs is None else min(batch, budget_runs - len(runs))
-            proposer = _sampler(optuna, sampler, seed, len(runs))
-            moves = _local_moves(optuna, study, sampler, seed, len(runs), n, requirement)
-            asked = []
-            for k in range(n):
-                if k < len(moves):  # a move's values are fixed: no model is fitted for it
-                    study.sampler = _sampler(optuna, "random", seed, len(runs))
-                    study.enqueue_trial(moves[k], skip_if_exists=False)
-                else:
-                    study.sampler = proposer
-                asked.append(_ask(optuna, study, spec, vehicle, len(runs) + k))
+            asked = _propose(optuna, study, spec, vehicle, sampler, seed, len(runs), n, requirement)
             tasks = [
                 FuzzTask(s.index, s.name, controller, tuple(scenario_files(spec, s, controller).items()))
                 for _t, s in asked
@@ -690,14 +431,10 @@ def falsify(
                 run_time_s += outcome.wall_time_s
             recorded = _record(study, journal, recorded)
         baseline_margins: list[float] = []
-        if baseline and runs:
-            random_tasks = []
-            for i in range(len(runs)):
-                s = generate_scenario(spec, vehicle, i)
-                random_tasks.append(FuzzTask(i, s.name, controller, tuple(scenario_files(spec, s, controller).items())))
-            for o in run_fuzz_tasks(pool, random_tasks):
-                baseline_margins.append(-math.inf if o.error is not None else searched_margin(o.limits, requirement))
-                run_time_s += o.wall_time_s
+        if options["baseline"] and runs:
+            baseline_margins, baseline_s = _baseline(pool, spec, vehicle, controller, len(runs), requirement)
+            run_time_s += baseline_s
+    importances = _importances(optuna, study)
     return FalsifyResult(
         spec,
         controller,
@@ -706,7 +443,7 @@ def falsify(
         sampler,
         tuple(runs),
         resumed,
-        _importances(optuna, study),
+        importances,
         tuple(baseline_margins),
         time.perf_counter() - t0,
         run_time_s,
