@@ -232,6 +232,11 @@ DEFINITIONS: dict[str, dict[str, str]] = {
         "2.5 cm": "the objective's weight 100 over 40 training scenarios, arithmetic on its definition",
         "2 cm": "the band that defines 'once on the path' and the completion time (decision record 0025)",
     },
+    "docs/guide/falsify.md": {
+        "1 %": "an example of a rare weakness, and the planted weakness's design bound (decision record 0039)",
+        "20 runs": "the random start before the local moves, LOCAL_AFTER of agvctl.falsify.proposals",
+        "15 %": "a local move's step, LOCAL_STEP of agvctl.falsify.proposals",
+    },
     "docs/guide/vehicles.md": {
         "7 samples": "10^7, the bound on a run's samples, MAX_SAMPLES_PER_RUN (decision record 0021)",
         "0.1 ms": "the bounds on the sample period, constants of the vehicle schema (decision record 0021)",

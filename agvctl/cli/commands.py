@@ -26,6 +26,9 @@ COMMANDS: dict[str, Command] = {
     "fuzz": Command(
         "agvctl.cli.fuzz_cmd", "random scenarios (paths, plants, starts) through the closed loop, against limits"
     ),
+    "falsify": Command(
+        "agvctl.cli.falsify_cmd", "search a fuzz envelope for the scenario closest to failing its requirements"
+    ),
     "params": Command("agvctl.cli.params_cmd", "show the vehicle's parameters and derived constants"),
     "simulate": Command("agvctl.cli.simulate_cmd", "open-loop response to constant DA volts or a DA profile"),
     "plan": Command("agvctl.cli.plan_cmd", "plan a reference from a path file (trajectories/*.toml)"),

@@ -5,6 +5,10 @@ scenarios, the number of jobs or the order they run in. Each becomes a path file
 controller (:func:`scenario_files`): plain TOML that :func:`agvctl.scenario.experiment.load_experiment` reads, so a
 failing scenario is written out as files ``agvctl run`` reproduces exactly.
 
+Every value comes through a :class:`Draws` by the name of what it is, so the same code draws a scenario at random
+(:class:`RandomDraws`) or from an optimiser's proposals (:func:`draw_scenario`; :mod:`agvctl.falsify` searches the
+envelope so): one definition of the envelope for both.
+
 What is drawn, in this order:
 
 - the path: ``paths.segments`` segments, each of a type drawn from ``paths.segment_types`` (a path of turns only
@@ -27,9 +31,10 @@ Values are rounded for readable files (1 mm, 0.1°, six significant digits for t
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -40,7 +45,7 @@ from agvctl.fuzz.spec import FuzzSpec, PathGenSpec, keep_stiction_above_coulomb,
 from agvctl.params import VehicleParams
 from agvctl.scenario.pose_settings import merged_settings
 
-__all__ = ["Scenario", "generate_scenario", "scenario_files"]
+__all__ = ["Draws", "RandomDraws", "Scenario", "draw_scenario", "generate_scenario", "scenario_files"]
 
 
 @document_fields
@@ -62,65 +67,112 @@ class Scenario:
     """``[plant] sensor_seed``: the true sensors' noise."""
     estimators: dict[str, str] = field(default_factory=dict)
     """The ``[controller]`` estimator keys drawn (``localization``, ``wheel_speed``)."""
+    prefix: str = "s"
+    """The name's prefix: ``s`` for a random scenario, ``search`` for one a search proposed."""
 
     @property
     def name(self) -> str:
-        return f"s{self.seed}_{self.index:05d}"
+        return f"{self.prefix}{self.seed}_{self.index:05d}"
 
 
 def _sig(value: float, digits: int = 6) -> float:
     return float(f"{value:.{digits}g}")
 
 
-def _draw(rng: np.random.Generator, bounds: tuple[float, ...]) -> float:
-    """Uniform in [low, high]."""
-    return _uniform(rng, bounds[0], bounds[1])
+class Draws(Protocol):
+    """Where a scenario's values come from, each by the name of what it is (``segments``, ``segment2.type``,
+    ``plant.body.mass_kg``, ``start.heading_deg``): random draws (:class:`RandomDraws`) for ``agvctl fuzz``, an
+    optimiser's proposals for a search over the same envelope (:mod:`agvctl.falsify`). A name always has the
+    same range or options."""
+
+    def uniform(self, name: str, low: float, high: float) -> float:
+        """A number in [low, high]."""
+        ...
+
+    def integer(self, name: str, low: int, high: int) -> int:
+        """An integer in [low, high], both included."""
+        ...
+
+    def choice(self, name: str, options: Sequence[str]) -> str:
+        """One of ``options``."""
+        ...
+
+    def chance(self, name: str, probability: float) -> bool:
+        """True with ``probability`` (0 ≤ probability ≤ 1): a search may pick either where both can happen."""
+        ...
 
 
-def _uniform(rng: np.random.Generator, low: float, high: float) -> float:
-    """``rng.uniform(low, high)``, with a bound of −0.0 read as 0.0 (numpy refuses ``uniform(0.0, -0.0)``)."""
-    return float(rng.uniform(low + 0.0, high + 0.0))
+class RandomDraws:
+    """:class:`Draws` from a numpy generator: uniform numbers, integers and choices, each one draw of ``rng``.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator.
+    """
+
+    def __init__(self, rng: np.random.Generator) -> None:
+        self.rng = rng
+
+    def uniform(self, name: str, low: float, high: float) -> float:
+        """``rng.uniform(low, high)``, with a bound of −0.0 read as 0.0 (numpy refuses ``uniform(0.0, -0.0)``)."""
+        return float(self.rng.uniform(low + 0.0, high + 0.0))
+
+    def integer(self, name: str, low: int, high: int) -> int:
+        """``rng.integers(low, high + 1)``."""
+        return int(self.rng.integers(low, high + 1))
+
+    def choice(self, name: str, options: Sequence[str]) -> str:
+        """``options[rng.integers(len(options))]``."""
+        return str(options[int(self.rng.integers(len(options)))])
+
+    def chance(self, name: str, probability: float) -> bool:
+        """``rng.random() < probability``."""
+        return bool(self.rng.random() < probability)
 
 
-def _segments(rng: np.random.Generator, p: PathGenSpec) -> list[dict[str, Any]]:
-    n = int(rng.integers(p.segments[0], p.segments[1] + 1))
-    kinds = [str(p.segment_types[int(rng.integers(len(p.segment_types)))]) for _ in range(n)]
+def _segments(draws: Draws, p: PathGenSpec) -> list[dict[str, Any]]:
+    n = draws.integer("segments", p.segments[0], p.segments[1])
+    kinds = [draws.choice(f"segment{i}.type", p.segment_types) for i in range(n)]
     moving = [k for k in p.segment_types if k != "turn"]
     if moving and all(k == "turn" for k in kinds):
-        kinds[-1] = str(moving[int(rng.integers(len(moving)))])
+        kinds[-1] = draws.choice("last_segment.moving_type", moving)
     out: list[dict[str, Any]] = []
-    for kind in kinds:
-        sign = 1.0 if rng.random() < 0.5 else -1.0
+    for i, kind in enumerate(kinds):
+        sign = 1.0 if draws.chance(f"segment{i}.left", 0.5) else -1.0
         if kind == "line":
-            out.append({"type": "line", "length_m": round(_draw(rng, p.line_length_m), 3)})
+            out.append(
+                {"type": "line", "length_m": round(draws.uniform(f"segment{i}.line_length_m", *p.line_length_m), 3)}
+            )
         elif kind == "arc":
-            radius = round(_draw(rng, p.arc_radius_m), 3)
-            angle = round(sign * _draw(rng, p.arc_angle_deg), 1)
+            radius = round(draws.uniform(f"segment{i}.arc_radius_m", *p.arc_radius_m), 3)
+            angle = round(sign * draws.uniform(f"segment{i}.arc_angle_deg", *p.arc_angle_deg), 1)
             out.append({"type": "arc", "radius_m": radius, "angle_deg": angle})
         else:
-            out.append({"type": "turn", "angle_deg": round(sign * _draw(rng, p.turn_angle_deg), 1)})
+            angle = round(sign * draws.uniform(f"segment{i}.turn_angle_deg", *p.turn_angle_deg), 1)
+            out.append({"type": "turn", "angle_deg": angle})
     return out
 
 
-def _path(rng: np.random.Generator, p: PathGenSpec, vehicle: VehicleParams, name: str) -> dict[str, Any]:
-    segments = _segments(rng, p)
-    data: dict[str, Any] = {"name": name, "join": str(p.join[int(rng.integers(len(p.join)))])}
-    if rng.random() < p.explicit_limits_fraction:
+def _path(draws: Draws, p: PathGenSpec, vehicle: VehicleParams, name: str) -> dict[str, Any]:
+    segments = _segments(draws, p)
+    data: dict[str, Any] = {"name": name, "join": draws.choice("join", p.join)}
+    if draws.chance("explicit_limits", p.explicit_limits_fraction):
         top, a_lim = vehicle.derived.max_speed_m_s, vehicle.derived.accel_limit_m_s2
-        speed = math.floor(top * _draw(rng, p.wheel_speed_fraction) * 1000) / 1000
-        accel = math.floor(a_lim * _draw(rng, p.wheel_accel_fraction) * 1000) / 1000
+        speed = math.floor(top * draws.uniform("wheel_speed_fraction", *p.wheel_speed_fraction) * 1000) / 1000
+        accel = math.floor(a_lim * draws.uniform("wheel_accel_fraction", *p.wheel_accel_fraction) * 1000) / 1000
         data["limits"] = {"wheel_speed_m_s": max(speed, 0.001), "wheel_accel_m_s2": max(accel, 0.001)}
     data["segments"] = segments
     return data
 
 
-def _plant(rng: np.random.Generator, spec: FuzzSpec, vehicle: VehicleParams) -> dict[str, float]:
+def _plant(draws: Draws, spec: FuzzSpec, vehicle: VehicleParams) -> dict[str, float]:
     values: dict[str, float] = {}
     for key in sorted(spec.plant):
         lo, hi = spec.plant[key]
         nominal = nominal_value(vehicle, key)
         assert nominal is not None  # checked when the configuration was loaded
-        values[key] = _sig(nominal * (1.0 + _uniform(rng, lo, hi)))
+        values[key] = _sig(nominal * (1.0 + draws.uniform(f"plant.{key}", lo, hi)))
     return keep_stiction_above_coulomb(values, vehicle)
 
 
@@ -148,13 +200,42 @@ def generate_scenario(spec: FuzzSpec, vehicle: VehicleParams, index: int) -> Sce
     """
     if index < 0:
         raise ValueError(f"index must be >= 0 (got {index})")
-    rng = np.random.default_rng([spec.seed, index])
-    name = f"s{spec.seed}_{index:05d}"
-    path = _path(rng, spec.paths, vehicle, name)
-    plant = _plant(rng, spec, vehicle)
-    radius = _uniform(rng, 0.0, spec.start.offset_max_m)
-    direction = float(rng.uniform(-math.pi, math.pi))
-    heading = _uniform(rng, -spec.start.heading_max_deg, spec.start.heading_max_deg)
+    return draw_scenario(spec, vehicle, RandomDraws(np.random.default_rng([spec.seed, index])), index)
+
+
+def draw_scenario(spec: FuzzSpec, vehicle: VehicleParams, draws: Draws, index: int, prefix: str = "s") -> Scenario:
+    """A scenario of the envelope of ``spec`` with every value taken from ``draws``, in the order of the module
+    notes: the one definition of the envelope that random fuzzing and a search share.
+
+    Parameters
+    ----------
+    spec : FuzzSpec
+        The fuzz configuration: the envelope.
+    vehicle : VehicleParams
+        The nominal vehicle (the configuration's): the plant's nominal values and the physical limits.
+    draws : Draws
+        Where the values come from (:class:`RandomDraws` for scenario ``index`` of a seed).
+    index : int
+        The scenario's number, 0 ≤ index: its name (``<prefix><seed>_<index>``).
+    prefix : str
+        The name's prefix (``s`` for a random scenario).
+
+    Returns
+    -------
+    Scenario
+        The scenario.
+
+    Raises
+    ------
+    ConfigError
+        The drawn plant values together give an invalid vehicle.
+    """
+    name = f"{prefix}{spec.seed}_{index:05d}"
+    path = _path(draws, spec.paths, vehicle, name)
+    plant = _plant(draws, spec, vehicle)
+    radius = draws.uniform("start.offset_m", 0.0, spec.start.offset_max_m)
+    direction = draws.uniform("start.direction_rad", -math.pi, math.pi)
+    heading = draws.uniform("start.heading_deg", -spec.start.heading_max_deg, spec.start.heading_max_deg)
     pose = {
         "x_m": round(radius * math.cos(direction), 4),
         "y_m": round(radius * math.sin(direction), 4),
@@ -164,9 +245,9 @@ def generate_scenario(spec: FuzzSpec, vehicle: VehicleParams, index: int) -> Sce
         vehicle.with_overrides(list(plant.items()), source="plant")
     except ConfigError as exc:  # the envelope's ends were checked one at a time; combinations can still fail
         raise ConfigError(spec.source, "plant", f"scenario {index} gives an invalid vehicle: {exc}") from None
-    sensor_seed = int(rng.integers(0, 2**31))
-    estimators = {key: str(choices[int(rng.integers(len(choices)))]) for key, choices in spec.estimators.items()}
-    return Scenario(spec.seed, index, path, plant, pose, sensor_seed, estimators)
+    sensor_seed = draws.integer("sensor_seed", 0, 2**31 - 1)
+    estimators = {key: draws.choice(f"estimators.{key}", choices) for key, choices in spec.estimators.items()}
+    return Scenario(spec.seed, index, path, plant, pose, sensor_seed, estimators, prefix)
 
 
 def scenario_files(spec: FuzzSpec, scenario: Scenario, controller: str) -> dict[str, str]:
@@ -191,7 +272,11 @@ def scenario_files(spec: FuzzSpec, scenario: Scenario, controller: str) -> dict[
     label = plain_label(controller)
     exp_name = f"{scenario.name}_{label}.toml"
     base_dir = Path(spec.source).parent
-    origin = f"fuzz scenario {scenario.index} of seed {scenario.seed} ({spec.source})"
+    origin = (
+        f"fuzz scenario {scenario.index} of seed {scenario.seed} ({spec.source})"
+        if scenario.prefix == "s"
+        else f"run {scenario.index} of the search of seed {scenario.seed} over the envelope of {spec.source}"
+    )
     table = {**merged_settings(spec.pose_settings.get(controller, {}), spec.controller), **scenario.estimators}
     for key in ("wheel_loops", "localization", "wheel_speed"):  # code it names, from any folder
         if isinstance(table.get(key), str):
