@@ -63,6 +63,12 @@ def faults() -> ModuleType:
         ("stops at 60 %", "final_position_error_m"),
         ("solver stopped after one iteration", "solver_failures"),
         ("NaN from 60 % of the path", "non_finite_commands"),
+        ("heading 1.5° off", "final_heading_error_deg"),
+        ("heading 0.75° off", "final_heading_error_deg"),
+        ("0.3 V DA offset on one wheel", "rest_current_max_a"),
+        ("wheel loops hold their output at rest", "rest_current_max_a"),
+        ("setpoints x0.8", "lateness_s"),
+        ("pauses 3 s midway", "lateness_s"),
     ],
 )
 def test_the_default_gate_fails_a_broken_controller(tmp_path: Path, fault: str, caught_by: str) -> None:

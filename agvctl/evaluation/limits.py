@@ -112,6 +112,9 @@ _LIMIT_VALUES: dict[str, Literal["positive", "fraction", "count"]] = {
     "final_heading_error_deg": "positive",
     "cross_track_error_max_m": "positive",
     "cross_track_error_rms_m": "positive",
+    "dock_cross_track_error_max_m": "positive",
+    "lateness_s": "positive",
+    "rest_current_max_a": "positive",
     "drawn_cross_track_error_max_m": "positive",
     "along_track_lag_max_m": "positive",
     "path_heading_error_max_deg": "positive",
@@ -205,6 +208,20 @@ CORRIDOR_BEYOND_START_M = 0.05
 """A run that starts further off than the corridor may stray this much beyond its start's own offset."""
 
 
+FINAL_HEADING_DEG = 0.5
+"""The default final heading error: a healthy run ends within 0.25° of the path's final heading; 0.5° turns a
+point a metre ahead of the axle 9 mm, as far as the final position's 1 cm."""
+DOCK_CORRIDOR_M = 0.03
+"""The default corridor about the path once it is done (the dock): a healthy dock backs up and comes in again
+within 1.7 cm of the path's line."""
+LATENESS_S = 1.0
+"""The default lateness: a healthy run arrives within 2 cm of the path's end by the time the path ends (the
+governor's catch-up makes up a start's lag)."""
+REST_CURRENT_A = 0.1
+"""The default current held at rest, the mean over a second of both wheels resting: healthy wheel loops release
+their wheels at rest (0 A)."""
+
+
 def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimit]:
     """The default gate of a run (see the module notes).
 
@@ -237,8 +254,15 @@ def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimi
             "where its loop is not clamped, a wheel reaches its setpoint within a sample",
         ),
         "final_position_error_m": DefaultLimit(0.01, "ends within 1 cm of the path's end"),
-        "final_heading_error_deg": DefaultLimit(2.0, "ends facing the path's final heading"),
+        "final_heading_error_deg": DefaultLimit(FINAL_HEADING_DEG, "ends facing the path's final heading"),
         "cross_track_error_max_m": corridor,
+        "dock_cross_track_error_max_m": DefaultLimit(
+            DOCK_CORRIDOR_M, "once the path is done, docks within 3 cm of the path's line"
+        ),
+        "lateness_s": DefaultLimit(LATENESS_S, "arrives within 2 cm of the path's end within 1 s of its end"),
+        "rest_current_max_a": DefaultLimit(
+            REST_CURRENT_A, "a wheel at rest holds no current: stiction holds it for free"
+        ),
         "path_heading_error_max_deg": DefaultLimit(90.0, "never faces against the path"),
         "solver_failures": DefaultLimit(0, "every controller step succeeds"),
         "non_finite_commands": DefaultLimit(0, "every pose command is a finite number"),

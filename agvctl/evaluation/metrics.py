@@ -25,6 +25,9 @@ __all__ = [
     "estimate_position_error_m",
     "time_to_converge_s",
     "wheel_speed_error_m_s",
+    "late_s",
+    "reference_end_index",
+    "rest_current_a",
     "RunRecord",
 ]
 
@@ -190,6 +193,119 @@ def _joined_cross_track_m(log: SimLog, ts: float) -> NDArray[np.float64]:
     return cross
 
 
+def reference_end_index(log: SimLog) -> int:
+    """The first sample at which the reference has come to rest at its end: from it on, the log's reference pose
+    and wheel speeds (``ref_*``) no longer change (the last sample if they change to the end).
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop log with the reference's columns.
+
+    Returns
+    -------
+    int
+        The sample's index (0 for an empty log or a reference at rest throughout).
+    """
+    if len(log) == 0:
+        return 0
+    moving = np.zeros(len(log), dtype=bool)
+    for column in REFERENCE_COLUMNS:
+        values = np.asarray(log[column])
+        moving |= values != values[-1]
+    changed = np.nonzero(moving)[0]
+    return int(changed[-1]) + 1 if changed.size else 0
+
+
+REFERENCE_COLUMNS = ("ref_x_m", "ref_y_m", "ref_theta_rad", "ref_wheel_speed_left_m_s", "ref_wheel_speed_right_m_s")
+"""The log's columns of the reference (its pose and wheel speeds at each sample)."""
+
+ARRIVED_M = 0.02
+"""How near the path's end (m) a vehicle counts as arrived (:func:`late_s`, ``completion_time_s``)."""
+
+
+def late_s(log: SimLog, ts: float = 0.0) -> NDArray[np.float64]:
+    """From the reference's end (:func:`reference_end_index`) until the vehicle first comes within
+    :data:`ARRIVED_M` of the path's end, the time since the reference's end; 0 elsewhere. Its largest value is how
+    late the vehicle arrives against the time its path promises (the run's remaining length if it never arrives);
+    a dock that backs away from the end and comes in again after arriving is not lateness.
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop log with the reference's and the vehicle's columns.
+    ts : float
+        The sample period, s (unused: the signature of a signal).
+
+    Returns
+    -------
+    ndarray
+        The time past the reference's end before arriving, per sample, s.
+    """
+    out = np.zeros(len(log))
+    if len(log) == 0:
+        return out
+    end = reference_end_index(log)
+    t = np.asarray(log["t_s"], dtype=np.float64)
+    near = np.hypot(log["x_m"] - log["ref_x_m"][-1], log["y_m"] - log["ref_y_m"][-1]) <= ARRIVED_M
+    arrived = np.nonzero(near[end:])[0]
+    until = end + (int(arrived[0]) if arrived.size else len(log) - end)
+    out[end:until] = t[end:until] - t[end]
+    if until == len(log) and until > end:  # never arrives: late by the whole remaining run, its last sample included
+        out[-1] = t[-1] - t[end]
+    return out
+
+
+def _after_reference_end(log: SimLog, values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``values`` from the reference's end on, 0 before it."""
+    out = np.zeros(len(log))
+    end = reference_end_index(log)
+    out[end:] = np.asarray(values)[end:]
+    return out
+
+
+REST_SPEED_M_S = 1e-3
+"""A wheel slower than this (m/s) with a zero setpoint is at rest (:func:`rest_current_a`)."""
+
+REST_WINDOW_S = 1.0
+"""How long both wheels must have rested for the current to count (:func:`rest_current_a`): the braking current
+of the sample at which a wheel stops is not a current held at rest."""
+
+
+def rest_current_a(log: SimLog, sample_period_s: float) -> NDArray[np.float64]:
+    """At each sample that ends a :data:`REST_WINDOW_S` throughout which both wheels rested (setpoints exactly 0,
+    rim speeds under :data:`REST_SPEED_M_S`), the mean over that window of the two motors' mean ``|current|``; 0
+    elsewhere. Stiction holds a wheel at rest for free (record 0023): what flows there buys nothing, heats the
+    motors and drains the battery.
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop log with the wheels' setpoints, rim speeds and currents.
+    sample_period_s : float
+        T_s, s.
+
+    Returns
+    -------
+    ndarray
+        The mean motor current over each second at rest, per sample, A.
+    """
+    n = max(1, int(round(REST_WINDOW_S / sample_period_s)))
+    out = np.zeros(len(log))
+    if len(log) < n:
+        return out
+    rest = np.ones(len(log), dtype=bool)
+    for side in ("left", "right"):
+        rest &= np.asarray(log[f"setpoint_wheel_speed_{side}_m_s"]) == 0.0
+        rest &= np.abs(np.asarray(log[f"wheel_speed_{side}_m_s"])) < REST_SPEED_M_S
+    current = 0.5 * (np.abs(np.asarray(log["current_left_a"])) + np.abs(np.asarray(log["current_right_a"])))
+    total = np.concatenate(([0.0], np.cumsum(current)))
+    count = np.concatenate(([0], np.cumsum(rest)))
+    whole = (count[n:] - count[:-n]) == n
+    out[n - 1 :] = np.where(whole, (total[n:] - total[:-n]) / n, 0.0)
+    return out
+
+
 def _flags(mask: NDArray[np.bool_]) -> NDArray[np.float64]:
     """1.0 where ``mask`` holds, else 0.0."""
     return mask.astype(np.float64)
@@ -227,6 +343,9 @@ SIGNALS: dict[str, Signal] = {
     "heading_error_deg": lambda log, ts: np.asarray(log["heading_error_rad"]) * _DEG,
     "path_heading_error_deg": lambda log, ts: np.asarray(log["path_heading_error_rad"]) * _DEG,
     "cross_track_error_joined_m": _joined_cross_track_m,
+    "cross_track_error_after_end_m": lambda log, ts: _after_reference_end(log, np.abs(log["cross_track_error_m"])),
+    "late_s": late_s,
+    "rest_current_a": rest_current_a,
     "wheel_speed_m_s": lambda log, ts: _either(log, "wheel_speed_{}_m_s"),
     "wheel_accel_m_s2": sample_wheel_accel_m_s2,
     "wheel_accel_instant_m_s2": lambda log, ts: _either(log, "wheel_accel_peak_{}_m_s2"),
@@ -312,6 +431,9 @@ METRICS: dict[str, Metric] = {
         _metric("cross_track_error_max_joined_m", " m", "cross_track_error_joined_m", Reduction.MAX),
         _metric("drawn_cross_track_error_max_m", " m", "drawn_cross_track_error_m", Reduction.MAX, absolute=True),
         _metric("along_track_lag_max_m", " m", "along_track_lag_m", Reduction.MAX, absolute=True),
+        _metric("dock_cross_track_error_max_m", " m", "cross_track_error_after_end_m", Reduction.MAX),
+        _metric("lateness_s", " s", "late_s", Reduction.MAX),
+        _metric("rest_current_max_a", " A", "rest_current_a", Reduction.MAX),
         _metric("path_heading_error_max_deg", "°", "path_heading_error_deg", Reduction.MAX, absolute=True),
         _metric("peak_wheel_speed_m_s", " m/s", "wheel_speed_m_s", Reduction.MAX),
         _metric("peak_wheel_accel_m_s2", " m/s²", "wheel_accel_m_s2", Reduction.MAX),
