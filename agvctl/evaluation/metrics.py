@@ -225,10 +225,10 @@ ARRIVED_M = 0.02
 
 
 def late_s(log: SimLog, ts: float = 0.0) -> NDArray[np.float64]:
-    """From the reference's end (:func:`reference_end_index`) until the vehicle first comes within
-    :data:`ARRIVED_M` of the path's end, the time since the reference's end; 0 elsewhere. Its largest value is how
-    late the vehicle arrives against the time its path promises (the run's remaining length if it never arrives);
-    a dock that backs away from the end and comes in again after arriving is not lateness.
+    """From the reference's end (:func:`reference_end_index`) until the sample at which the vehicle first comes
+    within :data:`ARRIVED_M` of the path's end, the time since the reference's end; 0 elsewhere. Its largest value
+    is how late the vehicle arrives against the time its path promises (the run's remaining length if it never
+    arrives); a dock that backs away from the end and comes in again after arriving is not lateness.
 
     Parameters
     ----------
@@ -249,10 +249,8 @@ def late_s(log: SimLog, ts: float = 0.0) -> NDArray[np.float64]:
     t = np.asarray(log["t_s"], dtype=np.float64)
     near = np.hypot(log["x_m"] - log["ref_x_m"][-1], log["y_m"] - log["ref_y_m"][-1]) <= ARRIVED_M
     arrived = np.nonzero(near[end:])[0]
-    until = end + (int(arrived[0]) if arrived.size else len(log) - end)
+    until = end + int(arrived[0]) + 1 if arrived.size else len(log)  # the arrival's sample included
     out[end:until] = t[end:until] - t[end]
-    if until == len(log) and until > end:  # never arrives: late by the whole remaining run, its last sample included
-        out[-1] = t[-1] - t[end]
     return out
 
 
