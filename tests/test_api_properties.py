@@ -35,8 +35,8 @@ from agvctl.controllers.baselines.ramsete import RamseteConfig
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.docking import DockingConfig
 from agvctl.controllers.mpc.rest import RestConfig
+from agvctl.controllers.pi.options import PIGains
 from agvctl.controllers.pi.tuning import TuningSpec
-from agvctl.controllers.pi.wheel_loop import PIGains
 from agvctl.controllers.registry import POSE_CONTROLLERS
 from agvctl.errors import AgvctlError
 from agvctl.estimation.ekf import EkfSettings

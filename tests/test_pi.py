@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 from scipy.signal import lfilter
 
 from agvctl.actuator import Actuator
-from agvctl.controllers.pi.wheel_loop import PIGains, PISpeedLoop, PIWheelController, WheelLoopOptions
+from agvctl.controllers.pi.options import PIGains, WheelLoopOptions
+from agvctl.controllers.pi.wheel_loop import PISpeedLoop, PIWheelController
 from agvctl.params import load_vehicle
 from agvctl.sim.wheel_step import step_metrics, wheel_step_response
 

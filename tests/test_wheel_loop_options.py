@@ -9,17 +9,17 @@ import shutil
 from pathlib import Path
 
 import pytest
+from cli_runs import one_line, run
 
 from agvctl.calibration.friction.experiment import FRICTION_WHEEL_LOOPS
 from agvctl.calibration.umbmark.experiment import UMBMARK_WHEEL_LOOPS
 from agvctl.controllers.pi import PIWheelController, WheelLoopOptions, default_pi_gains
-from agvctl.controllers.pi.wheel_loop import Braking
+from agvctl.controllers.pi.options import Braking
 from agvctl.controllers.registry import design_wheel_loops
 from agvctl.errors import ConfigError
 from agvctl.params import load_vehicle
 from agvctl.scenario import load_experiment
 from agvctl.scenario.spec import ControllerSpec
-from tests.cli_runs import one_line, run
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULTS = WheelLoopOptions()

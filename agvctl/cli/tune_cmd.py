@@ -16,13 +16,13 @@ from agvctl.cli.options import add_vehicle_options
 from agvctl.cli.outputs import Output, check_outputs, files_in, vehicle_input, writing
 from agvctl.cli.tune_pose_cmd import add_pose_options, check_mode, run_pose
 from agvctl.controllers.pi.gains_file import gains_toml
+from agvctl.controllers.pi.options import WheelLoopOptions
 from agvctl.controllers.pi.tuning import (
     SPEC_SOURCE,
     TuningResult,
     TuningSpec,
     design_pi,
 )
-from agvctl.controllers.pi.wheel_loop import WheelLoopOptions
 from agvctl.errors import ConfigError
 from agvctl.fileio import atomic_open, write_text
 from agvctl.params import load_vehicle

@@ -3,8 +3,9 @@
 from agvctl.controllers.base import PoseCommand, PoseController, WheelSpeedController
 from agvctl.controllers.baselines.feedforward import FeedForwardPoseController
 from agvctl.controllers.pi.gains_file import PISettings, load_gains
+from agvctl.controllers.pi.options import PIGains
 from agvctl.controllers.pi.tuning import LoopMargins, TuningResult, TuningSpec, design_pi
-from agvctl.controllers.pi.wheel_loop import PIGains, PIWheelController
+from agvctl.controllers.pi.wheel_loop import PIWheelController
 
 __all__ = ["FeedForwardPoseController", "PoseCommand", "PoseController", "WheelSpeedController"]
 __all__ += ["LoopMargins", "PIGains", "PISettings", "PIWheelController", "TuningResult", "TuningSpec"]

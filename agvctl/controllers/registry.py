@@ -37,8 +37,9 @@ from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.nonlinear import NonlinearMpcController
 from agvctl.controllers.pi.gains_file import load_gains
+from agvctl.controllers.pi.options import WheelLoopOptions
 from agvctl.controllers.pi.tuning import WheelLoopDesign, closed_loop_time_constant_s, default_pi_gains
-from agvctl.controllers.pi.wheel_loop import PIWheelController, WheelLoopOptions
+from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 

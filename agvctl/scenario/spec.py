@@ -26,7 +26,7 @@ from agvctl.config import (
     to_dict,
 )
 from agvctl.config.references import Registry
-from agvctl.controllers.pi.wheel_loop import Braking, WheelLoopOptions
+from agvctl.controllers.pi.options import Braking, WheelLoopOptions
 from agvctl.controllers.registry import POSE_CONTROLLERS, pose_controllers, wheel_loops
 from agvctl.errors import ConfigError
 from agvctl.estimation.registry import pose_estimators, wheel_speed_estimators
@@ -44,7 +44,7 @@ _LOOPS = WheelLoopOptions()
 """The wheel loops' defaults, which the ``[controller]`` keys for them take."""
 
 BrakingName = Literal["full", "symmetric", "gentle_stop"]
-"""The names of :class:`~agvctl.controllers.pi.wheel_loop.Braking`'s values, as files give them."""
+"""The names of :class:`~agvctl.controllers.pi.options.Braking`'s values, as files give them."""
 
 
 @document_fields
@@ -169,11 +169,11 @@ class ControllerSpec:
     coulomb_feedforward: bool = _LOOPS.coulomb_feedforward
     """Add the Coulomb-friction voltage τ_c R/k_t to the PI output (ramped in near zero speed): the wheels then
     answer small setpoints instead of sitting in the friction until the integrator winds up
-    (:attr:`~agvctl.controllers.pi.wheel_loop.WheelLoopOptions.coulomb_feedforward`)."""
+    (:attr:`~agvctl.controllers.pi.options.WheelLoopOptions.coulomb_feedforward`)."""
     braking: BrakingName = _LOOPS.braking.value
     """How hard the PI loops may brake a wheel: ``"full"`` (the current limit), ``"symmetric"`` (always no harder
     than a_lim, eq 5, friction helping) or ``"gentle_stop"`` (so only in the last sample before a wheel stops;
-    for paths that stop wheels to reverse them) (:class:`~agvctl.controllers.pi.wheel_loop.Braking`)."""
+    for paths that stop wheels to reverse them) (:class:`~agvctl.controllers.pi.options.Braking`)."""
     steering_priority: bool = _LOOPS.steering_priority
     """When both wheel loops ask for more current than the amplifier gives, the same way, keep the difference of
     the currents they ask (the torque that steers) and give up speed instead

@@ -18,7 +18,8 @@ from numpy.typing import NDArray
 
 from agvctl.config import document_fields
 from agvctl.controllers.base import WheelSpeedController
-from agvctl.controllers.pi.wheel_loop import PIGains, PIWheelController, WheelLoopOptions
+from agvctl.controllers.pi.options import PIGains, WheelLoopOptions
+from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.log import SimLog
 from agvctl.params import SIDES, VehicleParams
 from agvctl.sim.stepper import PlantStepper

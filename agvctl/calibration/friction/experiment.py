@@ -16,8 +16,9 @@ from numpy.typing import NDArray
 from agvctl.actuator import Actuator
 from agvctl.calibration.friction.log import FrictionLog
 from agvctl.config import document_fields
+from agvctl.controllers.pi.options import WheelLoopOptions
 from agvctl.controllers.pi.tuning import design_pi
-from agvctl.controllers.pi.wheel_loop import PIWheelController, WheelLoopOptions
+from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.params import VehicleParams
 from agvctl.sim.stepper import PlantStepper
 

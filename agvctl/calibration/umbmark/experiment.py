@@ -13,7 +13,8 @@ from agvctl.calibration.umbmark.model import Method, UmbmarkCorrection, e_max_sy
 from agvctl.config import document_fields
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.ltv import LtvMpcController
-from agvctl.controllers.pi.wheel_loop import Braking, PIWheelController, WheelLoopOptions
+from agvctl.controllers.pi.options import Braking, WheelLoopOptions
+from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.controllers.registry import default_pi_gains
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams

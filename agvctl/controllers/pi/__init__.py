@@ -7,8 +7,9 @@
 """
 
 from agvctl.controllers.pi.gains_file import PISettings, gains_toml, load_gains
+from agvctl.controllers.pi.options import Braking, PIGains, WheelLoopOptions
 from agvctl.controllers.pi.tuning import LoopMargins, TuningResult, TuningSpec, default_pi_gains, design_pi
-from agvctl.controllers.pi.wheel_loop import Braking, PIGains, PIWheelController, WheelLoopOptions
+from agvctl.controllers.pi.wheel_loop import PIWheelController
 
 __all__ = [
     "Braking",

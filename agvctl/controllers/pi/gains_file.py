@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from agvctl.config import build, document_fields, dump_toml, load_toml, number
-from agvctl.controllers.pi.wheel_loop import PIGains
+from agvctl.controllers.pi.options import PIGains
 from agvctl.errors import ConfigError
 
 __all__ = ["GainsFile", "PISettings", "gains_toml", "load_gains"]

@@ -10,7 +10,7 @@ The loop, broken at the controller's input::
   voltage u_c, :class:`~agvctl.controllers.pi.wheel_loop.PIWheelController` sends the DA the voltage u_c/k_pow,
   the DA outputs that voltage (code·α = u_c/k_pow up to half a step: gain 1 V/V, quantisation neglected) and
   the amplifier multiplies by k_pow: k_chain = k_pow · 1 · (1/k_pow) = 1;
-* C(z) = k_p + k_i T_s z/(z − 1) (:class:`~agvctl.controllers.pi.wheel_loop.PIGains`).
+* C(z) = k_p + k_i T_s z/(z − 1) (:class:`~agvctl.controllers.pi.options.PIGains`).
 
 Margins are those of this sampled loop, computed from its frequency response L(e^{jωT_s}) on a dense grid
 up to and including the Nyquist frequency ω = π/T_s (z = −1). For a PI on this first-order plant the phase
@@ -31,7 +31,7 @@ from scipy.optimize import brentq
 
 from agvctl.actuator import Actuator
 from agvctl.config import document_fields
-from agvctl.controllers.pi.wheel_loop import PIGains
+from agvctl.controllers.pi.options import PIGains
 from agvctl.params import VehicleParams
 from agvctl.plant.decoupled import decoupled_wheel_models
 

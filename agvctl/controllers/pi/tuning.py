@@ -34,7 +34,7 @@ from agvctl.controllers.pi.margins import (
     sampled_wheel_models,
     tf_polynomials,
 )
-from agvctl.controllers.pi.wheel_loop import PIGains
+from agvctl.controllers.pi.options import PIGains
 from agvctl.errors import ConfigError, expect_instance
 from agvctl.params import VehicleParams
 

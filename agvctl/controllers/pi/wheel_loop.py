@@ -46,113 +46,32 @@ for (proportional to the difference of their speed errors, the steering error) s
 held below its own limit stops integrating as it would at that limit.
 
 Coulomb-friction feed-forward: ``u_ff = τ_c R / k_t · sign(ω_ref)`` (the voltage that balances the Coulomb torque
-τ_c at standstill, eq 1 with the friction of eqs 2-4), on by default (:class:`WheelLoopOptions`).
+τ_c at standstill, eq 1 with the friction of eqs 2-4), on by default
+(:class:`~agvctl.controllers.pi.options.WheelLoopOptions`).
 
-Every choice the loops offer is one field of :class:`WheelLoopOptions`, with its one default: experiments, gains
-files, ``agvctl tune``, the calibration experiments and the Python constructors all read it from there.
+Every choice the loops offer is one field of :class:`~agvctl.controllers.pi.options.WheelLoopOptions`, with its
+one default: experiments, gains files, ``agvctl tune``, the calibration experiments and the Python constructors all
+read it from there.
 """
 
 from __future__ import annotations
 
-import enum
 import math
-from dataclasses import dataclass
 from typing import NamedTuple
 
-import control
 import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.actuator import Actuator
-from agvctl.config import check_fields, document_fields, number
+from agvctl.controllers.pi.options import FEEDFORWARD_RAMP_RAD_S, Braking, PIGains, WheelLoopOptions
 from agvctl.errors import expect_instance
 from agvctl.params import SIDES, MotorParams, Side, VehicleParams
 
 __all__ = [
-    "Braking",
     "LoopDemand",
-    "PIGains",
     "PISpeedLoop",
     "PIWheelController",
-    "WheelLoopOptions",
 ]
-
-
-FEEDFORWARD_RAMP_RAD_S = 2.0
-"""ω_ε: the Coulomb feed-forward ramps in linearly up to this motor speed (≈ 5.6 mm/s at the wheel)."""
-
-
-@document_fields
-@dataclass(frozen=True)
-class PIGains:
-    """Gains of the discrete PI ``C(z) = kp + ki·dt_s·z/(z − 1)``, motor-speed error (rad/s) → motor
-    voltage (V)."""
-
-    kp: float = number(ge=0)
-    """Proportional gain k_p, V/(rad/s) = V s/rad."""
-    ki: float = number(ge=0)
-    """Integral gain k_i, V/rad (per second of integrated error in rad/s)."""
-    dt_s: float = number(gt=0)
-    """Sample period T_s, s."""
-
-    def __post_init__(self) -> None:
-        check_fields(self)
-
-    @property
-    def num(self) -> tuple[float, float]:
-        """Numerator of C(z) in descending powers of z: ``(kp + ki·dt_s, −kp)``."""
-        return (self.kp + self.ki * self.dt_s, -self.kp)
-
-    @property
-    def den(self) -> tuple[float, float]:
-        """Denominator of C(z) in descending powers of z: ``(1, −1)``."""
-        return (1.0, -1.0)
-
-    def transfer_function(self) -> control.TransferFunction:
-        """C(z) as a discrete python-control transfer function with ``dt = dt_s``."""
-        return control.tf(
-            list(self.num), list(self.den), self.dt_s, inputs="speed_error_rad_s", outputs="motor_voltage_v"
-        )
-
-
-class Braking(enum.Enum):
-    """How hard the loops may brake a wheel (see :func:`symmetric_braking_current_a`)."""
-
-    FULL = "full"
-    """With the full current limit, as when accelerating."""
-    SYMMETRIC = "symmetric"
-    """Always with the current that, helped by friction, decelerates no harder than a_lim (eq 5)."""
-    GENTLE_STOP = "gentle_stop"
-    """With that current only in the last sample before a wheel stops; at speed with the full limit."""
-
-
-@document_fields
-@dataclass(frozen=True)
-class WheelLoopOptions:
-    """The choices of the PI wheel loops, each with its one default.
-
-    Every entry point that builds the loops (an experiment's ``[controller]``, :class:`PIWheelController`,
-    ``agvctl tune``'s verification, the calibration experiments) takes its options from here.
-    """
-
-    coulomb_feedforward: bool = True
-    """Add τ_c R/k_t to the PI output, ramped in over the last :data:`FEEDFORWARD_RAMP_RAD_S` to zero speed. On:
-    the wheels then answer small setpoints instead of sitting in the friction until the integrator winds up
-    (``docs/decisions/0009-pi-wheel-loops.md``)."""
-    anti_windup: bool = True
-    """Clamp the output to the window of predicted current ((u − k_e ω)/R within ±I_max) and the DA range, and stop
-    the integrator there."""
-    braking: Braking = Braking.FULL
-    """How hard the loops may brake a wheel."""
-    steering_priority: bool = True
-    """When both loops ask for more than their usable voltage the same way, the one asking more gets its limit and
-    the other the same current less: the difference of the currents they ask, the torque that turns the vehicle, is
-    kept and the speed gives way (``docs/decisions/0026-steering-priority.md``)."""
-
-    def __post_init__(self) -> None:
-        for name in ("coulomb_feedforward", "anti_windup", "steering_priority"):
-            expect_instance(getattr(self, name), bool, "WheelLoopOptions", name)
-        expect_instance(self.braking, Braking, "WheelLoopOptions", "braking")
 
 
 class LoopDemand(NamedTuple):
