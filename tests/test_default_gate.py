@@ -6,12 +6,9 @@ import importlib.util
 from pathlib import Path
 from types import ModuleType
 
-import numpy as np
 import pytest
 
 from agvctl.checks.summary import run_summary
-from agvctl.evaluation.metrics import METRICS, reference_end_index
-from agvctl.log import SimLog
 from agvctl.params import load_vehicle
 from agvctl.scenario import load_experiment, run_experiment
 
@@ -102,52 +99,3 @@ def test_wheel_loops_that_drive_at_0_8_of_their_setpoints_fail_on_following_them
     assert "wheel_speed_error_max_m_s" in failed, failed
     # the pose loop closes around the fault: it stays on the path and only arrives late
     assert failed <= {"wheel_speed_error_max_m_s", "lateness_s"}, failed
-
-
-def synthetic_log(x_m: np.ndarray, ref_x_m: np.ndarray, *, current_a: float = 0.0) -> SimLog:
-    """A straight drive along x sampled at T_s = 0.04 s: the vehicle at ``x_m``, its reference at ``ref_x_m``,
-    both wheels at the vehicle's speed with setpoints 0 wherever it stands, and ``current_a`` in each motor."""
-    ts = 0.04
-    n = len(x_m)
-    speed = np.concatenate((np.diff(x_m) / ts, [0.0]))  # over the sample that starts at each row
-    setpoint = speed
-    ref_speed = np.concatenate((np.diff(ref_x_m) / ts, [0.0]))
-    zeros = np.zeros(n)
-    return SimLog(
-        {
-            "t_s": ts * np.arange(n),
-            "x_m": np.asarray(x_m, dtype=float),
-            "y_m": zeros,
-            "ref_x_m": np.asarray(ref_x_m, dtype=float),
-            "ref_y_m": zeros,
-            "ref_theta_rad": zeros,
-            "ref_wheel_speed_left_m_s": ref_speed,
-            "ref_wheel_speed_right_m_s": ref_speed,
-            "wheel_speed_left_m_s": speed,
-            "wheel_speed_right_m_s": speed,
-            "setpoint_wheel_speed_left_m_s": setpoint,
-            "setpoint_wheel_speed_right_m_s": setpoint,
-            "current_left_a": np.full(n, current_a),
-            "current_right_a": np.full(n, -current_a),
-        }
-    )
-
-
-def test_lateness_is_the_time_from_the_references_end_to_the_first_arrival_at_the_paths_end() -> None:
-    ref = np.minimum(0.01 * np.arange(200), 1.0)  # 1 m at 0.25 m/s: the reference ends at sample 100, t = 4 s
-    on_time = synthetic_log(ref, ref)
-    late = synthetic_log(np.minimum(0.008 * np.arange(200), 1.0), ref)  # 0.2 m/s: 5 s to arrive
-    assert reference_end_index(on_time) == 100
-    assert METRICS["lateness_s"].value(on_time, 0.04) == 0.0
-    # within 2 cm of the end from 0.98 m on, reached at sample 123 (0.984 m): 0.92 s after the reference's end
-    assert METRICS["lateness_s"].value(late, 0.04) == pytest.approx(0.04 * (123 - 100))
-    backs_away = synthetic_log(np.concatenate((ref[:150], np.full(50, 0.95))), ref)  # arrived, then 5 cm away
-    assert METRICS["lateness_s"].value(backs_away, 0.04) == 0.0
-
-
-def test_current_at_rest_counts_only_a_whole_second_of_both_wheels_resting() -> None:
-    ref = np.minimum(0.01 * np.arange(200), 1.0)
-    held = synthetic_log(ref, ref, current_a=0.4)  # at rest from sample 100 on: 100 samples, 4 s
-    assert METRICS["rest_current_max_a"].value(held, 0.04) == pytest.approx(0.4)
-    short = synthetic_log(ref[:120], ref[:120], current_a=0.4)  # 20 samples at rest: under a second
-    assert METRICS["rest_current_max_a"].value(short, 0.04) == 0.0

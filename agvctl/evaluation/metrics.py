@@ -26,6 +26,8 @@ __all__ = [
     "time_to_converge_s",
     "wheel_speed_error_m_s",
     "late_s",
+    "dock_offset_m",
+    "arrival_index",
     "reference_end_index",
     "rest_current_a",
     "RunRecord",
@@ -207,10 +209,15 @@ def reference_end_index(log: SimLog) -> int:
     int
         The sample's index (0 for an empty log or a reference at rest throughout).
     """
+    return _settled_index(log, REFERENCE_COLUMNS)
+
+
+def _settled_index(log: SimLog, columns: tuple[str, ...]) -> int:
+    """The first sample from which none of ``columns`` changes (0 for an empty log or columns constant throughout)."""
     if len(log) == 0:
         return 0
     moving = np.zeros(len(log), dtype=bool)
-    for column in REFERENCE_COLUMNS:
+    for column in columns:
         values = np.asarray(log[column])
         moving |= values != values[-1]
     changed = np.nonzero(moving)[0]
@@ -224,11 +231,44 @@ ARRIVED_M = 0.02
 """How near the path's end (m) a vehicle counts as arrived (:func:`late_s`, ``completion_time_s``)."""
 
 
+def _to_end_m(log: SimLog, x: str, y: str) -> NDArray[np.float64]:
+    """The distance of the point ``(x, y)`` (two columns of the log) from the path's end, per sample."""
+    return np.asarray(np.hypot(log[x] - log["ref_x_m"][-1], log[y] - log["ref_y_m"][-1]), dtype=np.float64)
+
+
+def arrival_index(log: SimLog) -> int:
+    """The sample at which the vehicle arrives at the path's end: the first, from the one at which the reference
+    comes within :data:`ARRIVED_M` of its end for good, at which the vehicle is within :data:`ARRIVED_M` of it too.
+
+    Counting from the reference's own final approach, a path that passes its end earlier (a figure eight, a
+    shuttle) gives no early arrival; counting the first time there, not the time from which the vehicle stays
+    there, a vehicle that reaches the end with its reference and runs past it (a fast path with no headroom to
+    brake) and a dock that backs away from the end and comes in again arrive when they first get there: how far
+    they stray is for the final position and the dock's limits to judge.
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop log with the reference's and the vehicle's columns.
+
+    Returns
+    -------
+    int
+        The sample's index (the log's length if the vehicle never arrives).
+    """
+    if len(log) == 0:
+        return 0
+    away = np.nonzero(_to_end_m(log, "ref_x_m", "ref_y_m") > ARRIVED_M)[0]
+    approach = int(away[-1]) + 1 if away.size else 0  # the reference within ARRIVED_M of its end for good
+    arrived = np.nonzero(_to_end_m(log, "x_m", "y_m")[approach:] <= ARRIVED_M)[0]
+    return approach + int(arrived[0]) if arrived.size else len(log)
+
+
 def late_s(log: SimLog, ts: float = 0.0) -> NDArray[np.float64]:
-    """From the reference's end (:func:`reference_end_index`) until the sample at which the vehicle first comes
-    within :data:`ARRIVED_M` of the path's end, the time since the reference's end; 0 elsewhere. Its largest value
-    is how late the vehicle arrives against the time its path promises (the run's remaining length if it never
-    arrives); a dock that backs away from the end and comes in again after arriving is not lateness.
+    """From the reference's end (:func:`reference_end_index`) to the vehicle's arrival (:func:`arrival_index`,
+    its sample included), the time since the reference's end; 0 elsewhere. Its largest value, the lateness, is
+    ``max(0, arrival − end of the reference)`` (the rest of the run if the vehicle never arrives): how late the
+    vehicle is against the time its path promises.
 
     Parameters
     ----------
@@ -246,19 +286,46 @@ def late_s(log: SimLog, ts: float = 0.0) -> NDArray[np.float64]:
     if len(log) == 0:
         return out
     end = reference_end_index(log)
+    until = min(arrival_index(log) + 1, len(log))
     t = np.asarray(log["t_s"], dtype=np.float64)
-    near = np.hypot(log["x_m"] - log["ref_x_m"][-1], log["y_m"] - log["ref_y_m"][-1]) <= ARRIVED_M
-    arrived = np.nonzero(near[end:])[0]
-    until = end + int(arrived[0]) + 1 if arrived.size else len(log)  # the arrival's sample included
     out[end:until] = t[end:until] - t[end]
     return out
 
 
-def _after_reference_end(log: SimLog, values: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``values`` from the reference's end on, 0 before it."""
+def dock_offset_m(log: SimLog, ts: float = 0.0) -> NDArray[np.float64]:
+    """Once the reference is at rest and the vehicle has arrived (from :func:`reference_end_index` and
+    :func:`arrival_index` on, whichever is later), the vehicle's distance from the path's final line; 0 before, and
+    throughout on a path that never drives (only turns in place).
+
+    The final line runs through the path's end along its last drive: the reference's heading at the sample from
+    which its position no longer changes (turns in place after it do not move it). It is the line a dock backs up
+    along and comes in on (:mod:`agvctl.controllers.mpc.docking`), so the distance across it is how far the vehicle
+    stands or strays beside where it should stop. A vehicle that runs past the end along that line (a fast path with
+    no headroom to brake) and comes back is not off it, and one still on its way (late, on a path ending in a curve
+    that bends away from that line) is not there yet: running past is for the final position to judge, arriving
+    late for the lateness.
+
+    Parameters
+    ----------
+    log : SimLog
+        A closed-loop log with the reference's and the vehicle's columns.
+    ts : float
+        The sample period, s (unused: the signature of a signal).
+
+    Returns
+    -------
+    ndarray
+        The distance across the final line per sample, m.
+    """
     out = np.zeros(len(log))
-    end = reference_end_index(log)
-    out[end:] = np.asarray(values)[end:]
+    stops = _settled_index(log, ("ref_x_m", "ref_y_m"))
+    if stops == 0:
+        return out
+    heading = float(log["ref_theta_rad"][min(stops, len(log) - 1)])
+    dx, dy = log["x_m"] - log["ref_x_m"][-1], log["y_m"] - log["ref_y_m"][-1]
+    across = np.abs(np.asarray(dy * math.cos(heading) - dx * math.sin(heading)))
+    start = max(reference_end_index(log), arrival_index(log))
+    out[start:] = across[start:]
     return out
 
 
@@ -341,7 +408,7 @@ SIGNALS: dict[str, Signal] = {
     "heading_error_deg": lambda log, ts: np.asarray(log["heading_error_rad"]) * _DEG,
     "path_heading_error_deg": lambda log, ts: np.asarray(log["path_heading_error_rad"]) * _DEG,
     "cross_track_error_joined_m": _joined_cross_track_m,
-    "cross_track_error_after_end_m": lambda log, ts: _after_reference_end(log, np.abs(log["cross_track_error_m"])),
+    "dock_offset_m": dock_offset_m,
     "late_s": late_s,
     "rest_current_a": rest_current_a,
     "wheel_speed_m_s": lambda log, ts: _either(log, "wheel_speed_{}_m_s"),
@@ -429,7 +496,7 @@ METRICS: dict[str, Metric] = {
         _metric("cross_track_error_max_joined_m", " m", "cross_track_error_joined_m", Reduction.MAX),
         _metric("drawn_cross_track_error_max_m", " m", "drawn_cross_track_error_m", Reduction.MAX, absolute=True),
         _metric("along_track_lag_max_m", " m", "along_track_lag_m", Reduction.MAX, absolute=True),
-        _metric("dock_cross_track_error_max_m", " m", "cross_track_error_after_end_m", Reduction.MAX),
+        _metric("dock_cross_track_error_max_m", " m", "dock_offset_m", Reduction.MAX),
         _metric("lateness_s", " s", "late_s", Reduction.MAX),
         _metric("rest_current_max_a", " A", "rest_current_a", Reduction.MAX),
         _metric("path_heading_error_max_deg", "°", "path_heading_error_deg", Reduction.MAX, absolute=True),
