@@ -15,12 +15,14 @@ what every healthy run of a planned path keeps, derived from the vehicle and the
   a miss, and a controller that docks keeps it) facing its final heading (``final_heading_error_deg`` 0.5°: a
   healthy run ends within 0.25°, and 0.5° turns a point a metre ahead of the axle about as far as the final
   position's centimetre);
-* it arrives on time (``lateness_s`` 0.5 s: the first time within 2 cm of the path's end, counted from the end of
-  the path's reference, :func:`~agvctl.evaluation.metrics.late_s`): the reference governor holds its clock while
-  the vehicle lags and catches up after, so a healthy run is there when its path ends;
+* it arrives on time (``lateness_s`` 0.5 s: its first time within 2 cm of the path's end on the path's final
+  approach, counted from the end of the path's reference, :func:`~agvctl.evaluation.metrics.late_s`): the
+  reference governor holds its clock while the vehicle lags and catches up after, so a healthy run is there when
+  its path ends;
 * it stays on the path (``cross_track_error_max_m``: 10 cm, or the start's own offset from the path plus 5 cm),
-  also once the path is done (``dock_cross_track_error_max_m`` 3 cm: a dock backs up along the path's line and
-  comes in again), and never faces against it (``path_heading_error_max_deg`` 90°);
+  and, once there, beside the path's final line by no more than 3 cm (``dock_cross_track_error_max_m``,
+  :func:`~agvctl.evaluation.metrics.dock_offset_m`: it arrives within 2 cm of the end, and a dock backs up along
+  that line and comes in again), and never faces against it (``path_heading_error_max_deg`` 90°);
 * a wheel at rest holds no current (``rest_current_max_a`` 0.1 A, the mean over a second of both wheels resting,
   :func:`~agvctl.evaluation.metrics.rest_current_a`): stiction holds it for free, so what flows there heats the
   motors for nothing;
@@ -221,9 +223,10 @@ FINAL_HEADING_DEG = 0.5
 """The default final heading error: a healthy run ends within 0.25° of the path's final heading; 0.5° turns a
 point a metre ahead of the axle 9 mm, as far as the final position's 1 cm."""
 DOCK_CORRIDOR_M = 0.03
-"""The default corridor about the path once it is done (the dock): three times the final position's centimetre; a
-healthy dock backs up along the path's line and comes in again, as far from it as it came to rest beside its end
-(less than 2 cm)."""
+"""The default distance across the path's final line once the vehicle is there (the dock): a vehicle arrives within
+2 cm of the end, so a healthy one is at most that far beside the line when the count starts, and a dock backing up
+along it and coming in again only brings it closer; a further centimetre, the final position's, leaves room for
+what remains of the approach."""
 LATENESS_S = 0.5
 """The default lateness: a healthy run arrives within 2 cm of the path's end by the time the path ends (the
 reference governor's catch-up makes up a start's lag), so half a second late is a delay of its own."""
@@ -267,7 +270,7 @@ def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimi
         "final_heading_error_deg": DefaultLimit(FINAL_HEADING_DEG, "ends facing the path's final heading"),
         "cross_track_error_max_m": corridor,
         "dock_cross_track_error_max_m": DefaultLimit(
-            DOCK_CORRIDOR_M, "once the path is done, stays within 3 cm of its line"
+            DOCK_CORRIDOR_M, "once there, stays within 3 cm of the path's final line"
         ),
         "lateness_s": DefaultLimit(LATENESS_S, "arrives within 2 cm of the path's end by 0.5 s after it ends"),
         "rest_current_max_a": DefaultLimit(
