@@ -12,20 +12,13 @@ it. :func:`judge_run` gives a run's metrics and verdicts together, as ``run``, `
 what every healthy run of a planned path keeps, derived from the vehicle and the run's start:
 
 * it ends at the path's end (``final_position_error_m`` 1 cm: where a vehicle stops to load, a centimetre off is
-  a miss, and a controller that docks keeps it) facing its final heading (``final_heading_error_deg`` 0.5°: a
-  healthy run ends within 0.25°, and 0.5° turns a point a metre ahead of the axle about as far as the final
-  position's centimetre);
-* it arrives on time (``lateness_s`` 0.5 s: its first time within 2 cm of the path's end on the path's final
-  approach, counted from the end of the path's reference, :func:`~agvctl.evaluation.metrics.late_s`): the
-  reference governor holds its clock while the vehicle lags and catches up after, so a healthy run is there when
-  its path ends;
+  a miss, and a controller that docks keeps it) facing its final heading (``final_heading_error_deg`` 0.5°);
+* it arrives on time (``lateness_s`` 0.5 s, :func:`~agvctl.evaluation.metrics.late_s`): the reference governor
+  holds its clock while the vehicle lags and catches up after, so a healthy run is there when its path ends;
 * it stays on the path (``cross_track_error_max_m``: 10 cm, or the start's own offset from the path plus 5 cm),
-  and, once there, beside the path's final line by no more than 3 cm (``dock_cross_track_error_max_m``,
-  :func:`~agvctl.evaluation.metrics.dock_offset_m`: it arrives within 2 cm of the end, and a dock backs up along
-  that line and comes in again), and never faces against it (``path_heading_error_max_deg`` 90°);
-* a wheel at rest holds no current (``rest_current_max_a`` 0.1 A, the mean over a second of both wheels resting,
-  :func:`~agvctl.evaluation.metrics.rest_current_a`): stiction holds it for free, so what flows there heats the
-  motors for nothing;
+  once there within 3 cm of the path's final line, docking included (``dock_cross_track_error_max_m``,
+  :func:`~agvctl.evaluation.metrics.dock_offset_m`), and never faces against it (``path_heading_error_max_deg`` 90°);
+* a wheel at rest holds no current (``rest_current_max_a`` 0.1 A, :func:`~agvctl.evaluation.metrics.rest_current_a`);
 * every controller step succeeds (``solver_failures`` 0);
 * no wheel accelerates over a sample faster than the motors' torque at the current limit can drive it in any
   manoeuvre (``peak_wheel_accel_m_s2``, :func:`~agvctl.feasibility.torque_accel_limit_m_s2`, eqs 47-49 and 58-59: 1.31
@@ -53,6 +46,15 @@ import numpy as np
 
 from agvctl.config import check_fields, convert_value, did_you_mean, document_fields, join_key
 from agvctl.errors import ConfigError
+from agvctl.evaluation.default_bounds import (
+    CORRIDOR_BEYOND_START_M,
+    CORRIDOR_M,
+    DOCK_CORRIDOR_M,
+    FINAL_HEADING_DEG,
+    LATENESS_S,
+    REST_CURRENT_A,
+    DefaultLimit,
+)
 from agvctl.evaluation.formula import Comparison, Formula, Temporal
 from agvctl.evaluation.metrics import METRICS, RunRecord, closed_loop_metrics
 from agvctl.evaluation.requirements import PathParts, RequirementSpec, evaluate_requirement
@@ -200,39 +202,6 @@ def _times(key: str, log: SimLog, bound: float, sample_period_s: float) -> tuple
     worst = metric.reduction.worst(values)
     first = metric.reduction.first_past(values, bound * (1 + 1e-12))
     return (None if worst is None else float(t[worst])), (None if first is None else float(t[first]))
-
-
-@document_fields
-@dataclass(frozen=True)
-class DefaultLimit:
-    """A bound of the default gate and why it is what it is."""
-
-    bound: float
-    """The bound, in the unit of the limit's name."""
-    reason: str
-    """Why, in one line (``"ends within 1 cm of the path's end"``)."""
-
-
-CORRIDOR_M = 0.10
-"""The default corridor about the path: a healthy run stays within 10 cm of it."""
-CORRIDOR_BEYOND_START_M = 0.05
-"""A run that starts further off than the corridor may stray this much beyond its start's own offset."""
-
-
-FINAL_HEADING_DEG = 0.5
-"""The default final heading error: a healthy run ends within 0.25° of the path's final heading; 0.5° turns a
-point a metre ahead of the axle 9 mm, as far as the final position's 1 cm."""
-DOCK_CORRIDOR_M = 0.03
-"""The default distance across the path's final line once the vehicle is there (the dock): a vehicle arrives within
-2 cm of the end, so a healthy one is at most that far beside the line when the count starts, and a dock backing up
-along it and coming in again only brings it closer; a further centimetre, the final position's, leaves room for
-what remains of the approach."""
-LATENESS_S = 0.5
-"""The default lateness: a healthy run arrives within 2 cm of the path's end by the time the path ends (the
-reference governor's catch-up makes up a start's lag), so half a second late is a delay of its own."""
-REST_CURRENT_A = 0.1
-"""The default current held at rest, the mean over a second of both wheels resting: healthy wheel loops release
-their wheels at rest (0 A)."""
 
 
 def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimit]:
