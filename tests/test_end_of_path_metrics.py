@@ -24,7 +24,7 @@ def synthetic_log(
     y_m: np.ndarray | None = None,
     ref_y_m: np.ndarray | None = None,
     ref_theta_rad: np.ndarray | None = None,
-    current_a: float = 0.0,
+    current_a: float | np.ndarray = 0.0,
 ) -> SimLog:
     """A drive sampled at :data:`TS`: the vehicle at ``(x_m, y_m)``, its reference at ``(ref_x_m, ref_y_m)``
     heading ``ref_theta_rad`` (0: along x), the reference's wheel speeds from its motion, the vehicle's wheels at
@@ -142,3 +142,12 @@ def test_current_at_rest_counts_only_a_whole_second_of_both_wheels_resting() -> 
     assert METRICS["rest_current_max_a"].value(held, TS) == pytest.approx(0.4)
     short = synthetic_log(REF[:120], REF[:120], current_a=0.4)  # 20 samples at rest: under a second
     assert METRICS["rest_current_max_a"].value(short, TS) == 0.0
+
+
+def test_current_at_rest_is_what_is_held_for_most_of_a_second_not_what_stops_the_wheels() -> None:
+    # 1.2 A for the first 0.24 s of the rest (the loops braking while their speed estimate settles), then released
+    settling = np.where((np.arange(200) >= 100) & (np.arange(200) < 106), 1.2, 0.0)
+    assert METRICS["rest_current_max_a"].value(synthetic_log(REF, REF, current_a=settling), TS) == 0.0
+    # the same current held for 0.8 s of every second at rest is held
+    held = np.where(np.arange(200) >= 100, 1.2, 0.0) * (np.arange(200) % 25 < 20)
+    assert METRICS["rest_current_max_a"].value(synthetic_log(REF, REF, current_a=held), TS) == pytest.approx(1.2)

@@ -39,5 +39,5 @@ LATENESS_S = 0.5
 """The default lateness: a healthy run arrives within 2 cm of the path's end by the time the path ends (the
 reference governor's catch-up makes up a start's lag), so half a second late is a delay of its own."""
 REST_CURRENT_A = 0.1
-"""The default current held at rest, the mean over a second of both wheels resting: healthy wheel loops release
+"""The default current held at rest, the median over a second of both wheels resting: healthy wheel loops release
 their wheels at rest (0 A)."""

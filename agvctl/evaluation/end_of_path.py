@@ -152,15 +152,16 @@ REST_SPEED_M_S = 1e-3
 """A wheel slower than this (m/s) with a zero setpoint is at rest (:func:`rest_current_a`)."""
 
 REST_WINDOW_S = 1.0
-"""How long both wheels must have rested for the current to count (:func:`rest_current_a`): the braking current
-of the sample at which a wheel stops is not a current held at rest."""
+"""How long both wheels must have rested for the current to count (:func:`rest_current_a`)."""
 
 
 def rest_current_a(log: SimLog, sample_period_s: float) -> NDArray[np.float64]:
     """At each sample that ends a :data:`REST_WINDOW_S` throughout which both wheels rested (setpoints exactly 0,
-    rim speeds under :data:`REST_SPEED_M_S`), the mean over that window of the two motors' mean ``|current|``; 0
-    elsewhere. Stiction holds a wheel at rest for free (record 0023): what flows there buys nothing, heats the
-    motors and drains the battery.
+    rim speeds under :data:`REST_SPEED_M_S`), the median over that window of the two motors' mean ``|current|``; 0
+    elsewhere. Stiction holds a wheel at rest for free (record 0023): a current held there buys nothing, heats the
+    motors and drains the battery. The median counts what is held for most of the window: the current that brakes
+    a wheel to a stop, or that the loops still give while their speed estimate settles in the first samples of a
+    rest, is not held.
 
     Parameters
     ----------
@@ -172,7 +173,7 @@ def rest_current_a(log: SimLog, sample_period_s: float) -> NDArray[np.float64]:
     Returns
     -------
     ndarray
-        The mean motor current over each second at rest, per sample, A.
+        The median motor current over each second at rest, per sample, A.
     """
     n = max(1, int(round(REST_WINDOW_S / sample_period_s)))
     out = np.zeros(len(log))
@@ -183,8 +184,8 @@ def rest_current_a(log: SimLog, sample_period_s: float) -> NDArray[np.float64]:
         rest &= np.asarray(log[f"setpoint_wheel_speed_{side}_m_s"]) == 0.0
         rest &= np.abs(np.asarray(log[f"wheel_speed_{side}_m_s"])) < REST_SPEED_M_S
     current = 0.5 * (np.abs(np.asarray(log["current_left_a"])) + np.abs(np.asarray(log["current_right_a"])))
-    total = np.concatenate(([0.0], np.cumsum(current)))
     count = np.concatenate(([0], np.cumsum(rest)))
     whole = (count[n:] - count[:-n]) == n
-    out[n - 1 :] = np.where(whole, (total[n:] - total[:-n]) / n, 0.0)
+    medians = np.median(np.lib.stride_tricks.sliding_window_view(current, n), axis=1)
+    out[n - 1 :] = np.where(whole, medians, 0.0)
     return out
