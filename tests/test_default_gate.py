@@ -63,6 +63,12 @@ def faults() -> ModuleType:
         ("stops at 60 %", "final_position_error_m"),
         ("solver stopped after one iteration", "solver_failures"),
         ("NaN from 60 % of the path", "non_finite_commands"),
+        ("heading 1.5° off", "final_heading_error_deg"),
+        ("heading 0.75° off", "final_heading_error_deg"),
+        ("0.3 V DA offset on one wheel", "rest_current_max_a"),
+        ("wheel loops hold their output at rest", "rest_current_max_a"),
+        ("setpoints x0.8", "lateness_s"),
+        ("pauses 3 s midway", "lateness_s"),
     ],
 )
 def test_the_default_gate_fails_a_broken_controller(tmp_path: Path, fault: str, caught_by: str) -> None:
@@ -74,12 +80,13 @@ def test_the_default_gate_fails_a_broken_controller(tmp_path: Path, fault: str, 
     assert not summary["passed"] and caught_by in failed, failed
 
 
-def test_wheel_loops_with_four_times_their_gains_fail_on_acceleration_alone(tmp_path: Path) -> None:
+def test_wheel_loops_with_four_times_their_gains_fail_on_acceleration_and_stay_on_the_path(tmp_path: Path) -> None:
     experiment = load_experiment(first_file(tmp_path, "s_curve"))
     _, wheel_controller = faults().FAULTS["wheel-loop gains x4"](experiment)
     summary = run_summary(experiment, run_experiment(experiment, wheel_controller=wheel_controller))
     failed = {r["limit"] for r in summary["limits"] if not r["passed"]}
-    assert failed == {"peak_wheel_accel_m_s2"}  # on the path, but slamming the wheels from limit to limit
+    # on the path, but slamming the wheels from limit to limit (and arriving late for it)
+    assert "peak_wheel_accel_m_s2" in failed and failed <= {"peak_wheel_accel_m_s2", "lateness_s"}, failed
     assert load_vehicle().derived.accel_limit_m_s2 < 1.3  # the bound is the torque limit, twice eq 5's a_lim
 
 
@@ -90,5 +97,5 @@ def test_wheel_loops_that_drive_at_0_8_of_their_setpoints_fail_on_following_them
     limits = {r["limit"]: r for r in summary["limits"]}
     failed = {key for key, r in limits.items() if not r["passed"]}
     assert "wheel_speed_error_max_m_s" in failed, failed
-    # the pose loop closes around the fault: without the wheel-speed default the run would pass
-    assert failed == {"wheel_speed_error_max_m_s"}
+    # the pose loop closes around the fault: it stays on the path and only arrives late
+    assert failed <= {"wheel_speed_error_max_m_s", "lateness_s"}, failed

@@ -12,9 +12,13 @@ it. :func:`judge_run` gives a run's metrics and verdicts together, as ``run``, `
 what every healthy run of a planned path keeps, derived from the vehicle and the run's start:
 
 * it ends at the path's end (``final_position_error_m`` 1 cm: where a vehicle stops to load, a centimetre off is
-  a miss, and a controller that docks keeps it) facing its final heading (``final_heading_error_deg`` 2°);
-* it stays on the path (``cross_track_error_max_m``: 10 cm, or the start's own offset from the path plus 5 cm) and
-  never faces against it (``path_heading_error_max_deg`` 90°);
+  a miss, and a controller that docks keeps it) facing its final heading (``final_heading_error_deg`` 0.5°);
+* it arrives on time (``lateness_s`` 0.5 s, :func:`~agvctl.evaluation.metrics.late_s`): the reference governor
+  holds its clock while the vehicle lags and catches up after, so a healthy run is there when its path ends;
+* it stays on the path (``cross_track_error_max_m``: 10 cm, or the start's own offset from the path plus 5 cm),
+  once there within 3 cm of the path's final line, docking included (``dock_cross_track_error_max_m``,
+  :func:`~agvctl.evaluation.metrics.dock_offset_m`), and never faces against it (``path_heading_error_max_deg`` 90°);
+* a wheel at rest holds no current (``rest_current_max_a`` 0.1 A, :func:`~agvctl.evaluation.metrics.rest_current_a`);
 * every controller step succeeds (``solver_failures`` 0);
 * no wheel accelerates over a sample faster than the motors' torque at the current limit can drive it in any
   manoeuvre (``peak_wheel_accel_m_s2``, :func:`~agvctl.feasibility.torque_accel_limit_m_s2`, eqs 47-49 and 58-59: 1.31
@@ -42,6 +46,15 @@ import numpy as np
 
 from agvctl.config import check_fields, convert_value, did_you_mean, document_fields, join_key
 from agvctl.errors import ConfigError
+from agvctl.evaluation.default_bounds import (
+    CORRIDOR_BEYOND_START_M,
+    CORRIDOR_M,
+    DOCK_CORRIDOR_M,
+    FINAL_HEADING_DEG,
+    LATENESS_S,
+    REST_CURRENT_A,
+    DefaultLimit,
+)
 from agvctl.evaluation.formula import Comparison, Formula, Temporal
 from agvctl.evaluation.metrics import METRICS, RunRecord, closed_loop_metrics
 from agvctl.evaluation.requirements import PathParts, RequirementSpec, evaluate_requirement
@@ -112,6 +125,9 @@ _LIMIT_VALUES: dict[str, Literal["positive", "fraction", "count"]] = {
     "final_heading_error_deg": "positive",
     "cross_track_error_max_m": "positive",
     "cross_track_error_rms_m": "positive",
+    "dock_cross_track_error_max_m": "positive",
+    "lateness_s": "positive",
+    "rest_current_max_a": "positive",
     "drawn_cross_track_error_max_m": "positive",
     "along_track_lag_max_m": "positive",
     "path_heading_error_max_deg": "positive",
@@ -188,23 +204,6 @@ def _times(key: str, log: SimLog, bound: float, sample_period_s: float) -> tuple
     return (None if worst is None else float(t[worst])), (None if first is None else float(t[first]))
 
 
-@document_fields
-@dataclass(frozen=True)
-class DefaultLimit:
-    """A bound of the default gate and why it is what it is."""
-
-    bound: float
-    """The bound, in the unit of the limit's name."""
-    reason: str
-    """Why, in one line (``"ends within 1 cm of the path's end"``)."""
-
-
-CORRIDOR_M = 0.10
-"""The default corridor about the path: a healthy run stays within 10 cm of it."""
-CORRIDOR_BEYOND_START_M = 0.05
-"""A run that starts further off than the corridor may stray this much beyond its start's own offset."""
-
-
 def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimit]:
     """The default gate of a run (see the module notes).
 
@@ -237,8 +236,15 @@ def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimi
             "where its loop is not clamped, a wheel reaches its setpoint within a sample",
         ),
         "final_position_error_m": DefaultLimit(0.01, "ends within 1 cm of the path's end"),
-        "final_heading_error_deg": DefaultLimit(2.0, "ends facing the path's final heading"),
+        "final_heading_error_deg": DefaultLimit(FINAL_HEADING_DEG, "ends facing the path's final heading"),
         "cross_track_error_max_m": corridor,
+        "dock_cross_track_error_max_m": DefaultLimit(
+            DOCK_CORRIDOR_M, "once there, stays within 3 cm of the path's final line"
+        ),
+        "lateness_s": DefaultLimit(LATENESS_S, "arrives within 2 cm of the path's end by 0.5 s after it ends"),
+        "rest_current_max_a": DefaultLimit(
+            REST_CURRENT_A, "a wheel at rest holds no current: stiction holds it for free"
+        ),
         "path_heading_error_max_deg": DefaultLimit(90.0, "never faces against the path"),
         "solver_failures": DefaultLimit(0, "every controller step succeeds"),
         "non_finite_commands": DefaultLimit(0, "every pose command is a finite number"),

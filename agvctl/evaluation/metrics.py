@@ -10,6 +10,7 @@ from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
 from agvctl.errors import ConfigError
+from agvctl.evaluation.end_of_path import arrival_index, dock_offset_m, late_s, reference_end_index, rest_current_a
 from agvctl.evaluation.signals import Metric, Reduction, Signal
 from agvctl.log import SimLog
 
@@ -25,6 +26,11 @@ __all__ = [
     "estimate_position_error_m",
     "time_to_converge_s",
     "wheel_speed_error_m_s",
+    "late_s",
+    "dock_offset_m",
+    "arrival_index",
+    "reference_end_index",
+    "rest_current_a",
     "RunRecord",
 ]
 
@@ -227,6 +233,9 @@ SIGNALS: dict[str, Signal] = {
     "heading_error_deg": lambda log, ts: np.asarray(log["heading_error_rad"]) * _DEG,
     "path_heading_error_deg": lambda log, ts: np.asarray(log["path_heading_error_rad"]) * _DEG,
     "cross_track_error_joined_m": _joined_cross_track_m,
+    "dock_offset_m": dock_offset_m,
+    "late_s": late_s,
+    "rest_current_a": rest_current_a,
     "wheel_speed_m_s": lambda log, ts: _either(log, "wheel_speed_{}_m_s"),
     "wheel_accel_m_s2": sample_wheel_accel_m_s2,
     "wheel_accel_instant_m_s2": lambda log, ts: _either(log, "wheel_accel_peak_{}_m_s2"),
@@ -312,6 +321,9 @@ METRICS: dict[str, Metric] = {
         _metric("cross_track_error_max_joined_m", " m", "cross_track_error_joined_m", Reduction.MAX),
         _metric("drawn_cross_track_error_max_m", " m", "drawn_cross_track_error_m", Reduction.MAX, absolute=True),
         _metric("along_track_lag_max_m", " m", "along_track_lag_m", Reduction.MAX, absolute=True),
+        _metric("dock_cross_track_error_max_m", " m", "dock_offset_m", Reduction.MAX),
+        _metric("lateness_s", " s", "late_s", Reduction.MAX),
+        _metric("rest_current_max_a", " A", "rest_current_a", Reduction.MAX),
         _metric("path_heading_error_max_deg", "°", "path_heading_error_deg", Reduction.MAX, absolute=True),
         _metric("peak_wheel_speed_m_s", " m/s", "wheel_speed_m_s", Reduction.MAX),
         _metric("peak_wheel_accel_m_s2", " m/s²", "wheel_accel_m_s2", Reduction.MAX),

@@ -147,6 +147,62 @@ class Delayed(Wrapped):
         return dataclasses.replace(out, reference_done=c.reference_done)
 
 
+class HeadingOffset(Wrapped):
+    """The heading the controller is given is off by a constant angle (a gyro or a scanner mounted askew)."""
+
+    def __init__(self, inner: PoseController, offset_deg: float) -> None:
+        super().__init__(inner)
+        self.offset_rad = math.radians(offset_deg)
+
+    def update(self, t_s: float, pose: np.ndarray, wheel_speed_m_s: np.ndarray) -> PoseCommand:
+        return self.inner.update(t_s, np.array([pose[0], pose[1], pose[2] + self.offset_rad]), wheel_speed_m_s)
+
+
+class FastClock(Wrapped):
+    """The controller's clock runs fast (a timer's prescaler wrong): it drives the path faster than it was planned,
+    beyond the path's speed and acceleration limits."""
+
+    def __init__(self, inner: PoseController, factor: float) -> None:
+        super().__init__(inner)
+        self.factor = factor
+
+    def update(self, t_s: float, pose: np.ndarray, wheel_speed_m_s: np.ndarray) -> PoseCommand:
+        return self.inner.update(self.factor * t_s, pose, wheel_speed_m_s)
+
+
+class PausesMidway(Wrapped):
+    """At half the path's duration, the setpoints stop for a while (a safety scanner's false alarm, a blocked
+    message queue), then the controller resumes."""
+
+    def __init__(self, inner: PoseController, pause_s: float) -> None:
+        super().__init__(inner)
+        self.pause_s = pause_s
+
+    def update(self, t_s: float, pose: np.ndarray, wheel_speed_m_s: np.ndarray) -> PoseCommand:
+        assert self.reference is not None
+        c = self.inner.update(t_s, pose, wheel_speed_m_s)
+        start = 0.5 * self.reference.duration_s
+        if start <= t_s < start + self.pause_s:
+            c = dataclasses.replace(c, wheel_speed_left_m_s=0.0, wheel_speed_right_m_s=0.0)
+        return c
+
+
+class DockSteers(Wrapped):
+    """Once the reference is at rest, while it drives in reverse (the dock's backing up), one wheel's setpoint is
+    off by a constant (a steering term whose sign is wrong in reverse): the dock leaves the path's line."""
+
+    def __init__(self, inner: PoseController, bias_m_s: float) -> None:
+        super().__init__(inner)
+        self.bias_m_s = bias_m_s
+
+    def update(self, t_s: float, pose: np.ndarray, wheel_speed_m_s: np.ndarray) -> PoseCommand:
+        assert self.reference is not None
+        c = self.inner.update(t_s, pose, wheel_speed_m_s)
+        if t_s >= self.reference.duration_s and c.wheel_speed_left_m_s < 0.0 and c.wheel_speed_right_m_s < 0.0:
+            c = dataclasses.replace(c, wheel_speed_left_m_s=c.wheel_speed_left_m_s + self.bias_m_s)
+        return c
+
+
 class WheelWrapped:
     """The default wheel loops, changing what goes in or comes out; they still say when they are clamped."""
 
@@ -184,6 +240,33 @@ class WheelLate(WheelWrapped):
         return out
 
 
+class DAOffset(WheelWrapped):
+    """The left wheel's DA command is off by a constant voltage (a converter's offset never calibrated out)."""
+
+    def __init__(self, inner: PIWheelController, offset_v: float) -> None:
+        super().__init__(inner)
+        self.offset_v = offset_v
+
+    def update(self, setpoint_rad_s: np.ndarray, measured_rad_s: np.ndarray) -> np.ndarray:
+        return self.inner.update(setpoint_rad_s, measured_rad_s) + np.array([self.offset_v, 0.0])
+
+
+class HoldsAtRest(WheelWrapped):
+    """At rest, the wheel loops keep the DA command they had when the wheels stopped instead of releasing them to
+    stiction: the motors hold current against each other and the floor while nothing moves."""
+
+    def reset(self) -> None:
+        super().reset()
+        self.held = np.zeros(2)
+
+    def update(self, setpoint_rad_s: np.ndarray, measured_rad_s: np.ndarray) -> np.ndarray:
+        out = self.inner.update(setpoint_rad_s, measured_rad_s)
+        resting = np.asarray(setpoint_rad_s) == 0.0
+        out = np.where(resting & (out == 0.0), self.held, out)
+        self.held = out
+        return out
+
+
 Controllers = tuple[PoseController, WheelSpeedController | None]
 
 
@@ -191,6 +274,27 @@ def _default(e: Experiment, **settings: Any) -> PoseController:
     spec = e.spec.controller
     pose_settings = dataclasses.replace(spec.pose_settings, **settings) if settings else spec.pose_settings
     return POSE_CONTROLLERS[spec.pose].make(e.controller_vehicle, pose_settings)
+
+
+class Overcorrects(Wrapped):
+    """The feedback's correction (the setpoints minus the reference's wheel speeds) multiplied by a gain (a
+    correction tuned on a lighter, faster vehicle)."""
+
+    def __init__(self, inner: PoseController, gain: float) -> None:
+        super().__init__(inner)
+        self.gain = gain
+
+    def update(self, t_s: float, pose: np.ndarray, wheel_speed_m_s: np.ndarray) -> PoseCommand:
+        assert self.reference is not None
+        c = self.inner.update(t_s, pose, wheel_speed_m_s)
+        ref = self.reference.sample([min(t_s, self.reference.duration_s)])
+        ff = np.array([ref.wheel_speed_left_m_s[0], ref.wheel_speed_right_m_s[0]])
+        out = ff + self.gain * (np.array([c.wheel_speed_left_m_s, c.wheel_speed_right_m_s]) - ff)
+        return dataclasses.replace(c, wheel_speed_left_m_s=float(out[0]), wheel_speed_right_m_s=float(out[1]))
+
+
+def _loops(e: Experiment) -> PIWheelController:
+    return e.wheel_loops.controller(e.controller_vehicle)
 
 
 def _gains_x4(e: Experiment) -> WheelSpeedController:
@@ -220,6 +324,14 @@ FAULTS: dict[str, Callable[[Experiment], Controllers]] = {
         WheelScaled(e.wheel_loops.controller(e.controller_vehicle)),
     ),
     "wheel loops one sample late": lambda e: (_default(e), WheelLate(e.wheel_loops.controller(e.controller_vehicle))),
+    "heading 1.5° off": lambda e: (HeadingOffset(_default(e), 1.5), None),
+    "heading 0.75° off": lambda e: (HeadingOffset(_default(e), 0.75), None),
+    "0.3 V DA offset on one wheel": lambda e: (_default(e), DAOffset(_loops(e), 0.3)),
+    "clock 25 % fast": lambda e: (FastClock(_default(e), 1.25), None),
+    "feedback x2": lambda e: (Overcorrects(_default(e), 2.0), None),
+    "dock steers in reverse": lambda e: (DockSteers(_default(e), 0.02), None),
+    "pauses 3 s midway": lambda e: (PausesMidway(_default(e), 3.0), None),
+    "wheel loops hold their output at rest": lambda e: (_default(e), HoldsAtRest(_loops(e))),
 }
 
 
@@ -257,7 +369,8 @@ def run_scenario(args: tuple[str, int, tuple[str, ...]]) -> list[dict[str, Any]]
                     passed=all(r.passed for r in limits),
                     failed=[r.limit for r in limits if not r.passed],
                     differs=_differs(pose, healthy_pose),
-                    **{key: float(metrics[key]) for key in EFFECTS},
+                    final_pose=[float(v) for v in pose[-1]],
+                    **{key: float(metrics[key]) for key in (*EFFECTS, *RECORDED)},
                 )
             )
     return rows
@@ -266,6 +379,38 @@ def run_scenario(args: tuple[str, int, tuple[str, ...]]) -> list[dict[str, Any]]
 EFFECTS = ("cross_track_error_max_m", "final_position_error_m", "completion_time_s")
 """What a fault changes, by the healthy run's value on the same scenario: how far off the path, how far from the
 end, and how late (the time after which the vehicle stays within 2 cm of the end)."""
+
+RECORDED = (
+    "final_heading_error_deg",
+    "lateness_s",
+    "dock_cross_track_error_max_m",
+    "rest_current_max_a",
+    "reference_duration_s",
+    "peak_wheel_speed_m_s",
+    "peak_wheel_accel_m_s2",
+    "path_heading_error_max_deg",
+)
+"""Further metrics kept in the rows, from which a default's bound is derived."""
+
+HARM_M, HARM_DEG, HARM_S = 1e-3, 0.5, 0.5
+"""A fault harms a run that ends more than 1 mm or 0.5° from where the healthy run of its scenario ends, strays
+more than 1 mm further from the path, or arrives for good more than 0.5 s earlier or later."""
+
+
+def harmed(run: dict[str, Any], healthy: dict[str, Any]) -> bool:
+    """Whether a faulty run is harmed against the healthy run of its scenario (:data:`HARM_M`, ...); a run that
+    raised is."""
+    if "final_pose" not in run:
+        return True
+    a, b = np.asarray(run["final_pose"]), np.asarray(healthy["final_pose"])
+    heading = abs(math.degrees(math.remainder(a[2] - b[2], 2 * math.pi)))
+    late = abs(run["completion_time_s"] - healthy["completion_time_s"])
+    return bool(
+        math.hypot(*(a[:2] - b[:2])) > HARM_M
+        or heading > HARM_DEG
+        or run["cross_track_error_max_m"] - healthy["cross_track_error_max_m"] > HARM_M
+        or not late <= HARM_S  # inf or nan: never arrives where the healthy run does
+    )
 
 
 def _effect(runs: list[dict[str, Any]], healthy: dict[int, dict[str, Any]]) -> str:
@@ -291,21 +436,24 @@ def _differs(pose: np.ndarray, healthy: np.ndarray | None) -> bool:
 def table(rows: list[dict[str, Any]]) -> str:
     """The Markdown table of how often the default gate fails each fault."""
     lines = [
-        "| controller | fails the gate | of the runs the fault changes | limits that caught it "
+        "| controller | fails the gate | of the runs the fault changes | of the runs it harms | limits that caught it "
         "| median change: cross-track max, final position, completion |",
-        "|---|---|---|---|---|",
+        "|---|---|---|---|---|---|",
     ]
     healthy = {r["index"]: r for r in rows if r["fault"] == "healthy"}
     for fault in dict.fromkeys(r["fault"] for r in rows):
         runs = [r for r in rows if r["fault"] == fault]
         shows = [r for r in runs if r["differs"]]
+        harms = [r for r in runs if harmed(r, healthy[r["index"]])]
         caught = sum(not r["passed"] for r in runs)
         caught_shows = sum(not r["passed"] for r in shows)
+        caught_harms = sum(not r["passed"] for r in harms)
         keys = collections.Counter(k for r in runs for k in r["failed"])
         named = ", ".join(f"`{k}` {n}" for k, n in keys.most_common()) or "none"
         where = "—" if fault == "healthy" else f"{caught_shows} of {len(shows)}"
+        harm = "—" if fault == "healthy" else f"{caught_harms} of {len(harms)}"
         effect = "—" if fault == "healthy" else _effect(runs, healthy)
-        lines.append(f"| {fault} | {caught} of {len(runs)} | {where} | {named} | {effect} |")
+        lines.append(f"| {fault} | {caught} of {len(runs)} | {where} | {harm} | {named} | {effect} |")
     return "\n".join(lines) + "\n"
 
 
@@ -319,7 +467,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     faults = tuple(f for f in FAULTS if f != "healthy")
     if args.faults:
-        faults = tuple(f.strip() for f in args.faults.split(","))
+        faults = tuple(f.strip() for f in args.faults.split(",") if f.strip())
         unknown = [f for f in faults if f not in FAULTS]
         if unknown:
             parser.error(f"--faults: unknown {unknown}; choose from {list(FAULTS)[1:]}")
