@@ -190,3 +190,41 @@ def test_local_moves_start_from_the_runs_closest_to_failing_each_of_the_verdicts
     assert LOCAL_VERDICTS == 3 and LOCAL_CENTRES == 3
     assert groups == [[0, 1, 2], [11, 10, 9], [5, 4, 6]]
     assert [[t.number for t in g] for g in _centres(complete, "c")] == [[5, 4, 6]]
+
+
+def test_the_html_page_names_each_verdict_embeds_the_search_and_reproduces_the_worst_scenario(
+    tmp_path: Path,
+) -> None:
+    from html_pages import png_size, read_page
+
+    config = _config(tmp_path, SHORT + "\n[limits]\ncross_track_error_max_m = 0.0001\n")
+    out, html = tmp_path / "out", tmp_path / "page" / "search.html"
+    argv = ["falsify", str(config), "--budget", "4", "--batch", "2", "--jobs", "1", "--out", str(out)]
+    assert main([*argv, "--html", str(html)]) == 1
+    report = json.loads((out / "report.json").read_text())
+    page = read_page(html.read_text(encoding="utf-8"))
+    assert "FALSIFIED" in page.text and "exit 1" in page.text
+    rows = {r[0]: r for r in page.tables["margins-table"][1:]}
+    assert {v["name"] for v in report["worst"]["verdicts"]} <= set(rows)
+    assert float(rows["cross_track_error_max_m"][2]) == pytest.approx(report["min_normalised_margin"], rel=1e-3)
+    assert int(rows["cross_track_error_max_m"][3]) == report["worst"]["run"]
+    assert page.scripts == 0 and len(page.images) == 1
+    assert min(png_size(page.images[0])) > 100
+    worst = next(p for p in (out / "worst").glob("*.toml") if not p.name.endswith(".path.toml"))
+    assert f"agvctl check {worst.as_posix()}" in page.text
+    for name, value in report["worst"]["params"].items():  # the worst scenario's parameters
+        assert name in page.text and (str(value) if not isinstance(value, float) else "") in page.text
+    assert (out / "falsified").is_dir() and f"{(out / 'falsified').as_posix()}/" in page.text
+
+
+def test_an_html_path_that_cannot_be_written_stops_the_search_before_it_runs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = _config(tmp_path)
+    (tmp_path / "adir").mkdir()
+    before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
+    out = tmp_path / "out"
+    assert main(["falsify", str(config), "--out", str(out), "--html", str(tmp_path / "adir")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("agvctl: --html: ") and "is a directory" in err[0]
+    assert sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*")) == before  # nothing written, no folder

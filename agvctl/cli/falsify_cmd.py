@@ -4,7 +4,8 @@ The search's journal (``search.journal``, Optuna's journal storage) is written i
 goes, so a search stopped by an interrupt or a crash resumes from it with the same command. When the search ends the
 folder is replaced whole (it must be empty, missing or an agvctl output) by: ``report.json``, ``search.png``, the
 journal, the worst scenario's files in ``worst/`` and, when one was found, every falsifying scenario's in
-``falsified/`` (each a path file and an experiment file ``agvctl check`` runs).
+``falsified/`` (each a path file and an experiment file ``agvctl check`` runs). ``--html FILE`` writes one
+self-contained page of the search beside them (:func:`~agvctl.falsify.page.falsify_html`).
 
 Exit 0 when no run falsified a limit or requirement, 1 when one did (its files written as a regression experiment),
 2 on bad input (one line naming the file and key; nothing is run), 3 when a run crashed (its files written too).
@@ -21,11 +22,20 @@ from typing import Any
 
 from agvctl.checks.runner import resolved_jobs
 from agvctl.cli.commands import command_summary
-from agvctl.cli.outputs import check_outputs, files_in, vehicle_input, writing
+from agvctl.cli.outputs import Output, check_outputs, files_in, vehicle_input, writing
 from agvctl.cli.progress import Progress
 from agvctl.cli.staging import MARKER, check_replaceable, staged_outputs
 from agvctl.errors import ConfigError
-from agvctl.falsify import SAMPLERS, FalsifyResult, check_falsify, falsify, report_dict, search_figure, summary_text
+from agvctl.falsify import (
+    SAMPLERS,
+    FalsifyResult,
+    check_falsify,
+    falsify,
+    falsify_html,
+    report_dict,
+    search_figure,
+    summary_text,
+)
 from agvctl.fileio import make_folders
 from agvctl.fuzz.spec import load_fuzz_config
 
@@ -64,6 +74,11 @@ def register(sub: Any) -> None:
     p.add_argument("--jobs", type=int, default=None, metavar="N", help="local worker processes (default: all cores)")
     p.add_argument("--executor", choices=("local", "dask"), default="local", help="where the runs go (default local)")
     p.add_argument("--scheduler", metavar="ADDR", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786")
+    p.add_argument(
+        "--html",
+        metavar="FILE",
+        help="write one self-contained HTML page: the verdict, the smallest margins, the search, the worst scenario",
+    )
     p.add_argument("--no-plot", action="store_true", help="skip search.png")
     p.set_defaults(func=run)
 
@@ -98,7 +113,8 @@ def run(args: argparse.Namespace) -> int:
     resolved_jobs(args.jobs, args.executor)
     inputs = [Path(args.config), vehicle_input(spec.vehicle)]
     names = ["report.json", JOURNAL, *([] if args.no_plot else ["search.png"])]
-    check_outputs(files_in("--out", out_dir, names), inputs, [("--out", out_dir)])
+    outputs = files_in("--out", out_dir, names) + ([Output("--html", Path(args.html))] if args.html else [])
+    check_outputs(outputs, inputs, [("--out", out_dir)])
     budget_runs = args.budget if args.budget is not None or args.budget_s is not None else 100
     jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
     options: dict[str, Any] = {
@@ -129,11 +145,14 @@ def run(args: argparse.Namespace) -> int:
         staged = staging.directory("--out", out_dir)
         for path, text in texts.items():
             staging.write_text("--out", path, text)
+        if args.html:
+            staging.write_text("--html", args.html, falsify_html(result, out_dir=out_dir))
         if not args.no_plot:
             with writing("--out", out_dir / "search.png"):
                 (staged / "search.png").write_bytes(search_figure(result))
     print(summary_text(result))
-    print(f"wrote {out_dir / 'report.json'}" + ("" if args.no_plot else f", {out_dir / 'search.png'}"))
+    written = [out_dir / "report.json", *([] if args.no_plot else [out_dir / "search.png"])]
+    print(f"wrote {', '.join(map(str, [*written, *([args.html] if args.html else [])]))}")
     if result.worst is not None:
         worst = next(n for n in result.files(result.worst) if not n.endswith(".path.toml"))
         print(f"worst scenario: agvctl check {out_dir / 'worst' / worst}")

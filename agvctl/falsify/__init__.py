@@ -6,9 +6,11 @@
   local moves around the runs closest to failing.
 * :mod:`~agvctl.falsify.result` — what it found: each run, the whole search, the margin it minimises.
 * :mod:`~agvctl.falsify.output` — what a search reports: the JSON, the readable summary, the figure.
+* :mod:`~agvctl.falsify.page` — its HTML page (``agvctl falsify --html``), through :mod:`agvctl.htmlreport`.
 """
 
 from agvctl.falsify.output import report_dict, search_figure, summary_text
+from agvctl.falsify.page import falsify_html, write_falsify_html
 from agvctl.falsify.search import (
     SAMPLERS,
     FalsifyResult,
@@ -26,8 +28,10 @@ __all__ = [
     "TrialDraws",
     "check_falsify",
     "falsify",
+    "falsify_html",
     "report_dict",
     "search_figure",
     "searched_margin",
     "summary_text",
+    "write_falsify_html",
 ]

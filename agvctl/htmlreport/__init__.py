@@ -8,6 +8,9 @@ package, the figures drawn with matplotlib (:func:`~agvctl.plots.render_run_pane
     write_check_html(report, "report.html")
 
 A report made without ``render`` gets its figures by running each shown run again, in this process.
+
+The page of a falsification search (``falsify.html.j2``) is filled in by :mod:`agvctl.falsify.page`, above this
+package in the block diagram, with the same templates, embedding and writing.
 """
 
 from agvctl.htmlreport.check_page import check_html, write_check_html
