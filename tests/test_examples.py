@@ -1,6 +1,6 @@
-"""The example files installed with the package: every experiment and path file of the repository is package data
-of ``agvctl.examples``, reachable from Python and copied out by ``agvctl examples DIR`` (a folder that is new or
-empty: nothing of the user's is replaced)."""
+"""The example files installed with the package: every experiment and path file of the repository, and the code of
+one's own they name, is package data of ``agvctl.examples``, reachable from Python and copied out by
+``agvctl examples DIR`` (a folder that is new or empty: nothing of the user's is replaced), where they run."""
 
 from __future__ import annotations
 
@@ -12,16 +12,21 @@ import pytest
 from cli_runs import one_line, run
 
 from agvctl.errors import ConfigError
-from agvctl.examples import EXAMPLE_FOLDERS, example_path
+from agvctl.examples import EXAMPLE_FOLDERS, example_files, example_path
+from agvctl.fuzz import load_fuzz_config
+from agvctl.scenario.experiment import load_experiment
 
 ROOT = Path(__file__).resolve().parent.parent
-SHIPPED = sorted(str(p.relative_to(ROOT)) for f in EXAMPLE_FOLDERS for p in (ROOT / f).rglob("*.toml"))
+SHIPPED_TOML = sorted(str(p.relative_to(ROOT)) for f in EXAMPLE_FOLDERS for p in (ROOT / f).rglob("*.toml"))
+# The code of one's own that shipped files name by a file reference: a copied example must find it beside it.
+NAMED_CODE = ["experiments/falsify/weak_braking.py", "experiments/own_controller/pure_pursuit.py"]
+SHIPPED = sorted(SHIPPED_TOML + NAMED_CODE)
 
 
 def test_every_example_file_is_package_data():
     config = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
     patterns = config["tool"]["setuptools"]["package-data"]["agvctl.examples"]
-    assert len(SHIPPED) > 40
+    assert len(SHIPPED) > 40 and example_files() == SHIPPED
     for name in SHIPPED:  # fnmatch's * crosses folders; each pattern's depth must be the file's
         assert any(fnmatch.fnmatch(name, p) and name.count("/") == p.count("/") for p in patterns), name
         assert example_path(name).read_bytes() == (ROOT / name).read_bytes()
@@ -44,3 +49,12 @@ def test_agvctl_examples_copies_them_out_and_never_over_a_folder_in_use(tmp_path
     assert code == 2
     one_line(err, "used", "not an empty folder")
     assert [p.name for p in (tmp_path / "used").iterdir()] == ["mine.toml"]
+
+
+def test_the_copied_examples_that_name_code_of_ones_own_load_with_it(tmp_path, capsys):
+    code, _, _ = run(capsys, "examples", tmp_path / "ex")
+    assert code == 0
+    experiment = load_experiment(tmp_path / "ex" / "experiments" / "own_controller" / "figure8.toml")
+    assert experiment.spec.controller.pose.endswith("pure_pursuit.py:PurePursuit")
+    for name in ("experiments/own_controller/fuzz.toml", "experiments/falsify/weak.toml"):
+        assert load_fuzz_config(tmp_path / "ex" / name).controllers
