@@ -55,7 +55,7 @@ def assert_each_limit_is_its_series(prepared: Experiment, result) -> None:
         value = float(metrics[key])
         if value <= 0:
             continue
-        bound = value - 1 if limit.values == "count" else value * (1 - 1e-6)
+        bound = int(value) - 1 if limit.values == "count" else value * (1 - 1e-6)
         (verdict,) = [
             r for r in evaluate_limits(LimitsSpec({key: bound}), log, prepared.controller_vehicle, ts) if r.limit == key
         ]
