@@ -68,6 +68,8 @@ def format_summary(summary: dict[str, Any]) -> str:
     lines.append(f"  within 2 cm       from t = {t2:.2f} s on" if t2 is not None else "  within 2 cm       never")
     acc, cur = m["peak_wheel_accel_m_s2"], m["peak_motor_current_a"]
     lines.append(f"  peak wheel accel  {acc:.3f} m/s²   peak current {cur:.2f} A")
+    lin, lat, ang = (m[f"peak_body_{k}"] for k in ("linear_accel_m_s2", "lateral_accel_m_s2", "angular_accel_rad_s2"))
+    lines.append(f"  payload feels     {lin:.3f} m/s² along   {lat:.3f} m/s² across   {ang:.3f} rad/s² turning (peaks)")
     da, cl = m["da_saturation_fraction"] * 100, m["current_limited_fraction"] * 100
     lines.append(f"  DA saturated      {da:.1f} % of samples   current-limited {cl:.1f} % of time")
     p50, p99 = m["solve_time_p50_ms"], m["solve_time_p99_ms"]

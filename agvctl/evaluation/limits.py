@@ -1,12 +1,10 @@
-"""The limits a run is judged by: one table (the name of a metric of :data:`~agvctl.evaluation.metrics.METRICS`
-→ the values a file may give), an experiment's ``[limits]``, the default limits of a healthy run, and their
-evaluation on a run (value, pass/fail, worst and first times).
+"""The limits a run is judged by: one table (a metric's name → the values a file may give), an experiment's
+``[limits]``, the default gate of a healthy run, and their evaluation (value, pass/fail, worst and first times).
 
-A limit bounds a metric, under the metric's name: the metric's per-sample signal gives the times reported, its
-reduction (the worst sample, the final one, a share, a count, ...) the value, so the two cannot disagree. Adding a
-limit is one entry in :data:`LIMITS` for a metric of :data:`~agvctl.evaluation.metrics.METRICS`: the experiment
-loader validates ``[limits]`` against it, and :func:`evaluate_limits` and the messages of ``run`` and ``check`` read
-it. :func:`judge_run` gives a run's metrics and verdicts together, as ``run``, ``check`` and ``fuzz`` report them.
+A limit bounds a metric of :data:`~agvctl.evaluation.metrics.METRICS` under its name: the metric's signal gives the
+times reported, its reduction (the worst sample, the final one, a share, a count, ...) the value, so the two cannot
+disagree. A new limit is one entry in :data:`LIMITS`: the loader validates ``[limits]`` against it, and
+:func:`evaluate_limits` and the messages read it. :func:`judge_run` gives a run's metrics and verdicts together.
 
 **The default gate** (:func:`default_limits`): whatever an experiment's ``[limits]`` leaves out is judged against
 what every healthy run of a planned path keeps, derived from the vehicle and the run's start:
@@ -57,6 +55,7 @@ from agvctl.evaluation.default_bounds import (
 )
 from agvctl.evaluation.formula import Comparison, Formula, Temporal
 from agvctl.evaluation.metrics import METRICS, RunRecord, closed_loop_metrics
+from agvctl.evaluation.payload import PAYLOAD_METRICS
 from agvctl.evaluation.requirements import PathParts, RequirementSpec, evaluate_requirement
 from agvctl.evaluation.signals import Metric, Reduction
 from agvctl.evaluation.verdicts import (
@@ -116,6 +115,7 @@ _LIMIT_VALUES: dict[str, Literal["positive", "fraction", "count"]] = {
     "peak_wheel_accel_m_s2": "positive",
     "wheel_speed_error_max_m_s": "positive",
     "peak_motor_current_a": "positive",
+    **dict.fromkeys(PAYLOAD_METRICS, "positive"),
     "current_limited_fraction": "fraction",
     "da_saturation_fraction": "fraction",
     "tracking_error_max_m": "positive",

@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 from agvctl.angles import wrap_angle
 from agvctl.errors import ConfigError
 from agvctl.evaluation.end_of_path import arrival_index, dock_offset_m, late_s, reference_end_index, rest_current_a
+from agvctl.evaluation.payload import PAYLOAD_METRICS
 from agvctl.evaluation.signals import Metric, Reduction, Signal
 from agvctl.log import SimLog
 
@@ -330,6 +331,7 @@ METRICS: dict[str, Metric] = {
         _metric("wheel_speed_error_max_m_s", " m/s", "wheel_speed_error_m_s", Reduction.MAX),
         _metric("peak_wheel_accel_instant_m_s2", " m/s²", "wheel_accel_instant_m_s2", Reduction.MAX),
         _metric("peak_motor_current_a", " A", "motor_current_peak_a", Reduction.MAX),
+        *(_metric(name, unit, col, Reduction.MAX, absolute=True) for name, (col, unit) in PAYLOAD_METRICS.items()),
         _metric("da_saturation_fraction", "", "da_clipped", Reduction.MEAN, over="intervals"),
         _metric("current_limited_fraction", "", "current_limited_share", Reduction.MEAN, over="intervals"),
         _metric("solve_time_p50_ms", " ms", "solve_time_ms", Reduction.P50),

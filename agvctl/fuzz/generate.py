@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -41,6 +41,7 @@ import numpy as np
 from agvctl.config import document_fields, dump_toml
 from agvctl.config.references import absolute_reference, plain_label
 from agvctl.errors import ConfigError
+from agvctl.evaluation.payload import PayloadAccelerometer
 from agvctl.fuzz.spec import FuzzSpec, PathGenSpec, keep_stiction_above_coulomb, nominal_value
 from agvctl.params import VehicleParams
 from agvctl.scenario.pose_settings import merged_settings
@@ -294,6 +295,8 @@ def scenario_files(spec: FuzzSpec, scenario: Scenario, controller: str) -> dict[
         "controller": {"pose": absolute_reference(controller, base_dir), **table},
         "limits": spec.limits.to_file(),
     }
+    if spec.payload != PayloadAccelerometer():
+        experiment["payload"] = asdict(spec.payload)
     if spec.requirements:
         experiment["requirements"] = [
             {"name": r.name, "formula": r.formula, "anchor": r.anchor} for r in spec.requirements

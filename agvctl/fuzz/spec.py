@@ -85,6 +85,7 @@ from agvctl.controllers.registry import pose_controllers
 from agvctl.errors import ConfigError
 from agvctl.estimation.registry import pose_estimators, wheel_speed_estimators
 from agvctl.evaluation.limits import LimitsSpec
+from agvctl.evaluation.payload import PayloadAccelerometer
 from agvctl.evaluation.requirements import RequirementSpec, check_requirement_names
 from agvctl.fuzz.tables import (
     DEFAULT_ENVELOPE,
@@ -152,6 +153,8 @@ class FuzzSpec:
     """``[limits]``: bounds over the default gate's, as in an experiment file."""
     requirements: tuple[RequirementSpec, ...] = ()
     """``[[requirements]]``: formulas every run is judged by too, as in an experiment file."""
+    payload: PayloadAccelerometer = dataclasses.field(default_factory=PayloadAccelerometer)
+    """``[payload]``: where every run reads the payload's accelerations, as in an experiment file."""
     pose_settings: dict[str, dict[str, Any]] = dataclasses.field(default_factory=dict)
     """Per controller, the settings of its settings file, under the ``controller`` keys of every run."""
     search: dict[str, Any] = dataclasses.field(default_factory=dict)

@@ -18,7 +18,9 @@ from agvctl.planning.drawn import DrawnPath
 from agvctl.plots.figures import save_png, subplots
 
 __all__ = [
+    "BODY_ACCEL_LIMITS",
     "CLOSED_LOOP_PLOTS",
+    "draw_body_accel",
     "draw_both_sides",
     "draw_drawn_path",
     "draw_errors",
@@ -321,6 +323,35 @@ def draw_wheel_accel(ax: Any, log: SimLog, vehicle: VehicleParams, bound_m_s2: f
     ax.set(xlabel="t [s]", ylabel="wheel acceleration [m/s²]")
     ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
+
+
+BODY_ACCEL_LIMITS = {
+    "peak_body_linear_accel_m_s2": ("body_linear_accel_m_s2", "C2"),
+    "peak_body_lateral_accel_m_s2": ("body_lateral_accel_m_s2", "C4"),
+}
+"""The limits on the payload's accelerations drawn on the acceleration panel, by the column each bounds and its
+colour (:mod:`agvctl.evaluation.payload`)."""
+
+
+def draw_body_accel(ax: Any, log: SimLog, bounds: Mapping[str, float]) -> None:
+    """Draw on an axes what the payload's accelerometer reads, for each of :data:`BODY_ACCEL_LIMITS` that
+    ``bounds`` sets, with that bound (both signs). Acceleration in m/s², time in s.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes to draw on (the wheel acceleration's, which shares the unit).
+    log : SimLog
+        The run's log (the columns of :data:`~agvctl.evaluation.payload.PAYLOAD_LOG_COLUMNS`).
+    bounds : mapping of str to float
+        The gate's bounds by limit name; only the payload's are drawn.
+    """
+    for key, (column, colour) in BODY_ACCEL_LIMITS.items():
+        if key in bounds and column in log:
+            ax.plot(log["t_s"], log[column], color=colour, lw=1.2, label=f"payload: {column}")
+            ax.axhline(bounds[key], color=colour, ls="--", lw=1, label=f"{key} {bounds[key]:.3g}")
+            ax.axhline(-bounds[key], color=colour, ls="--", lw=1)
+            ax.legend(loc="best", fontsize=8)
 
 
 def _solve_time_figure(log: SimLog) -> Any:

@@ -13,6 +13,7 @@ from agvctl.log import SimLog
 from agvctl.params import VehicleParams
 from agvctl.plots.closed_loop import (
     MM_PER_M,
+    draw_body_accel,
     draw_both_sides,
     draw_errors,
     draw_path,
@@ -56,7 +57,8 @@ def render_run_panel(
     bounds : mapping of str to float
         The gate's bounds by limit name (:data:`~agvctl.evaluation.limits.LIMITS`): ``tracking_error_max_m`` and
         ``cross_track_error_max_m`` are drawn on the errors, ``peak_wheel_speed_m_s`` on the wheel
-        speeds, ``peak_motor_current_a`` on the currents, ``peak_wheel_accel_m_s2`` on the acceleration.
+        speeds, ``peak_motor_current_a`` on the currents, ``peak_wheel_accel_m_s2`` on the acceleration, with the
+        payload's readings where ``peak_body_linear_accel_m_s2`` or ``peak_body_lateral_accel_m_s2`` is set.
     mark_time_s : float or None
         The instant to mark (s): the vehicle's position then on the path, a vertical line on the other panels.
     mark_label : str
@@ -116,6 +118,7 @@ def _draw(
         a_cur.axhline(-current_bound, color="r", ls="--", lw=1)
         a_cur.legend(loc="best", fontsize=8)
     draw_wheel_accel(a_acc, log, vehicle, bounds.get("peak_wheel_accel_m_s2"))
+    draw_body_accel(a_acc, log, bounds)  # a load's bounds, where the experiment sets them
     for ax in (a_err, a_left, a_right):  # the same time range as the bottom row's: read there
         ax.tick_params(labelbottom=False)
         ax.set(xlabel="")

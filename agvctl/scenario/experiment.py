@@ -278,5 +278,6 @@ def run_experiment(
         localization=localization.make(vehicle, c.localization_settings),
         wheel_speed=wheel_speed.make(vehicle, c.wheel_speed_settings),
         sensor_seed=e.spec.plant.sensor_seed,
+        payload=e.spec.payload,
         progress=progress,
     )

@@ -32,6 +32,7 @@ from agvctl.errors import ConfigError
 from agvctl.estimation.registry import pose_estimators, wheel_speed_estimators
 from agvctl.evaluation.limits import LimitsSpec
 from agvctl.evaluation.path_metrics import PATH_LOG_COLUMNS
+from agvctl.evaluation.payload import PAYLOAD_LOG_COLUMNS, PayloadAccelerometer
 from agvctl.evaluation.requirements import RequirementSpec, check_requirement_names
 from agvctl.log import PLANT_LOG_COLUMNS
 from agvctl.planning.spec import StartPose
@@ -318,7 +319,7 @@ class RobustnessSpec:
         return {"samples": self.samples, "seed": self.seed, "spread": spread}
 
 
-LOG_COLUMNS = (*PLANT_LOG_COLUMNS, *CONTROL_LOG_COLUMNS, *PATH_LOG_COLUMNS)
+LOG_COLUMNS = (*PLANT_LOG_COLUMNS, *CONTROL_LOG_COLUMNS, *PATH_LOG_COLUMNS, *PAYLOAD_LOG_COLUMNS)
 """The columns of a closed-loop run's log, which a requirement's formula may name."""
 
 
@@ -356,6 +357,8 @@ class ExperimentSpec:
     (:mod:`agvctl.evaluation.requirements`)."""
     robustness: RobustnessSpec | None = None
     """``[robustness]``: Monte Carlo runs for ``agvctl check`` (None: one run)."""
+    payload: PayloadAccelerometer = dataclasses.field(default_factory=PayloadAccelerometer)
+    """``[payload]``: where the payload's accelerations are read (:mod:`agvctl.evaluation.payload`)."""
     source: str = dataclasses.field(default="<experiment>", metadata={"derived": True})
     """The file it was read from, as errors name it; relative paths are resolved against its folder."""
 

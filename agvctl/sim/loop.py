@@ -36,6 +36,7 @@ from agvctl.controllers.base import LimitReporting, PoseController, PoseCovarian
 from agvctl.errors import ConfigError
 from agvctl.estimation.base import PoseCovarianceEstimator, PoseEstimator, TruthSensor, WheelSpeedEstimator
 from agvctl.estimation.registry import ESTIMATORS, WHEEL_SPEED_ESTIMATORS
+from agvctl.evaluation.payload import PayloadAccelerometer
 from agvctl.log import SimLog
 from agvctl.params import SIDES, VehicleParams
 from agvctl.params.schema import check_sample_count
@@ -218,8 +219,11 @@ def _check_run(
     settle_s: float,
     compute_delay: str,
     sensor_seed: int,
+    payload: object,
 ) -> tuple[float, float, float] | None:
     """The run's arguments checked as an experiment file's are (the initial pose as three floats, or None)."""
+    if payload is not None and not isinstance(payload, PayloadAccelerometer):
+        raise ConfigError("run_closed_loop", "payload", f"expected a PayloadAccelerometer (got {payload!r:.60})")
     if plant_vehicle.control.sample_period_s != sample_period_s:
         raise ConfigError("run_closed_loop", "plant_vehicle", "must share the controller's control.sample_period_s")
     if not (isinstance(settle_s, int | float) and 0.0 <= settle_s <= MAX_SETTLE_S):
@@ -255,6 +259,7 @@ def run_closed_loop(
     wheel_speed: str | WheelSpeedEstimator = "exact",
     sensor_seed: int = 0,
     plant_options: PlantOptions | None = None,
+    payload: PayloadAccelerometer | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> ClosedLoopResult:
     """Run the cascade on the full plant for the reference's duration plus ``settle_s``.
@@ -288,6 +293,8 @@ def run_closed_loop(
         The seed of the true sensors' noise, ≥ 0.
     plant_options : PlantOptions or None
         The nonlinear effects the plant includes (None: all of them).
+    payload : PayloadAccelerometer or None
+        The payload's accelerometer: its point and bandwidth (None: the axle's midpoint, the default bandwidth).
     progress : callable or None
         Called with the fraction done (0 … 1) about every second of simulated time.
 
@@ -303,7 +310,7 @@ def run_closed_loop(
     """
     t_setup = time.perf_counter()
     ts = controller_vehicle.control.sample_period_s
-    initial_pose = _check_run(plant_vehicle, ts, initial_pose, settle_s, compute_delay, sensor_seed)
+    initial_pose = _check_run(plant_vehicle, ts, initial_pose, settle_s, compute_delay, sensor_seed, payload)
     length = _RunLength(reference.duration_s, settle_s, ts)
     if initial_pose is None:
         ref0 = reference.sample(np.zeros(1))
@@ -315,8 +322,8 @@ def run_closed_loop(
     parts = (plant, Sensors(plant_vehicle, seed=sensor_seed), estimator, speeds, pose_controller, wheel_controller)
     setup = time.perf_counter() - t_setup
     rows, failures, n, wall = _run(*parts, _Delay(compute_delay), _rim_per_motor(controller_vehicle), length, progress)
-    ref = reference.sample(np.arange(n + 1) * ts)
-    log = _closed_loop_log(plant.log(), rows, ref, _rim_per_motor(plant_vehicle), reference)
+    ref, payload = reference.sample(np.arange(n + 1) * ts), payload or PayloadAccelerometer()
+    log = _closed_loop_log(plant.log(), rows, ref, _rim_per_motor(plant_vehicle), reference, payload, ts)
     return ClosedLoopResult(log, reference, wall, setup, failures, n, ts)
 
 

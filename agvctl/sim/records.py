@@ -27,6 +27,7 @@ from agvctl.estimation.base import (
 )
 from agvctl.evaluation.metrics import NON_FINITE_COMMAND_STATUS
 from agvctl.evaluation.path_metrics import path_error_columns
+from agvctl.evaluation.payload import PayloadAccelerometer
 from agvctl.log import PLANT_LOG_COLUMNS, SimLog
 from agvctl.planning.reference import Reference, ReferenceSamples
 from agvctl.sensing import SENSOR_READING_COLUMNS, Measurements
@@ -198,10 +199,13 @@ def _closed_loop_log(
     ref: ReferenceSamples,
     true_rim_per_motor: NDArray[np.float64],
     reference: Reference,
+    payload: PayloadAccelerometer,
+    sample_period_s: float,
 ) -> SimLog:
-    """The plant's columns, the control columns recorded per sample, those derived from the reference and the
+    """The plant's columns, the control columns recorded per sample, those derived from the reference, the
     errors against the reference's path (:data:`~agvctl.evaluation.path_metrics.PATH_LOG_COLUMNS`, computed once for
-    the whole run from its poses: one k-d tree on the path, none of it in the per-sample loop)."""
+    the whole run from its poses: one k-d tree on the path, none of it in the per-sample loop) and what the
+    payload's accelerometer reads (:data:`~agvctl.evaluation.payload.PAYLOAD_LOG_COLUMNS`, from the true motion)."""
     cols = dict(plant_log.columns)
     control = np.array(rows, dtype=np.float64)
     cols.update({name: control[:, j] for j, name in enumerate(_ControlRow._fields)})
@@ -214,4 +218,5 @@ def _closed_loop_log(
     cols["heading_error_rad"] = wrap_angle(cols["theta_rad"] - ref.theta_rad)
     ordered = {name: cols[name] for name in (*PLANT_LOG_COLUMNS, *CONTROL_LOG_COLUMNS)}
     ordered.update(path_error_columns(cols["t_s"], cols["x_m"], cols["y_m"], cols["theta_rad"], reference))
+    ordered.update(payload.read(cols["speed_m_s"], cols["yaw_rate_rad_s"], sample_period_s))
     return SimLog(ordered)

@@ -1,0 +1,143 @@
+"""What a payload feels: the body's accelerations at a point, through the accelerometer's filter, against rigid-body
+kinematics (eqs 39-41) and the closed loop's planned motion; an experiment places the accelerometer and judges the
+readings in its limits and requirements."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_runs import one_line, run
+
+from agvctl.errors import ConfigError
+from agvctl.evaluation.metrics import closed_loop_metrics
+from agvctl.evaluation.payload import PAYLOAD_LOG_COLUMNS, PayloadAccelerometer
+from agvctl.fuzz import generate_scenario, load_fuzz_config
+from agvctl.fuzz.generate import scenario_files
+from agvctl.params import load_vehicle
+from agvctl.plots.closed_loop import draw_body_accel
+from agvctl.plots.figures import subplots
+from agvctl.scenario.experiment import load_experiment, run_experiment
+
+EXPERIMENTS = Path(__file__).resolve().parent.parent / "experiments"
+TS = 0.04
+
+
+def steady(reading: np.ndarray) -> float:
+    """The reading once the filter has settled (the last samples)."""
+    return float(np.mean(reading[-10:]))
+
+
+def test_a_turn_in_place_reads_the_centripetal_acceleration_of_the_point():
+    w = np.full(200, 0.8)  # a steady turn in place at 0.8 rad/s, U = 0
+    ahead = PayloadAccelerometer(x_m=0.3).read(np.zeros(200), w, TS)
+    assert steady(ahead["body_linear_accel_m_s2"]) == pytest.approx(-(0.8**2) * 0.3, rel=1e-9)  # towards the axle
+    assert steady(ahead["body_lateral_accel_m_s2"]) == pytest.approx(0.0, abs=1e-12)
+    left = PayloadAccelerometer(y_m=0.2).read(np.zeros(200), w, TS)
+    assert steady(left["body_lateral_accel_m_s2"]) == pytest.approx(-(0.8**2) * 0.2, rel=1e-9)
+    assert steady(left["body_linear_accel_m_s2"]) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_a_steady_curve_reads_u_squared_over_r_across_and_an_angular_acceleration_reads_at_a_lever():
+    u, r = 0.6, 1.5
+    reading = PayloadAccelerometer().read(np.full(200, u), np.full(200, u / r), TS)
+    assert steady(reading["body_lateral_accel_m_s2"]) == pytest.approx(u * u / r, rel=1e-9)
+    alpha = 0.5  # spinning up from rest at 0.5 rad/s²: at 0.4 m ahead, 0.2 m/s² across
+    w = alpha * TS * np.arange(20)
+    reading = PayloadAccelerometer(x_m=0.4).read(np.zeros(20), w, TS)
+    assert reading["body_angular_accel_rad_s2"][-1] == pytest.approx(alpha, rel=0.01)
+    assert reading["body_lateral_accel_m_s2"][-1] == pytest.approx(alpha * 0.4, rel=0.01)
+
+
+def test_the_reading_never_overshoots_a_constant_acceleration_and_settles_within_200_ms():
+    a = 0.4
+    u = np.concatenate((np.zeros(5), a * TS * np.arange(1, 60)))
+    reading = PayloadAccelerometer().read(u, np.zeros_like(u), TS)["body_linear_accel_m_s2"]
+    assert np.all(reading <= a * (1 + 1e-12))
+    start = 5  # the first sample of the ramp
+    assert reading[start + int(round(0.2 / TS))] >= 0.9 * a
+
+
+def test_a_break_away_spike_of_one_sample_is_averaged_with_its_neighbours():
+    u = np.zeros(40)
+    u[10:] = 0.04  # one sample at 1 m/s² (a wheel breaking away), then coasting
+    reading = PayloadAccelerometer().read(u, np.zeros_like(u), TS)["body_linear_accel_m_s2"]
+    assert 0.2 < np.max(reading) <= 0.5
+    wide = PayloadAccelerometer(bandwidth_hz=50.0).read(u, np.zeros_like(u), TS)["body_linear_accel_m_s2"]
+    assert np.max(wide) > 0.9  # a wide band reads the spike nearly in full
+
+
+def test_on_the_shipped_circle_the_payload_feels_the_planned_motion():
+    result = run_experiment(load_experiment(EXPERIMENTS / "circle.toml"))
+    log, ref = result.log, result.reference
+    for name in PAYLOAD_LOG_COLUMNS:
+        assert np.all(np.isfinite(log[name])), name
+    radius = 1.0
+    u_max = float(np.max(ref.sample(np.linspace(0, ref.duration_s, 2001)).speed_m_s))
+    metrics = closed_loop_metrics(result)
+    assert metrics["peak_body_lateral_accel_m_s2"] == pytest.approx(u_max**2 / radius, rel=0.03)
+    assert metrics["peak_body_linear_speed_m_s"] == pytest.approx(u_max, rel=0.02)
+    # on a circle the angular acceleration is the linear one over the radius
+    assert metrics["peak_body_angular_accel_rad_s2"] == pytest.approx(
+        metrics["peak_body_linear_accel_m_s2"] / radius, rel=0.05
+    )
+
+
+def test_an_experiment_places_the_accelerometer_and_judges_its_readings(tmp_path: Path, capsys):
+    path = (EXPERIMENTS.parent / "trajectories" / "line.toml").as_posix()
+    text = f'name = "load"\ntrajectory = "{path}"\n[payload]\nx_m = 0.2\n[limits]\npeak_body_linear_accel_m_s2 = {{}}\n'
+    exp = tmp_path / "load.toml"
+    exp.write_text(text.format(0.3), encoding="utf-8")
+    assert load_experiment(exp).spec.payload == PayloadAccelerometer(x_m=0.2)
+    code, out, _ = run(capsys, "check", exp, "--jobs", "1")
+    assert code == 1 and "peak_body_linear_accel_m_s2" in out and "VIOLATED" in out
+    exp.write_text(text.format(0.8), encoding="utf-8")
+    code, out, _ = run(capsys, "check", exp, "--jobs", "1")
+    assert code == 0, out
+    exp.write_text(text.format(0.8).replace("x_m = 0.2", "x = 0.2"), encoding="utf-8")
+    code, _, err = run(capsys, "check", exp, "--jobs", "1")
+    assert code == 2
+    one_line(err, str(exp), "payload.x")
+
+
+def test_a_requirement_names_the_payloads_readings(tmp_path: Path):
+    path = (EXPERIMENTS.parent / "trajectories" / "line.toml").as_posix()
+    exp = tmp_path / "req.toml"
+    exp.write_text(
+        f'name = "req"\ntrajectory = "{path}"\n[[requirements]]\nname = "gentle"\n'
+        'formula = "always abs(body_linear_accel_m_s2) <= 0.8"\n',
+        encoding="utf-8",
+    )
+    assert load_experiment(exp).spec.requirements[0].name == "gentle"
+
+
+def test_the_api_refuses_an_accelerometer_that_is_not_one():
+    with pytest.raises(ConfigError, match="bandwidth_hz"):
+        PayloadAccelerometer(bandwidth_hz=0.0)
+    with pytest.raises(ConfigError, match="x_m"):
+        PayloadAccelerometer(x_m=math.inf)
+
+
+def test_the_run_panel_draws_the_payloads_readings_against_a_load_bound():
+    result = run_experiment(load_experiment(EXPERIMENTS / "line.toml"))
+    _, ax = subplots(figsize=(4, 3))
+    draw_body_accel(ax, result.log, {"peak_body_linear_accel_m_s2": 0.5})
+    labels = [line.get_label() for line in ax.lines]
+    assert "payload: body_linear_accel_m_s2" in labels and "peak_body_linear_accel_m_s2 0.5" in labels
+    assert not any("lateral" in label for label in labels)  # only the bounds the experiment sets
+
+
+def test_a_fuzz_file_places_the_accelerometer_of_every_run(tmp_path: Path):
+    text = (EXPERIMENTS / "fuzz" / "ci.toml").read_text(encoding="utf-8")
+    fuzz_file = tmp_path / "load.toml"
+    fuzz_file.write_text(text + "\n[payload]\nx_m = 0.3\n", encoding="utf-8")
+    spec = load_fuzz_config(fuzz_file)
+    assert spec.payload == PayloadAccelerometer(x_m=0.3)
+    scenario = generate_scenario(spec, load_vehicle(None), 0)
+    files = scenario_files(spec, scenario, spec.controllers[0])
+    for name, content in files.items():
+        (tmp_path / name).write_text(content, encoding="utf-8")
+    (experiment,) = [name for name in files if not name.endswith(".path.toml")]
+    assert load_experiment(tmp_path / experiment).spec.payload == PayloadAccelerometer(x_m=0.3)
