@@ -27,6 +27,7 @@ from agvctl.planning.reference import CSV_COLUMNS, Motion, Reference, ReferenceS
 from agvctl.planning.spec import (
     DRAWN_PATH_TOLERANCE_M,
     ArcSegment,
+    BodyLimits,
     HeadroomWarning,
     LineSegment,
     PathLimits,
@@ -43,6 +44,7 @@ __all__ = [
     "CSV_COLUMNS",
     "DRAWN_PATH_TOLERANCE_M",
     "ArcSegment",
+    "BodyLimits",
     "DrawnPath",
     "JerkProfile",
     "LineSegment",

@@ -16,7 +16,7 @@ from agvctl.feasibility import (
     no_default_limit_reasons,
 )
 from agvctl.params import VehicleParams
-from agvctl.planning.spec import PathSpec, WheelLimits
+from agvctl.planning.spec import BODY_LIMIT_KEYS, BodyLimits, PathSpec, WheelLimits
 
 __all__ = ["JERK_RAMP_SAMPLES", "PhysicalLimitWarning", "default_jerk_limit_m_s3", "resolve_limits"]
 
@@ -113,6 +113,7 @@ def resolve_limits(spec: PathSpec, vehicle: VehicleParams, *, force: bool = Fals
         wheel_speed_m_s=lim.wheel_speed_m_s if lim.wheel_speed_m_s is not None else default.wheel_speed_m_s,
         wheel_accel_m_s2=lim.wheel_accel_m_s2 if lim.wheel_accel_m_s2 is not None else default.wheel_accel_m_s2,
         wheel_jerk_m_s3=jerk,
+        body=BodyLimits(**{key: getattr(lim, key) for key in BODY_LIMIT_KEYS}),
     )
 
 

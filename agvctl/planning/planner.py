@@ -290,10 +290,14 @@ def _spin(
     distance = sum(p[1] for p in parts)
     cap = parts[0][3]
     v = limits.wheel_speed_m_s if cap is None else min(cap, limits.wheel_speed_m_s)
+    body = limits.body  # a turn in place moves the body only about its axle's midpoint: ω and dω/dt
+    w_max, alpha_max = body.angular_speed_rad_s, body.angular_accel_rad_s2
     profile = rest_to_rest(
         distance,
-        max_velocity=v / half_b,
-        max_acceleration=limits.wheel_accel_m_s2 / half_b,
+        max_velocity=v / half_b if w_max is None else min(v / half_b, w_max),
+        max_acceleration=limits.wheel_accel_m_s2 / half_b
+        if alpha_max is None
+        else min(limits.wheel_accel_m_s2 / half_b, alpha_max),
         max_jerk=limits.wheel_jerk_m_s3 / half_b,
         solver=solver,
     )

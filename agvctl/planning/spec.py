@@ -52,8 +52,10 @@ from agvctl.errors import ConfigError
 from agvctl.feasibility import HeadroomWarning
 
 __all__ = [
+    "BODY_LIMIT_KEYS",
     "DRAWN_PATH_TOLERANCE_M",
     "ArcSegment",
+    "BodyLimits",
     "HeadroomWarning",
     "LineSegment",
     "PathLimits",
@@ -108,10 +110,36 @@ path."""
 
 @document_fields
 @dataclass(frozen=True)
-class PathLimits:
+class BodyLimits:
+    """Limits on the body's motion, the axle midpoint's speed U along the path and the yaw rate ω (eqs 39-40), as a
+    payload on it feels them: each ``None`` for none, each at least :data:`MIN_LIMIT`. The planner keeps the plan
+    within them at every instant, as it keeps the wheels' (:mod:`agvctl.planning.speed`)."""
+
+    linear_speed_m_s: float | None = number(ge=MIN_LIMIT, default=None, doc="The largest ``|U|``, m/s.")
+    linear_accel_m_s2: float | None = number(
+        ge=MIN_LIMIT, default=None, doc="The largest ``|dU/dt|``, the acceleration along the path, m/s²."
+    )
+    linear_jerk_m_s3: float | None = number(ge=MIN_LIMIT, default=None, doc="The largest ``|d²U/dt²|``, m/s³.")
+    angular_speed_rad_s: float | None = number(ge=MIN_LIMIT, default=None, doc="The largest ``|ω|``, rad/s.")
+    angular_accel_rad_s2: float | None = number(ge=MIN_LIMIT, default=None, doc="The largest ``|dω/dt|``, rad/s².")
+    lateral_accel_m_s2: float | None = number(
+        ge=MIN_LIMIT, default=None, doc="The largest centripetal acceleration ``|U ω|`` of a curve, m/s²."
+    )
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+
+
+BODY_LIMIT_KEYS = tuple(f.name for f in dataclasses.fields(BodyLimits))
+"""The keys of :class:`BodyLimits`, which a path file's ``[limits]`` takes beside the wheels'."""
+
+
+@document_fields
+@dataclass(frozen=True)
+class PathLimits(BodyLimits):
     """Limits as written in a path file: per wheel (``None`` takes the vehicle's value,
-    :func:`~agvctl.planning.resolve_limits`; each at least :data:`MIN_LIMIT`) and how far the planned path may
-    leave the drawn one."""
+    :func:`~agvctl.planning.resolve_limits`; each at least :data:`MIN_LIMIT`), on the body's motion
+    (:class:`BodyLimits`, none by default) and how far the planned path may leave the drawn one."""
 
     wheel_speed_m_s: float | None = number(
         ge=MIN_LIMIT, default=None, doc="The largest ``|speed|`` of either wheel, m/s."
@@ -151,9 +179,13 @@ class WheelLimits:
     """The largest ``|acceleration|`` of either wheel, m/s²."""
     wheel_jerk_m_s3: float
     """The largest ``|jerk|`` of either wheel, m/s³."""
+    body: BodyLimits = dataclasses.field(default_factory=BodyLimits)
+    """The limits on the body's motion (none by default)."""
 
     def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
+        if not isinstance(self.body, BodyLimits):
+            raise ConfigError("WheelLimits", "body", f"expected BodyLimits (got {self.body!r:.60})")
+        for f in dataclasses.fields(self)[:3]:
             value = getattr(self, f.name)
             if (
                 isinstance(value, bool)

@@ -13,6 +13,12 @@ within (v, a, j) at every instant. V is the section's velocity limit: v/F, the s
 the curvature varies, the speed at which the curvature terms take :data:`CURVATURE_SHARE` of the wheel
 acceleration and jerk. On a line or an arc (K₁ = K₂ = 0) these are the exact wheel limits divided by F.
 
+The body's limits (:class:`~agvctl.planning.spec.BodyLimits`, where the path sets them) bound the same profile: the
+path speed U = ṡ and its derivatives directly (|ṡ| ≤ U_max, |s̈| ≤ the linear acceleration, |s⃛| ≤ the linear jerk),
+the yaw rate ω = ṡ κ (ṡ ≤ ω_max/k₀), the centripetal acceleration ṡ² κ (ṡ ≤ √(a_lat/k₀)) and the angular
+acceleration ω̇ = s̈ κ + ṡ² dκ/ds (|s̈| ≤ (α_max − V² k₁)/k₀, with V such that V² k₁ takes at most
+:data:`CURVATURE_SHARE` of α_max).
+
 The sections join at speeds w_k with s̈ = 0 (so the wheel accelerations are continuous across a join, where
 dκ/ds is continuous). The forward pass lowers each w_k+1 to what section k can reach from w_k, the backward
 pass each w_k to what section k can brake from; then each section is one time-optimal jerk-limited Ruckig
@@ -30,7 +36,7 @@ from scipy.optimize import brentq
 from agvctl.config import document_fields
 from agvctl.errors import PlanningError
 from agvctl.planning.profile import LIMIT_MARGIN, JerkProfile, _Solver, between
-from agvctl.planning.spec import WheelLimits
+from agvctl.planning.spec import BodyLimits, WheelLimits
 
 __all__ = ["CURVATURE_SHARE", "SectionLimits", "plan_speed", "section_limits"]
 
@@ -97,7 +103,29 @@ def section_limits(
     if spare_jerk(v) < 0:
         v = float(brentq(spare_jerk, 0.0, v, xtol=1e-12 * max(v, 1e-12)))
     a = accel(v)
-    return SectionLimits(length_m, v, a, (j_lim - 3.0 * v * a * c1 - v**3 * c2) / f)
+    j = (j_lim - 3.0 * v * a * c1 - v**3 * c2) / f
+    return _within_body(SectionLimits(length_m, v, a, j), k0, k1, limits.body)
+
+
+def _within_body(lim: SectionLimits, k0: float, k1: float, body: BodyLimits) -> SectionLimits:
+    """``lim`` lowered to keep the body's motion within ``body`` on a section of max ``|κ|`` k0 and max
+    ``|dκ/ds|`` k1 (see the module notes); unchanged where the path sets no body limit."""
+    v, a, j = lim.speed_m_s, lim.accel_m_s2, lim.jerk_m_s3
+    alpha = body.angular_accel_rad_s2
+    caps = [
+        body.linear_speed_m_s,
+        None if body.angular_speed_rad_s is None or k0 <= 0 else body.angular_speed_rad_s / k0,
+        None if body.lateral_accel_m_s2 is None or k0 <= 0 else math.sqrt(body.lateral_accel_m_s2 / k0),
+        None if alpha is None or k1 <= 0 else math.sqrt(CURVATURE_SHARE * alpha / k1),
+    ]
+    v = min([v, *(c for c in caps if c is not None)])
+    if body.linear_accel_m_s2 is not None:
+        a = min(a, body.linear_accel_m_s2)
+    if alpha is not None and k0 > 0:
+        a = min(a, (alpha - v * v * k1) / k0)
+    if body.linear_jerk_m_s3 is not None:
+        j = min(j, body.linear_jerk_m_s3)
+    return SectionLimits(lim.length_m, v, a, j)
 
 
 def _distance_to_change(u: float, w: float, a: float, j: float) -> float:

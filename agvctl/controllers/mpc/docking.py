@@ -16,6 +16,7 @@ never on a path that only turns in place.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -32,7 +33,7 @@ from agvctl.controllers.ranges import (
     MIN_WHEEL_SPEED_M_S,
 )
 from agvctl.params import VehicleParams
-from agvctl.planning import PathLimits, PathSpec, StartPose, plan
+from agvctl.planning import BodyLimits, PathLimits, PathSpec, StartPose, plan
 from agvctl.planning.reference import Reference
 from agvctl.planning.spec import LineSegment, Segment, TurnSegment
 
@@ -107,6 +108,7 @@ class Docking:
         self._left = 0
         self._covariance = np.zeros((3, 3))
         self._accel_m_s2 = self.config.accel_m_s2
+        self._body = BodyLimits()
 
     def observe(self, covariance: NDArray[np.float64]) -> None:
         """The pose estimate's 3×3 covariance (m², m rad, rad²) at this sample; zero (the default) for a known pose."""
@@ -121,6 +123,7 @@ class Docking:
         """Start a run on ``reference``: where its last drive ends, its heading there and the turns after it."""
         self._covariance = np.zeros((3, 3))
         self._accel_m_s2 = min(self.config.accel_m_s2, reference.limits.wheel_accel_m_s2)
+        self._body = reference.limits.body  # the manoeuvre keeps the path's limits on the body's motion too
         path_motions = [m for m in reference.motions if m.kind == "path"]
         self._left = self.config.attempts if path_motions else 0
         if not path_motions:
@@ -187,7 +190,9 @@ class Docking:
             segments=tuple(segments),
             name="docking",
             start=StartPose(x_m=float(x), y_m=float(y), theta_deg=math.degrees(float(theta))),
-            limits=PathLimits(wheel_speed_m_s=c.speed_m_s, wheel_accel_m_s2=self._accel_m_s2),
+            limits=PathLimits(
+                wheel_speed_m_s=c.speed_m_s, wheel_accel_m_s2=self._accel_m_s2, **dataclasses.asdict(self._body)
+            ),
             join="stop",
         )
         return plan(spec, self.vehicle)
