@@ -103,3 +103,18 @@ def test_estimators_receive_what_a_real_one_would() -> None:
 
     assert not [f.name for f in dataclasses.fields(Measurements) if f.name.startswith("true")]
     assert list(inspect.signature(WheelSpeedEstimator.update).parameters) == ["self", "encoder_counts"]
+
+
+def test_only_the_mpc_strategies_ask_which_prediction_model_or_error_frame_is_in_use() -> None:
+    # the prediction model and the error frame are strategies chosen once by name: nothing else compares the name
+    chooser = {"prediction.py", "error_frames.py"}
+    asks = []
+    for path in sorted((PACKAGE / "controllers" / "mpc").glob("*.py")):
+        if path.name in chooser:
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Compare):
+                names = [n.attr for n in ast.walk(node) if isinstance(n, ast.Attribute)]
+                if "prediction_model" in names or "error_frame" in names:
+                    asks.append(f"{path.name}:{node.lineno}")
+    assert not asks, asks

@@ -16,7 +16,8 @@ import pytest
 
 from agvctl.checks.runner import check_experiments
 from agvctl.cli import main
-from agvctl.controllers.mpc.config import MpcConfig, lead_factor_s
+from agvctl.controllers.mpc.config import MpcConfig
+from agvctl.controllers.mpc.prediction import PREDICTION_MODELS
 from agvctl.evaluation.path_metrics import path_errors
 from agvctl.feasibility import HeadroomWarning, WheelReach
 from agvctl.params import SIDES, load_vehicle
@@ -111,7 +112,9 @@ def test_setpoints_never_run_away_from_the_wheels(tmp_path):
     log = result.log
     config = exp.spec.controller.pose_settings
     assert isinstance(config, MpcConfig)
-    lead = lead_factor_s(config, exp.controller_vehicle.control.sample_period_s)
+    lead = PREDICTION_MODELS[config.prediction_model](
+        config, exp.controller_vehicle.control.sample_period_s
+    ).lead_factor_s
     rim = np.array([exp.controller_vehicle.rim_per_motor_rad(side) for side in SIDES])
     measured = np.column_stack([log["omega_motor_left_rad_s"], log["omega_motor_right_rad_s"]]) * rim
     setpoint = np.column_stack([log["setpoint_wheel_speed_left_m_s"], log["setpoint_wheel_speed_right_m_s"]])

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from agvctl.controllers.mpc.config import MpcConfig, lead_factor_s, resolved_config
+from agvctl.controllers.mpc.config import MpcConfig, resolved_config
 from agvctl.controllers.mpc.docking import Docking, DockingConfig, EndOfPath
 from agvctl.controllers.mpc.governor import ReferenceGovernor
 from agvctl.controllers.mpc.horizon import HorizonReference, heading_direction, turning_in_place
@@ -120,7 +120,7 @@ def test_lag_in_a_turn_in_place_is_the_heading_lag_as_wheel_arc(turn: Reference,
 
 def reach_window(vehicle: VehicleParams) -> ReachWindow:
     T = vehicle.control.sample_period_s
-    return ReachWindow(WheelReach(vehicle), lead_factor_s(CONFIG, T), 0.6)
+    return ReachWindow(WheelReach(vehicle), PREDICTION_MODELS[CONFIG.prediction_model](CONFIG, T).lead_factor_s, 0.6)
 
 
 def test_reach_window_holds_the_measured_speed_and_leads_by_what_the_wheel_can_reach(vehicle: VehicleParams) -> None:
@@ -132,7 +132,7 @@ def test_reach_window_holds_the_measured_speed_and_leads_by_what_the_wheel_can_r
     np.testing.assert_allclose(w.upper_m_s - speeds, w.lead_up_m_s)
     np.testing.assert_allclose(speeds - w.lower_m_s, w.lead_down_m_s)
     up_l, up_r, down_l, down_r = WheelReach(vehicle).accel_pair_m_s2(0.2, -0.1)
-    factor = lead_factor_s(CONFIG, vehicle.control.sample_period_s)
+    factor = PREDICTION_MODELS[CONFIG.prediction_model](CONFIG, vehicle.control.sample_period_s).lead_factor_s
     np.testing.assert_allclose(w.lead_up_m_s, [up_l * factor, up_r * factor])
     np.testing.assert_allclose(w.lead_down_m_s, [down_l * factor, down_r * factor])
 

@@ -32,11 +32,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.base import PoseCommand, SolveStatus
-from agvctl.controllers.mpc.config import MpcConfig, lead_factor_s, resolved_config, resolved_limits
+from agvctl.controllers.mpc.config import MpcConfig, resolved_config, resolved_limits
 from agvctl.controllers.mpc.docking import Docking, EndOfPath
 from agvctl.controllers.mpc.fallback import SetpointFallback
 from agvctl.controllers.mpc.governor import ReferenceGovernor
 from agvctl.controllers.mpc.horizon import HorizonReference
+from agvctl.controllers.mpc.prediction import PREDICTION_MODELS, PredictionModel
 from agvctl.controllers.mpc.rest import Rest
 from agvctl.controllers.mpc.shaping import (
     CommandShaper,
@@ -98,7 +99,8 @@ class MpcStepper:
         self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 = resolved_limits(c, vehicle)
         self._vehicle_accel_m_s2 = self.max_wheel_accel_m_s2
         self._feedback_accel_m_s2 = feedback_accel_m_s2(vehicle)
-        self._lead_factor_s = lead_factor_s(c, self.sample_period_s)
+        self._model: PredictionModel = PREDICTION_MODELS[c.prediction_model](c, self.sample_period_s)
+        self._lead_factor_s = self._model.lead_factor_s
         self._reach = WheelReach(vehicle)
         self._window = ReachWindow(self._reach, self._lead_factor_s, self.max_wheel_speed_m_s)
         self._governor = ReferenceGovernor(c, self.separation_m)

@@ -5,7 +5,6 @@ limits (see :mod:`agvctl.controllers.mpc.common` for the problem they set)."""
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 from typing import Literal
 
@@ -30,7 +29,6 @@ __all__ = [
     "ErrorFrame",
     "MpcConfig",
     "PredictionModel",
-    "lead_factor_s",
     "resolved_config",
     "resolved_limits",
     "wheel_loop_time_constant_s",
@@ -121,10 +119,10 @@ class MpcConfig:
     (``solve_time_p99_ms``, ``deadline_misses``). Set it to emulate a real-time budget: then a solve that runs out
     of time falls back, as it would on the vehicle."""
     reach_lead: float = number(gt=0, le=5, default=2.5)
-    """How far a setpoint may lead its wheel, in multiples of what the wheel can follow in one sample
-    (:func:`lead_factor_s`). Bounded, so the setpoints never run away from a saturated wheel; above 1, so that the PI
-    loop's proportional action can still push a wheel that is heavier or stiffer than the controller's model
-    (``docs/decisions/0002-saturation-aware-cascade.md``)."""
+    """How far a setpoint may lead its wheel, in multiples of what the wheel can follow in one sample (the
+    prediction model's ``lead_factor_s``, :mod:`~agvctl.controllers.mpc.prediction`). Bounded, so the setpoints
+    never run away from a saturated wheel; above 1, so that the PI loop's proportional action can still push a wheel
+    that is heavier or stiffer than the controller's model (``docs/decisions/0002-saturation-aware-cascade.md``)."""
     docking: DockingConfig = DockingConfig()
     """When and how to dock, stopped beside the end of the path (:mod:`~agvctl.controllers.mpc.docking`): the
     ``[controller.docking]`` table."""
@@ -209,31 +207,6 @@ def wheel_loop_time_constant_s(config: MpcConfig) -> float:
     if config.wheel_loop_time_constant_s is None:
         raise ValueError("MpcConfig.wheel_loop_time_constant_s: resolve the config first (resolved_config)")
     return config.wheel_loop_time_constant_s
-
-
-def lead_factor_s(config: MpcConfig, sample_period_s: float) -> float:
-    """D/a: how far a setpoint may lead its wheel per m/s² of acceleration the wheel can reach.
-
-    The wheel-loop lag's exact discretisation moves the wheel speed v by (1 − e^(−T_s/τ))(s − v) in one sample, so a
-    wheel that can change its speed by a·T_s in a sample follows a lead D = a·T_s/(1 − e^(−T_s/τ)); in the kinematic
-    model the setpoint is the next sample's speed, and D = a·T_s. Both are scaled by ``config.reach_lead``.
-
-    Parameters
-    ----------
-    config : MpcConfig
-        Resolved settings (:func:`resolved_config`): the prediction model, τ and ``reach_lead``.
-    sample_period_s : float
-        The control sample period T_s, s.
-
-    Returns
-    -------
-    float
-        reach_lead·T_s/(1 − e^(−T_s/τ)), or reach_lead·T_s for the kinematic model, s.
-    """
-    if config.prediction_model == "kinematic":
-        return config.reach_lead * sample_period_s
-    tau = wheel_loop_time_constant_s(config)
-    return config.reach_lead * sample_period_s / (1.0 - math.exp(-sample_period_s / tau))
 
 
 def resolved_limits(config: MpcConfig, vehicle: VehicleParams) -> tuple[float, float]:

@@ -58,7 +58,6 @@ from agvctl.controllers.mpc.ltv_qp import (
     reversal_samples,
 )
 from agvctl.controllers.mpc.ltv_qp_model import Dynamics, StateCost
-from agvctl.controllers.mpc.prediction import PREDICTION_MODELS
 from agvctl.controllers.mpc.qp_blocks import BlockQp, VariableBlock
 from agvctl.controllers.mpc.shaping import HorizonStep
 from agvctl.errors import ConfigError, expect_instance
@@ -122,7 +121,6 @@ class LtvMpcController(MpcStepper):
             expect_instance(osqp_settings, Mapping, "LtvMpcController", "osqp_settings")
         self._osqp_overrides = dict(osqp_settings or {})
         self._frame = ERROR_FRAMES[self.config.error_frame](self.config.horizon, self.sample_period_s)
-        self._model = PREDICTION_MODELS[self.config.prediction_model](self.config, self.sample_period_s)
         self.nx = self._model.n_states
         self._build_problem()
 

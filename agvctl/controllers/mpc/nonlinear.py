@@ -21,9 +21,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.mpc.common import MpcStepper
-from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
+from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.horizon import HorizonReference
-from agvctl.controllers.mpc.prediction import PREDICTION_MODELS
 from agvctl.controllers.mpc.shaping import HorizonStep
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
@@ -115,9 +114,7 @@ class NonlinearMpcController(MpcStepper):
         ipopt_options: dict[str, Any] | None = None,
     ) -> None:
         super().__init__(vehicle, config)
-        self._model = PREDICTION_MODELS[self.config.prediction_model](self.config, self.sample_period_s)
-        self._lag = self.config.prediction_model == "kinematic+wheel_loop"
-        self.nx = 5 if self._lag else 3
+        self.nx = self._model.n_states
         self._w0: FloatArray | None = None
         self._lam_x0: FloatArray | None = None
         self._lam_g0: FloatArray | None = None
@@ -138,8 +135,7 @@ class NonlinearMpcController(MpcStepper):
 
     def _build(self, ipopt_options: dict[str, Any]) -> None:
         c, N, nx = self.config, self.config.horizon, self.nx
-        tau = wheel_loop_time_constant_s(c) if self._lag else None
-        step = prediction_step(self.sample_period_s, self.separation_m, tau)
+        step = prediction_step(self.sample_period_s, self.separation_m, self._model.time_constant_s)
         X = ca.SX.sym("X", nx, N)  # x_1 … x_N
         S = ca.SX.sym("S", 2, N)  # s_0 … s_{N−1}
         x0 = ca.SX.sym("x0", nx)
@@ -201,9 +197,7 @@ class NonlinearMpcController(MpcStepper):
         theta = float(pose[2])
         if math.isfinite(theta):
             theta += 2.0 * math.pi * round((theta_ref - theta) / (2.0 * math.pi))
-        x0 = [float(pose[0]), float(pose[1]), theta]
-        if self._lag:
-            x0 += [float(wheel_speed_m_s[0]), float(wheel_speed_m_s[1])]
+        x0 = [float(pose[0]), float(pose[1]), theta, *self._model.measured_states(wheel_speed_m_s)]
         if not all(math.isfinite(v) for v in x0):
             return None  # a broken measurement
         ref = np.stack([g.x_m[k + 1 : k + N + 1], g.y_m[k + 1 : k + N + 1], g.theta_rad[k + 1 : k + N + 1]])
@@ -219,9 +213,7 @@ class NonlinearMpcController(MpcStepper):
 
         if self._w0 is None or k != self._last_k + 1:
             # cold start: the reference itself (and its wheel speeds) with the feed-forward inputs
-            states = [ref]
-            if self._lag:
-                states.append(g.wheel_m_s[k + 1 : k + N + 1].T)
+            states = [ref, *self._model.reference_states(g.wheel_m_s[k + 1 : k + N + 1])]
             w0 = np.concatenate([np.vstack(states).T.ravel(), ff.ravel()])
             args: dict[str, Any] = {"x0": w0}
         else:

@@ -42,6 +42,41 @@ class PredictionModel(Protocol):
     """nx, the error states per sample: the pose's 3, and the model's own."""
     wheel_columns: tuple[int, int] | None
     """The states of the wheel-speed errors (δv_l, δv_r), None where the setpoints drive the kinematics directly."""
+    time_constant_s: float | None
+    """τ of the wheel loops' lag the model predicts, s; None where the setpoints drive the kinematics directly."""
+    lead_factor_s: float
+    """D/a: how far a setpoint may lead its wheel per m/s² of acceleration the wheel can reach, s, scaled by the
+    settings' ``reach_lead`` (:class:`~agvctl.controllers.mpc.shaping.ReachWindow`, the ``Reach`` block)."""
+
+    def measured_states(self, wheel_speed_m_s: FloatArray) -> list[float]:
+        """The model's own states beyond the pose, from the measured wheel speeds (the nonlinear MPC's x_0).
+
+        Parameters
+        ----------
+        wheel_speed_m_s : ndarray
+            The measured wheel speeds (left, right), m/s.
+
+        Returns
+        -------
+        list of float
+            Its states, none for a model of the pose alone.
+        """
+        ...
+
+    def reference_states(self, wheel_m_s: FloatArray) -> list[FloatArray]:
+        """The rows of the model's own states along the reference (the nonlinear MPC's cold start).
+
+        Parameters
+        ----------
+        wheel_m_s : ndarray
+            The reference's wheel speeds at the horizon's samples (N × 2), m/s.
+
+        Returns
+        -------
+        list of ndarray
+            Its states' rows (each of N values), none for a model of the pose alone.
+        """
+        ...
 
     def feedforward_m_s(self, wheel_m_s: FloatArray, mid_wheel_m_s: FloatArray) -> FloatArray:
         """The setpoints over each interval that make the model's wheels follow the reference.
@@ -153,9 +188,21 @@ class KinematicModel:
 
     n_states = 3
     wheel_columns: tuple[int, int] | None = None
+    time_constant_s: float | None = None
 
     def __init__(self, config: MpcConfig, sample_period_s: float) -> None:
-        del config, sample_period_s
+        self.lead_factor_s = config.reach_lead * sample_period_s
+        """The setpoint is the next sample's speed: D = a·T_s, scaled by ``reach_lead``."""
+
+    def measured_states(self, wheel_speed_m_s: FloatArray) -> list[float]:
+        """See :meth:`PredictionModel.measured_states`: none."""
+        del wheel_speed_m_s
+        return []
+
+    def reference_states(self, wheel_m_s: FloatArray) -> list[FloatArray]:
+        """See :meth:`PredictionModel.reference_states`: none."""
+        del wheel_m_s
+        return []
 
     def feedforward_m_s(self, wheel_m_s: FloatArray, mid_wheel_m_s: FloatArray) -> FloatArray:
         """See :meth:`PredictionModel.feedforward_m_s`: the midpoint wheel speeds."""
@@ -202,9 +249,22 @@ class WheelLoopModel:
 
     def __init__(self, config: MpcConfig, sample_period_s: float) -> None:
         tau_s = wheel_loop_time_constant_s(config)
+        self.time_constant_s: float | None = tau_s
         self._inv_tau = 1.0 / tau_s
         self._decay = math.exp(-sample_period_s / tau_s)
+        self.lead_factor_s = config.reach_lead * sample_period_s / (1.0 - self._decay)
+        """The lag's exact discretisation moves the wheel speed by (1 − e^(−T_s/τ))(s − v) in a sample, so a wheel
+        that can change its speed by a·T_s in a sample follows a lead D = a·T_s/(1 − e^(−T_s/τ)), scaled by
+        ``reach_lead``."""
         self._heading_rad = 0.0
+
+    def measured_states(self, wheel_speed_m_s: FloatArray) -> list[float]:
+        """See :meth:`PredictionModel.measured_states`: the two wheel speeds."""
+        return [float(wheel_speed_m_s[0]), float(wheel_speed_m_s[1])]
+
+    def reference_states(self, wheel_m_s: FloatArray) -> list[FloatArray]:
+        """See :meth:`PredictionModel.reference_states`: the reference's wheel speeds."""
+        return [wheel_m_s.T]
 
     def feedforward_m_s(self, wheel_m_s: FloatArray, mid_wheel_m_s: FloatArray) -> FloatArray:
         """See :meth:`PredictionModel.feedforward_m_s`: the inverse of the lag's exact discretisation,

@@ -98,7 +98,7 @@ class ReachWindow:
         The rim accelerations each wheel can reach at its speed (the controller's model of the vehicle).
     lead_factor_s : float
         D/a_reach, the lead per m/s² of reachable acceleration
-        (:func:`~agvctl.controllers.mpc.config.lead_factor_s`), s.
+        (the prediction model's ``lead_factor_s``, :class:`~agvctl.controllers.mpc.prediction.PredictionModel`), s.
     max_wheel_speed_m_s : float
         v_max, m/s: the window always meets the speed box ±v_max.
     """
