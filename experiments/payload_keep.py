@@ -1,0 +1,83 @@
+"""How often the default controller keeps a path's body limits, as the payload's accelerometer reads them.
+
+Random gentle scenarios: the acceptance fuzz's paths, plants and starts (``experiments/fuzz/acceptance.toml``), each
+path's ``[limits]`` replaced by random body limits (linear and lateral 0.2-0.5 m/s², angular 0.5-1.5 rad/s²) that
+the planner plans within. A run keeps them when the accelerometer's peaks (``peak_body_linear_accel_m_s2``,
+``peak_body_lateral_accel_m_s2``, ``peak_body_angular_accel_rad_s2``, at the axle's midpoint, 2.5 Hz) are within
+them. ``--on-path`` starts every run on its path on the nominal plant, to separate the start-up corrections and the
+plant's spread from the rest. Figures in decision record 0041.
+
+Run: python experiments/payload_keep.py --seed 4242 --runs 40 [--on-path] [--controller mpc]
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import tomli_w
+
+from agvctl.evaluation.limits import judge_run
+from agvctl.fuzz import generate_scenario, load_fuzz_config
+from agvctl.fuzz.generate import scenario_files
+from agvctl.fuzz.spec import override_fuzz_config
+from agvctl.params import load_vehicle
+from agvctl.scenario.experiment import load_experiment, run_experiment
+
+HERE = Path(__file__).parent
+PEAKS = {
+    "linear": ("peak_body_linear_accel_m_s2", "linear_accel_m_s2"),
+    "lateral": ("peak_body_lateral_accel_m_s2", "lateral_accel_m_s2"),
+    "angular": ("peak_body_angular_accel_rad_s2", "angular_accel_rad_s2"),
+}
+
+
+def gentle_runs(seed: int, runs: int, on_path: bool, controller: str) -> list[dict[str, float]]:
+    """Each run's peaks over its body limits, and whether it passed the default gate."""
+    spec = override_fuzz_config(load_fuzz_config(HERE / "fuzz" / "acceptance.toml"), seed=seed)
+    vehicle, rng, rows = load_vehicle(None), np.random.default_rng(seed), []
+    with tempfile.TemporaryDirectory() as folder:
+        tmp = Path(folder)
+        for index in range(runs):
+            files = scenario_files(spec, generate_scenario(spec, vehicle, index), controller)
+            path_name = next(n for n in files if n.endswith(".path.toml"))
+            exp_name = next(n for n in files if n != path_name)
+            linear, angular = float(rng.uniform(0.2, 0.5)), float(rng.uniform(0.5, 1.5))
+            limits = {"linear_accel_m_s2": linear, "lateral_accel_m_s2": linear, "angular_accel_rad_s2": angular}
+            path = tomllib.loads(files[path_name])
+            path["limits"] = limits
+            experiment = tomllib.loads(files[exp_name])
+            if on_path:
+                experiment["plant"] = {"sensor_seed": experiment["plant"]["sensor_seed"]}
+            (tmp / path_name).write_text(tomli_w.dumps(path), encoding="utf-8")
+            (tmp / exp_name).write_text(tomli_w.dumps(experiment), encoding="utf-8")
+            loaded = load_experiment(tmp / exp_name)
+            verdict = judge_run(run_experiment(loaded), loaded.spec.limits, loaded.controller_vehicle)
+            row = {what: verdict.metrics[metric] / limits[key] for what, (metric, key) in PEAKS.items()}
+            row["gate"] = float(all(r.passed for r in verdict.limits))
+            rows.append(row)
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seed", type=int, default=4242)
+    parser.add_argument("--runs", type=int, default=40)
+    parser.add_argument("--on-path", action="store_true", help="start on the path, on the nominal plant")
+    parser.add_argument("--controller", default="mpc")
+    args = parser.parse_args()
+    rows = gentle_runs(args.seed, args.runs, args.on_path, args.controller)
+    ratios = np.array([[r[w] for w in PEAKS] for r in rows])
+    worst = ratios.max(axis=1)
+    print(f"seed {args.seed}, {len(rows)} runs of {args.controller}{' from the path' if args.on_path else ''}:")
+    print(f"  kept all three body limits: {int(np.sum(worst <= 1.0))}; within 10 %: {int(np.sum(worst <= 1.1))}")
+    for j, what in enumerate(PEAKS):
+        print(f"  {what:8s} peak / limit: median {np.median(ratios[:, j]):.2f}, largest {ratios[:, j].max():.2f}")
+    print(f"  passed the default gate: {int(sum(r['gate'] for r in rows))}")
+
+
+if __name__ == "__main__":
+    main()
