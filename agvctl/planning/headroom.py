@@ -7,7 +7,7 @@ import numpy as np
 from agvctl.feasibility import actuator_headroom
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference, ReferenceSamples
-from agvctl.planning.spec import PathLimits
+from agvctl.planning.spec import BodyLimits, PathLimits
 
 __all__ = ["limits_report"]
 
@@ -61,6 +61,8 @@ def limits_report(reference: Reference, limits: PathLimits, vehicle: VehiclePara
 def _body_rows(reference: Reference, s: ReferenceSamples) -> list[str]:
     """A line per body limit the path sets: its value and whether the plan, sampled at ``s``, reaches it."""
     body = reference.limits.body
+    if body == BodyLimits():
+        return []
     u, w = s.speed_m_s, s.yaw_rate_rad_s
     jerk = np.gradient(s.accel_m_s2, s.t_s) if len(s.t_s) > 1 else np.zeros_like(u)
     rows = (
