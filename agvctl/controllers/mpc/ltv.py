@@ -187,6 +187,9 @@ class LtvMpcController(MpcStepper):
             **OSQP_SETTINGS,
             **self._osqp_overrides,
         }
+        self.osqp_settings: dict[str, Any] = settings
+        """OSQP's settings as the solver was set up with them: the config's tolerance and limits, then
+        :data:`OSQP_SETTINGS`, then the constructor's overrides (what a generated solver must use too)."""
         self._rho = float(settings["rho"])
         try:
             self._solver.setup(qp.P, qp.q, qp.A, qp.lower, qp.upper, **settings)
