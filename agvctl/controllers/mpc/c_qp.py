@@ -20,7 +20,7 @@ import ctypes
 import functools
 import subprocess
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -29,7 +29,7 @@ import numpy as np
 import osqp
 from numpy.typing import NDArray
 
-from agvctl.controllers.mpc.osqp_fixes import OSQP_FIXES, OSQP_VERSION
+from agvctl.controllers.mpc.osqp_fixes import OSQP_FIXES, OSQP_VERSION, SourceFix
 from agvctl.controllers.mpc.qp_blocks import BlockQp
 from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS
 from agvctl.errors import AgvctlError
@@ -122,7 +122,9 @@ def _rows(positions: NDArray[np.int64], per_row: int = 12) -> list[list[int]]:
     return [values[i : i + per_row] for i in range(0, len(values), per_row)]
 
 
-def _osqp_files(qp: BlockQp[Any, Any], settings: Mapping[str, Any], prefix: str) -> dict[str, str]:
+def _osqp_files(
+    qp: BlockQp[Any, Any], settings: Mapping[str, Any], prefix: str, fixes: Sequence[SourceFix]
+) -> dict[str, str]:
     """OSQP's generated solver for ``qp`` set up with ``settings``, as ``{relative path: text}``, fixes applied."""
     if osqp.__version__ != OSQP_VERSION:
         raise AgvctlError(f"the QP's C is generated with osqp {OSQP_VERSION}; osqp {osqp.__version__} is installed")
@@ -148,7 +150,7 @@ def _osqp_files(qp: BlockQp[Any, Any], settings: Mapping[str, Any], prefix: str)
             for p in sorted(folder.rglob("*"))
             if p.is_file() and p.name not in _DROPPED
         }
-    for fix in OSQP_FIXES:
+    for fix in fixes:
         path = fix.path.format(workspace=f"{prefix}_workspace")
         files[path] = fix.apply(files[path])
     return files
@@ -161,6 +163,7 @@ def generate_qp_c(
     origin: str,
     generator: str,
     prefix: str = PREFIX,
+    fixes: Sequence[SourceFix] = OSQP_FIXES,
 ) -> QpC:
     """The C99 of ``qp``'s solver: OSQP's generated code for it, fixed to compile warning-free, and the entry point.
 
@@ -182,6 +185,9 @@ def generate_qp_c(
         What wrote them (``"agvctl 0.2.0"``), written into the entry point's files.
     prefix : str
         The entry point's stem and the prefix of every name the files define.
+    fixes : sequence of SourceFix
+        The source fixes to apply (all of :data:`~agvctl.controllers.mpc.osqp_fixes.OSQP_FIXES`; fewer to see
+        what one of them is for).
 
     Returns
     -------
@@ -193,7 +199,7 @@ def generate_qp_c(
     AgvctlError
         Another OSQP release than :data:`OSQP_VERSION`, or one of :data:`OSQP_FIXES` does not apply.
     """
-    files = _osqp_files(qp, settings, prefix)
+    files = _osqp_files(qp, settings, prefix, fixes)
     n, m = qp.layout.n_variables, qp.n_rows
     values = {
         "prefix": prefix,
@@ -225,6 +231,7 @@ def write_qp_c(
     origin: str,
     generator: str,
     prefix: str = PREFIX,
+    fixes: Sequence[SourceFix] = OSQP_FIXES,
 ) -> QpC:
     """Write the C99 of ``qp``'s solver (:func:`generate_qp_c`) into ``folder``.
 
@@ -242,13 +249,15 @@ def write_qp_c(
         What wrote them, written into the entry point's files.
     prefix : str
         The entry point's stem and the prefix of every name the files define.
+    fixes : sequence of SourceFix
+        The source fixes to apply.
 
     Returns
     -------
     QpC
         The files written.
     """
-    code = generate_qp_c(qp, settings, origin=origin, generator=generator, prefix=prefix)
+    code = generate_qp_c(qp, settings, origin=origin, generator=generator, prefix=prefix, fixes=fixes)
     code.write(folder)
     return code
 
