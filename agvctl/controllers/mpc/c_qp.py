@@ -4,10 +4,11 @@
 controller's settings and has OSQP generate its embedded solver (``parameters="matrices"``: the vectors and the
 matrices' values may change, the sparsity pattern not; printing, profiling and interrupts off; no Python extension,
 so nothing is downloaded). The generated files are then made to compile with :data:`STRICT_C_FLAGS`, warnings as
-errors, by the source fixes of :data:`OSQP_FIXES`: exact text substitutions, each of which must apply as many times as
-stated, so that an OSQP release whose text differs fails loudly here instead of silently skipping a fix. Two Jinja2
-templates beside this module add the entry point, ``<prefix>.h``/``<prefix>.c``: one step loads q, l, u and the values
-of P's and A's varying entries (the positions :attr:`~agvctl.controllers.mpc.qp_blocks.BlockQp.p_varying` and
+errors, by the source fixes of :data:`~agvctl.controllers.mpc.osqp_fixes.OSQP_FIXES`: exact text substitutions,
+each of which must apply as many times as stated, so that an OSQP release whose text differs fails loudly here instead
+of silently skipping a fix. Two Jinja2 templates beside this module add the entry point, ``<prefix>.h`` and
+``<prefix>.c``: one step loads q, l, u and the values of P's and A's varying entries (the positions
+:attr:`~agvctl.controllers.mpc.qp_blocks.BlockQp.p_varying` and
 :attr:`~agvctl.controllers.mpc.qp_blocks.BlockQp.a_varying`, baked in as ``static const`` data), solves warm-started,
 and returns OSQP's status, the iterations and the solution.
 
@@ -197,7 +198,7 @@ def generate_qp_c(
     Raises
     ------
     AgvctlError
-        Another OSQP release than :data:`OSQP_VERSION`, or one of :data:`OSQP_FIXES` does not apply.
+        Another OSQP release than ``osqp_fixes.OSQP_VERSION``, or one of the fixes does not apply.
     """
     files = _osqp_files(qp, settings, prefix, fixes)
     n, m = qp.layout.n_variables, qp.n_rows

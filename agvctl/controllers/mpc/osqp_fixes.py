@@ -115,9 +115,9 @@ OSQP_FIXES: tuple[SourceFix, ...] = (
     SourceFix(
         "src/csc_utils.c",
         r"(?s)(static void int_vec_set_scalar\(.*?\n}\n)",
-        r"#ifndef OSQP_EMBEDDED_MODE /* agvctl: only csc_to_triu, a desktop function, uses it */\n\1#endif\n",
+        r"#ifndef OSQP_EMBEDDED_MODE /* agvctl: only csc_submatrix_byrows, a desktop function, uses it */\n\1#endif\n",
         1,
-        "-Wunused-function: int_vec_set_scalar serves only the desktop build's csc_to_triu; put inside an #ifndef",
+        "-Wunused-function: int_vec_set_scalar serves only the desktop build's csc_submatrix_byrows; put in an #ifndef",
     ),
     SourceFix(
         "src/kkt.c",
@@ -162,4 +162,5 @@ OSQP_FIXES: tuple[SourceFix, ...] = (
         "determinism: as in the workspace",
     ),
 )
-"""The fixes that make OSQP's generated solver compile with :data:`STRICT_C_FLAGS`, in the order applied."""
+"""The fixes that make OSQP's generated solver compile with
+:data:`~agvctl.controllers.pi.c_loops.STRICT_C_FLAGS`, in the order applied."""
