@@ -45,6 +45,8 @@ class _SideBySide:
     c: CompiledQp
     cold: bool = False
     steps: list[tuple[Any, QpSolution]] = field(default_factory=list)
+    matrices: list[tuple[bool, bool]] = field(default_factory=list)
+    """Per solve: whether P's, and A's, varying entries were handed over."""
     _update: dict[str, Any] = field(default_factory=dict)
 
     def update(self, **arguments: Any) -> None:
@@ -66,6 +68,7 @@ class _SideBySide:
         if self.cold:
             self.c.warm_start(np.zeros_like(result.x), np.zeros_like(result.y))
         self.steps.append((result, self.c.solve(u["q"], u["l"], u["u"], u.get("Px"), u.get("Ax"))))
+        self.matrices.append(("Px" in u, "Ax" in u))
         return result
 
 
@@ -164,6 +167,8 @@ def test_warm_started_alike_the_c_solver_gives_the_python_solvers_answers_bit_fo
     same iterations at the same primal and dual solution, to the last bit: the same code on the same data."""
     side, _ = warm_run
     assert len(side.steps) > 600
+    p_updates, a_updates = np.sum(side.matrices, axis=0)
+    assert p_updates >= 1 and a_updates > 100  # both matrices' updates are exercised (A's wherever curvature changes)
     for python, c in side.steps:
         assert c.status == python.info.status_val == 1
         assert c.iterations == python.info.iter
