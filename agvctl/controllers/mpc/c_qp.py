@@ -318,25 +318,12 @@ class QpSolution:
     y: FloatArray
 
 
-def _array(values: FloatArray | None, size: int, what: str) -> FloatArray | None:
-    """``values`` as a contiguous float64 array of ``size`` values (None stays None: a NULL pointer in C)."""
-    if values is None:
-        return None
-    a = np.ascontiguousarray(values, dtype=np.float64)
-    if a.shape != (size,):
-        raise ValueError(f"{what} has shape {a.shape}, expected ({size},)")
-    return a
-
-
-def _address(a: FloatArray | None) -> int | None:
-    return None if a is None else int(a.ctypes.data)
-
-
 class CompiledQp:
     """The generated solver of one QP, compiled (:func:`compile_qp_c`) and called through ctypes.
 
     The solver's workspace is static data of the library, which a process loads once: every :class:`CompiledQp` of
-    the same generated code shares one solver, which continues from where the last solve left it, as on the vehicle.
+    the same generated code shares one solver, which continues from where the last solve left it, as on the vehicle
+    (a second, independent solver needs code generated with another ``prefix``). Not for two threads at once.
 
     Parameters
     ----------
@@ -367,9 +354,24 @@ class CompiledQp:
         expected = (code.n_variables, code.n_constraints, code.n_p_varying, code.n_a_varying)
         if tuple(v.value for v in sizes) != expected:
             raise AgvctlError(f"the compiled QP solver has sizes {[v.value for v in sizes]}, expected {expected}")
+        # buffers allocated once, their addresses taken once (taking a numpy array's address costs microseconds)
+        self._sizes = (code.n_variables, code.n_constraints, code.n_constraints, code.n_p_varying, code.n_a_varying)
+        self._inputs = [np.empty(max(1, size)) for size in self._sizes]
+        self._input_addresses = [int(b.ctypes.data) for b in self._inputs]
         self._x = np.empty(code.n_variables)
         self._y = np.empty(code.n_constraints)
         self._info = _Info()
+        self._outputs = (int(self._x.ctypes.data), int(self._y.ctypes.data), ctypes.addressof(self._info))
+
+    def _load(self, i: int, values: FloatArray | None, name: str) -> int | None:
+        """``values`` copied into input buffer ``i``; its address (None: a NULL pointer in C)."""
+        if values is None:
+            return None
+        size = self._sizes[i]
+        if np.shape(values) != (size,):
+            raise ValueError(f"{name} has shape {np.shape(values)}, expected ({size},)")
+        self._inputs[i][:size] = values
+        return self._input_addresses[i]
 
     def solve(
         self,
@@ -402,16 +404,9 @@ class CompiledQp:
         AgvctlError
             An OSQP call in C returned an error (its exit flag).
         """
-        c = self.code
-        arrays = (
-            _array(q, c.n_variables, "q"),
-            _array(lower, c.n_constraints, "lower"),
-            _array(upper, c.n_constraints, "upper"),
-            _array(p_values, c.n_p_varying, "p_values"),
-            _array(a_values, c.n_a_varying, "a_values"),
-        )  # held here while C reads them
-        outputs = (self._x.ctypes.data, self._y.ctypes.data, ctypes.addressof(self._info))
-        error = self._solve(*(_address(a) for a in arrays), *outputs)
+        vectors = ((q, "q"), (lower, "lower"), (upper, "upper"), (p_values, "p_values"), (a_values, "a_values"))
+        addresses = [self._load(i, values, name) for i, (values, name) in enumerate(vectors)]
+        error = self._solve(*addresses, *self._outputs)
         if error:
             raise AgvctlError(f"the generated QP solver's update or solve failed: OSQP exit flag {error}")
         return QpSolution(int(self._info.status), int(self._info.iterations), self._x.copy(), self._y.copy())
@@ -426,9 +421,7 @@ class CompiledQp:
         y : ndarray
             The dual start.
         """
-        xs = _array(x, self.code.n_variables, "x")
-        ys = _array(y, self.code.n_constraints, "y")
-        if self._warm_start(_address(xs), _address(ys)):
+        if self._warm_start(self._load(0, x, "x"), self._load(1, y, "y")):  # q's and l's buffers have their sizes
             raise AgvctlError("the generated QP solver refused the warm start")
 
     def set_rho(self, rho: float) -> None:
