@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import osqp
 import pytest
 
 from agvctl.controllers.mpc.c_qp import STRICT_C_FLAGS, CompiledQp, QpSolution, generate_qp_c, write_qp_c
@@ -31,8 +32,10 @@ def figure8():
     return load_experiment("experiments/figure8.toml")
 
 
-def _controller(experiment) -> LtvMpcController:
-    return LtvMpcController(experiment.controller_vehicle, experiment.spec.controller.pose_settings)
+def _controller(experiment, **osqp_settings: Any) -> LtvMpcController:
+    return LtvMpcController(
+        experiment.controller_vehicle, experiment.spec.controller.pose_settings, osqp_settings=osqp_settings
+    )
 
 
 @dataclass
@@ -72,10 +75,12 @@ class _SideBySide:
         return result
 
 
-def _side_by_side_run(experiment, *, prefix: str, cold: bool = False) -> tuple[_SideBySide, LtvMpcController]:
+def _side_by_side_run(
+    experiment, *, prefix: str, cold: bool = False, **osqp_settings: Any
+) -> tuple[_SideBySide, LtvMpcController]:
     """The figure-8 closed loop with its MPC's solver beside a C solver generated for its QP (``prefix``: each run
     its own generated code, so its own library and static workspace)."""
-    controller = _controller(experiment)
+    controller = _controller(experiment, **osqp_settings)
     code = generate_qp_c(
         controller._qp, controller.osqp_settings, origin="figure8 (tests)", generator="agvctl tests", prefix=prefix
     )
@@ -172,6 +177,21 @@ def test_warm_started_alike_the_c_solver_gives_the_python_solvers_answers_bit_fo
     for python, c in side.steps:
         assert c.status == python.info.status_val == 1
         assert c.iterations == python.info.iter
+        np.testing.assert_array_equal(c.x, python.x)
+        np.testing.assert_array_equal(c.y, python.y)
+
+
+@needs_cc
+def test_at_the_iteration_limit_the_c_solver_says_so_and_stays_with_the_python_one_through_the_fallback(figure8):
+    """With 20 iterations at most, some steps stop solved inaccurately and some at the limit, which the controller
+    answers with its fallback and a warm start from zero: the C solver reports the same statuses, and is given the
+    same warm starts, so every solution stays bit-identical."""
+    side, _ = _side_by_side_run(figure8, prefix="agv_mpc_qp_limit", max_iter=20)
+    statuses = [python.info.status_val for python, _ in side.steps]
+    assert statuses.count(osqp.SolverStatus.OSQP_MAX_ITER_REACHED) > 0
+    assert statuses.count(osqp.SolverStatus.OSQP_SOLVED_INACCURATE) > 0
+    for python, c in side.steps:
+        assert c.status == python.info.status_val and c.iterations == python.info.iter
         np.testing.assert_array_equal(c.x, python.x)
         np.testing.assert_array_equal(c.y, python.y)
 

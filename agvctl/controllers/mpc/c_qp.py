@@ -302,7 +302,7 @@ class QpSolution:
     Parameters
     ----------
     status : int
-        OSQP's status value (``osqp.SolverStatus``: 1 solved, 2 solved inaccurate, -2 iteration limit, …; 0: an
+        OSQP's status value (``osqp.SolverStatus``: 1 solved, 2 solved inaccurate, 7 iteration limit, …; 0: an
         update failed and nothing was solved).
     iterations : int
         The ADMM iterations of this solve.
