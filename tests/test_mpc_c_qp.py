@@ -15,12 +15,15 @@ import pytest
 
 from agvctl.controllers.mpc.c_qp import STRICT_C_FLAGS, CompiledQp, QpSolution, generate_qp_c, write_qp_c
 from agvctl.controllers.mpc.ltv import LtvMpcController
-from agvctl.controllers.mpc.osqp_fixes import OSQP_FIXES, SourceFix
+from agvctl.controllers.mpc.osqp_fixes import OSQP_FIXES, OSQP_VERSION, SourceFix
 from agvctl.errors import AgvctlError
 from agvctl.plant.codegen import c_compiler
 from agvctl.scenario.experiment import load_experiment, run_experiment
 
 needs_cc = pytest.mark.skipif(c_compiler() is None, reason="no C compiler (cc/gcc) on this machine")
+pytestmark = pytest.mark.skipif(
+    osqp.__version__ != OSQP_VERSION, reason=f"the QP's C is generated with osqp {OSQP_VERSION} only"
+)
 
 ALLOWED_EXTERNAL_SYMBOLS = {"sqrt", "memset", "memcpy"}
 """What the compiled solver may take from outside its own objects: libm's sqrt and what the compiler emits for
