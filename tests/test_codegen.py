@@ -1,10 +1,13 @@
-"""The compiled plant's code generation: the disk cache, and CasADi's virtual machine when no compiler works."""
+"""The compiled plant's code generation: the disk cache, and CasADi's virtual machine when no compiler works; the
+compiled library of a tree of C files."""
 
+import ctypes
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
 
+from agvctl.plant.codegen import c_compiler, compiled_library
 from agvctl.plant.full import PlantOptions, parameter_vector, state_from_motor_speeds
 from agvctl.plant.integrator import CompiledPlant, compiled_plant
 
@@ -68,3 +71,19 @@ def test_threads_calling_the_compiled_plant_at_once_get_their_own_results(vehicl
     for a, b in zip(alone, together, strict=True):
         for x, y in zip(a, b, strict=True):
             np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.skipif(c_compiler() is None, reason="no C compiler (cc/gcc) on this machine")
+def test_a_tree_of_c_files_compiles_together_with_its_header_folders_on_the_include_path(tmp_path, monkeypatch):
+    monkeypatch.setenv("AGVCTL_CACHE_DIR", str(tmp_path))
+    tree = {
+        "inc/twice.h": "double twice(double x);\n",
+        "src/twice.c": '#include "twice.h"\ndouble twice(double x) { return 2.0 * x; }\n',
+        "api.c": '#include "twice.h"\ndouble four_times(double x) { return twice(twice(x)); }\n',
+    }
+    lib = compiled_library(tree, "tree_example")
+    lib.four_times.restype = ctypes.c_double
+    lib.four_times.argtypes = [ctypes.c_double]
+    assert lib.four_times(1.5) == 6.0
+    with pytest.raises(ValueError, match="not a path inside the source tree"):
+        compiled_library({"../outside.c": "int x;\n"}, "tree_example")

@@ -18,7 +18,7 @@ import sys
 import tempfile
 import threading
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -148,14 +148,14 @@ _LIBRARIES_LOCK = threading.Lock()
 
 
 def compiled_library(
-    source: str | bytes,
+    source: str | bytes | Mapping[str, str | bytes],
     name: str,
     *,
     flags: Sequence[str] = _COMPILER_FLAGS,
     try_openmp: bool = False,
     key: str = "",
 ) -> ctypes.CDLL:
-    """One C file compiled into a shared object in :func:`cache_dir` (unless already there) and loaded.
+    """C source compiled into a shared object in :func:`cache_dir` (unless already there) and loaded.
 
     The library's name carries a hash of the source, the flags, ``key`` and the platform, so a changed source never
     loads a stale library; it is compiled into a temporary file beside its place and moved there atomically, so
@@ -164,8 +164,9 @@ def compiled_library(
 
     Parameters
     ----------
-    source : str or bytes
-        The C file's text (UTF-8).
+    source : str, bytes or mapping of str to str or bytes
+        The C file's text (UTF-8); or a source tree, ``{relative path: text}``, whose ``.c`` files are compiled
+        together, each folder that holds a ``.h`` file on the include path.
     name : str
         Stem of the C file and of the cached shared object (``<name>_<hash>.so``).
     flags : sequence of str
@@ -190,7 +191,11 @@ def compiled_library(
     cc = c_compiler()
     if not cc:
         raise OSError("no C compiler (cc/gcc) found")
-    data = source.encode("utf-8") if isinstance(source, str) else source
+    files = _source_tree(source, name)
+    if isinstance(source, Mapping):
+        data = b"".join(path.encode() + b"\0" + text + b"\0" for path, text in sorted(files.items()))
+    else:
+        data = files[f"{name}.c"]  # one file: the key it always had
     digest = hashlib.sha256(
         data + " ".join(flags).encode() + str(try_openmp).encode() + key.encode() + sys.platform.encode()
     ).hexdigest()[:20]
@@ -201,26 +206,46 @@ def compiled_library(
             return lib
         if not target.exists():
             target.parent.mkdir(parents=True, exist_ok=True)
-            with tempfile.TemporaryDirectory(prefix="agvctl-cg-") as tmp:
-                c_file = Path(tmp, f"{name}.c")
-                c_file.write_bytes(data)
-                fd, partial = tempfile.mkstemp(prefix=f".{name}_", suffix=".so", dir=target.parent)
-                os.close(fd)
-                try:
-                    cmd = [cc, *flags, "-o", partial, str(c_file), "-lm"]
-                    try:
-                        subprocess.run([*cmd, "-fopenmp"] if try_openmp else cmd, check=True, capture_output=True)
-                    except subprocess.CalledProcessError:
-                        if not try_openmp:
-                            raise
-                        subprocess.run(cmd, check=True, capture_output=True)
-                    os.replace(partial, target)  # atomic: a concurrent process sees the whole library or none
-                finally:
-                    if os.path.exists(partial):
-                        os.unlink(partial)
+            _build(cc, files, flags, try_openmp, target)
         lib = ctypes.CDLL(str(target))
         _LIBRARIES[target] = lib
         return lib
+
+
+def _build(cc: str, files: Mapping[str, bytes], flags: Sequence[str], try_openmp: bool, target: Path) -> None:
+    """Compile ``files``' C sources into ``target``: in a temporary folder, linked beside ``target``, moved in."""
+    with tempfile.TemporaryDirectory(prefix="agvctl-cg-") as tmp:
+        for path, text in files.items():
+            Path(tmp, path).parent.mkdir(parents=True, exist_ok=True)
+            Path(tmp, path).write_bytes(text)
+        includes = sorted({f"-I{Path(tmp, path).parent}" for path in files if path.endswith(".h")})
+        c_files = [str(Path(tmp, path)) for path in sorted(files) if path.endswith(".c")]
+        fd, partial = tempfile.mkstemp(prefix=f".{target.stem}_", suffix=".so", dir=target.parent)
+        os.close(fd)
+        try:
+            cmd = [cc, *flags, *includes, "-o", partial, *c_files, "-lm"]
+            try:
+                subprocess.run([*cmd, "-fopenmp"] if try_openmp else cmd, check=True, capture_output=True)
+            except subprocess.CalledProcessError:
+                if not try_openmp:
+                    raise
+                subprocess.run(cmd, check=True, capture_output=True)
+            os.replace(partial, target)  # atomic: a concurrent process sees the whole library or none
+        finally:
+            if os.path.exists(partial):
+                os.unlink(partial)
+
+
+def _source_tree(source: str | bytes | Mapping[str, str | bytes], name: str) -> dict[str, bytes]:
+    """``{relative path: bytes}`` of ``source`` (one text: ``<name>.c``); a path that leaves its folder is refused."""
+    tree = source if isinstance(source, Mapping) else {f"{name}.c": source}
+    files: dict[str, bytes] = {}
+    for path, text in tree.items():
+        parts = Path(path).parts
+        if not parts or Path(path).is_absolute() or ".." in parts:
+            raise ValueError(f"compiled_library: {path!r} is not a path inside the source tree")
+        files[Path(path).as_posix()] = text.encode("utf-8") if isinstance(text, str) else text
+    return files
 
 
 def _compile(functions: Sequence[ca.Function], name: str) -> list[NumericFunction]:

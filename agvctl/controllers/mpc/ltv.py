@@ -131,6 +131,12 @@ class LtvMpcController(MpcStepper):
         """The last solved setpoint sequence (N×2, left/right, m/s) — for plots and tests."""
         return self._fallback.sequence_m_s.copy()
 
+    @property
+    def osqp_settings(self) -> dict[str, Any]:
+        """OSQP's settings as the solver was set up with them: the config's tolerance and limits, then
+        :data:`OSQP_SETTINGS`, then the constructor's overrides (what a generated solver of the QP uses too)."""
+        return dict(self._osqp_settings)
+
     def reset(self, reference: Reference) -> None:
         """Start tracking ``reference`` as a new controller would: OSQP's iterates back to zero and its step size ρ
         (adapted during a run) back to its setting, so a run never depends on the runs before it."""
@@ -187,6 +193,7 @@ class LtvMpcController(MpcStepper):
             **OSQP_SETTINGS,
             **self._osqp_overrides,
         }
+        self._osqp_settings = settings
         self._rho = float(settings["rho"])
         try:
             self._solver.setup(qp.P, qp.q, qp.A, qp.lower, qp.upper, **settings)
