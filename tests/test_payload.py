@@ -12,6 +12,7 @@ import pytest
 from cli_runs import one_line, run
 
 from agvctl.errors import ConfigError
+from agvctl.evaluation.limits import LimitsSpec, judge_run
 from agvctl.evaluation.metrics import closed_loop_metrics
 from agvctl.evaluation.payload import PAYLOAD_LOG_COLUMNS, PayloadAccelerometer
 from agvctl.fuzz import generate_scenario, load_fuzz_config
@@ -141,3 +142,25 @@ def test_a_fuzz_file_places_the_accelerometer_of_every_run(tmp_path: Path):
         (tmp_path / name).write_text(content, encoding="utf-8")
     (experiment,) = [name for name in files if not name.endswith(".path.toml")]
     assert load_experiment(tmp_path / experiment).spec.payload == PayloadAccelerometer(x_m=0.3)
+
+
+def test_the_default_gate_judges_a_paths_body_limits_and_a_files_limit_replaces_one(tmp_path: Path):
+    path = tmp_path / "gentle.toml"
+    path.write_text(
+        'name = "gentle"\n[limits]\nlinear_accel_m_s2 = 0.3\nangular_speed_rad_s = 1.0\n'
+        '[[segments]]\ntype = "line"\nlength_m = 1.0\n',
+        encoding="utf-8",
+    )
+    exp = tmp_path / "gentle-exp.toml"
+    exp.write_text(f'name = "gentle"\ntrajectory = "{path.as_posix()}"\n', encoding="utf-8")
+    experiment = load_experiment(exp)
+    verdict = judge_run(run_experiment(experiment), experiment.spec.limits, experiment.controller_vehicle)
+    judged = {r.limit: r for r in verdict.limits}
+    for key, bound in (("peak_body_linear_accel_m_s2", 0.3), ("peak_body_angular_speed_rad_s", 1.0)):
+        assert judged[key].default and judged[key].bound == bound and "limits." in judged[key].reason
+    assert "peak_body_lateral_accel_m_s2" not in judged  # the path sets no lateral limit
+    verdict = judge_run(
+        run_experiment(experiment), LimitsSpec({"peak_body_linear_accel_m_s2": 0.9}), experiment.controller_vehicle
+    )
+    judged = {r.limit: r for r in verdict.limits}
+    assert not judged["peak_body_linear_accel_m_s2"].default and judged["peak_body_linear_accel_m_s2"].bound == 0.9

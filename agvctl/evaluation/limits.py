@@ -18,6 +18,8 @@ what every healthy run of a planned path keeps, derived from the vehicle and the
   :func:`~agvctl.evaluation.metrics.dock_offset_m`), and never faces against it (``path_heading_error_max_deg`` 90°);
 * a wheel at rest holds no current (``rest_current_max_a`` 0.1 A, :func:`~agvctl.evaluation.metrics.rest_current_a`);
 * every controller step succeeds (``solver_failures`` 0);
+* where the path limits the body's motion (:class:`~agvctl.planning.BodyLimits`), the payload feels no more than
+  each limit (``peak_body_<key>``, read as :mod:`~agvctl.evaluation.payload`'s accelerometer reads it);
 * no wheel accelerates over a sample faster than the motors' torque at the current limit can drive it in any
   manoeuvre (``peak_wheel_accel_m_s2``, :func:`~agvctl.feasibility.torque_accel_limit_m_s2`, eqs 47-49 and 58-59: 1.31
   m/s² for the IAU AGV, twice eq 5's a_lim, which assumes both wheels driving alike against friction). Only friction
@@ -45,13 +47,8 @@ import numpy as np
 from agvctl.config import check_fields, convert_value, did_you_mean, document_fields, join_key
 from agvctl.errors import ConfigError
 from agvctl.evaluation.default_bounds import (
-    CORRIDOR_BEYOND_START_M,
-    CORRIDOR_M,
-    DOCK_CORRIDOR_M,
-    FINAL_HEADING_DEG,
-    LATENESS_S,
-    REST_CURRENT_A,
     DefaultLimit,
+    default_bounds,
 )
 from agvctl.evaluation.formula import Comparison, Formula, Temporal
 from agvctl.evaluation.metrics import METRICS, RunRecord, closed_loop_metrics
@@ -68,9 +65,9 @@ from agvctl.evaluation.verdicts import (
     margin_scale,
     smallest_normalised_margin,
 )
-from agvctl.feasibility import torque_accel_limit_m_s2
 from agvctl.log import SimLog
 from agvctl.params import VehicleParams
+from agvctl.planning.spec import BodyLimits
 
 __all__ = [
     "LIMITS",
@@ -204,7 +201,7 @@ def _times(key: str, log: SimLog, bound: float, sample_period_s: float) -> tuple
     return (None if worst is None else float(t[worst])), (None if first is None else float(t[first]))
 
 
-def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimit]:
+def default_limits(vehicle: VehicleParams, log: SimLog, body: BodyLimits | None = None) -> dict[str, DefaultLimit]:
     """The default gate of a run (see the module notes).
 
     Parameters
@@ -213,42 +210,16 @@ def default_limits(vehicle: VehicleParams, log: SimLog) -> dict[str, DefaultLimi
         The controller's model: its motors' torque sets the acceleration bound.
     log : SimLog
         The run's log: its start's offset from the path sets the corridor.
+    body : BodyLimits or None
+        The path's limits on the body's motion: each one set is judged on what the payload feels
+        (``peak_body_<key>``, :mod:`~agvctl.evaluation.payload`).
 
     Returns
     -------
     dict of str to DefaultLimit
         The bound and reason of each default limit, in the order of :data:`LIMITS`.
     """
-    start_offset_m = abs(float(log["cross_track_error_m"][0])) if len(log) else 0.0
-    if start_offset_m + CORRIDOR_BEYOND_START_M > CORRIDOR_M:
-        corridor = DefaultLimit(
-            start_offset_m + CORRIDOR_BEYOND_START_M, f"the start's offset {start_offset_m:.3g} m from the path + 5 cm"
-        )
-    else:
-        corridor = DefaultLimit(CORRIDOR_M, "stays within 10 cm of the path")
-    torque = torque_accel_limit_m_s2(vehicle)
-    defaults = {
-        "peak_wheel_accel_m_s2": DefaultLimit(
-            torque, "what the motors' torque at the current limit gives a wheel, eqs 58-59"
-        ),
-        "wheel_speed_error_max_m_s": DefaultLimit(
-            torque * vehicle.control.sample_period_s,
-            "where its loop is not clamped, a wheel reaches its setpoint within a sample",
-        ),
-        "final_position_error_m": DefaultLimit(0.01, "ends within 1 cm of the path's end"),
-        "final_heading_error_deg": DefaultLimit(FINAL_HEADING_DEG, "ends facing the path's final heading"),
-        "cross_track_error_max_m": corridor,
-        "dock_cross_track_error_max_m": DefaultLimit(
-            DOCK_CORRIDOR_M, "once there, stays within 3 cm of the path's final line"
-        ),
-        "lateness_s": DefaultLimit(LATENESS_S, "arrives within 2 cm of the path's end by 0.5 s after it ends"),
-        "rest_current_max_a": DefaultLimit(
-            REST_CURRENT_A, "a wheel at rest holds no current: stiction holds it for free"
-        ),
-        "path_heading_error_max_deg": DefaultLimit(90.0, "never faces against the path"),
-        "solver_failures": DefaultLimit(0, "every controller step succeeds"),
-        "non_finite_commands": DefaultLimit(0, "every pose command is a finite number"),
-    }
+    defaults = default_bounds(vehicle, log, body)
     return {key: defaults[key] for key in LIMITS if key in defaults}
 
 
@@ -322,7 +293,7 @@ def _limit_result(
 
 
 def evaluate_limits(
-    limits: LimitsSpec, log: SimLog, vehicle: VehicleParams, sample_period_s: float
+    limits: LimitsSpec, log: SimLog, vehicle: VehicleParams, sample_period_s: float, body: BodyLimits | None = None
 ) -> list[LimitResult]:
     """Check every limit of the default gate and every limit ``limits`` sets (which replaces the default of its key).
 
@@ -342,13 +313,15 @@ def evaluate_limits(
         The controller's vehicle, from which the defaults are derived (:func:`default_limits`).
     sample_period_s : float
         T_s, for the per-sample signals, s.
+    body : BodyLimits or None
+        The path's limits on the body's motion, judged by default (:func:`default_limits`).
 
     Returns
     -------
     list of LimitResult
         In the order of :data:`LIMITS`; ``default`` marks a bound of the default gate.
     """
-    defaults = default_limits(vehicle, log)
+    defaults = default_limits(vehicle, log, body)
     bounds: dict[str, tuple[float, DefaultLimit | None]] = {k: (d.bound, d) for k, d in defaults.items()}
     bounds.update({key: (bound, None) for key, bound in limits.items()})
     return [_limit_result(key, *bounds[key], log, sample_period_s) for key in LIMITS if key in bounds]
@@ -443,8 +416,9 @@ def judge_run(
         The metrics and the verdicts.
     """
     metrics = closed_loop_metrics(result)
-    verdicts = evaluate_limits(limits, result.log, vehicle, result.sample_period_s)
+    reference = getattr(result, "reference", None)
+    body = None if reference is None else reference.limits.body
+    verdicts = evaluate_limits(limits, result.log, vehicle, result.sample_period_s, body)
     if requirements:
-        reference = getattr(result, "reference", None)
         verdicts += evaluate_requirements(requirements, result.log, result.sample_period_s, reference)
     return RunVerdict(metrics, tuple(verdicts))
