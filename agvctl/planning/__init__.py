@@ -25,6 +25,7 @@ from agvctl.planning.planner import plan, plan_file, plan_segments, plan_waypoin
 from agvctl.planning.profile import JerkProfile, rest_to_rest
 from agvctl.planning.reference import CSV_COLUMNS, Motion, Reference, ReferenceSamples
 from agvctl.planning.spec import (
+    BODY_PLAN_SHARE,
     DRAWN_PATH_TOLERANCE_M,
     ArcSegment,
     BodyLimits,
@@ -41,6 +42,7 @@ from agvctl.planning.spec import (
 )
 
 __all__ = [
+    "BODY_PLAN_SHARE",
     "CSV_COLUMNS",
     "DRAWN_PATH_TOLERANCE_M",
     "ArcSegment",

@@ -59,8 +59,9 @@ def limits_report(reference: Reference, limits: PathLimits, vehicle: VehiclePara
 
 
 def _body_rows(reference: Reference, s: ReferenceSamples) -> list[str]:
-    """A line per body limit the path sets: its value and whether the plan, sampled at ``s``, reaches it."""
-    body = reference.limits.body
+    """A line per body limit the path sets: its value, the share of it the plan uses and whether the plan, sampled
+    at ``s``, reaches that share."""
+    body, share = reference.limits.body, reference.limits.body_plan_share
     if body == BodyLimits():
         return []
     u, w = s.speed_m_s, s.yaw_rate_rad_s
@@ -77,6 +78,6 @@ def _body_rows(reference: Reference, s: ReferenceSamples) -> list[str]:
     for what, unit, value, samples in rows:
         if value is not None:
             peak = float(np.max(np.abs(samples))) if len(samples) else 0.0
-            binds = "binds" if peak >= 0.99 * value else f"peak {peak:.3g}"
-            lines.append(f"  path limit  {what:12s} {value:8.4g} {unit:5s} (file; {binds})")
+            binds = "binds" if peak >= 0.99 * share * value else f"peak {peak:.3g}"
+            lines.append(f"  path limit  {what:12s} {value:8.4g} {unit:5s} (file; plan at {share:.0%}: {binds})")
     return lines

@@ -114,6 +114,7 @@ def resolve_limits(spec: PathSpec, vehicle: VehicleParams, *, force: bool = Fals
         wheel_accel_m_s2=lim.wheel_accel_m_s2 if lim.wheel_accel_m_s2 is not None else default.wheel_accel_m_s2,
         wheel_jerk_m_s3=jerk,
         body=BodyLimits(**{key: getattr(lim, key) for key in BODY_LIMIT_KEYS}),
+        body_plan_share=lim.body_plan_share,
     )
 
 

@@ -290,7 +290,7 @@ def _spin(
     distance = sum(p[1] for p in parts)
     cap = parts[0][3]
     v = limits.wheel_speed_m_s if cap is None else min(cap, limits.wheel_speed_m_s)
-    body = limits.body  # a turn in place moves the body only about its axle's midpoint: ω and dω/dt
+    body = limits.planned_body  # a turn in place moves the body only about its axle's midpoint: ω and dω/dt
     w_max, alpha_max = body.angular_speed_rad_s, body.angular_accel_rad_s2
     profile = rest_to_rest(
         distance,

@@ -92,6 +92,11 @@ class StartPose:
         check_fields(self)
 
 
+BODY_PLAN_SHARE = 0.7
+"""The default of ``limits.body_plan_share``: the plan uses 70 % of each limit on the body's motion and leaves the
+rest to the feedback, whose corrections (a start off the path, a wheel breaking away from stiction, a plant unlike
+the model) add to the plan's accelerations as the payload feels them (design record 0041)."""
+
 MIN_LIMIT = 1e-3
 """The smallest wheel limit or speed cap a path file may set, 1 mm/s (mm/s², mm/s³): slower still, a metre takes
 over a quarter of an hour, and the motion-profile solver's times grow past what it resolves."""
@@ -150,6 +155,13 @@ class PathLimits(BodyLimits):
     wheel_jerk_m_s3: float | None = number(
         ge=MIN_LIMIT, default=None, doc="The largest ``|jerk|`` of either wheel, m/s³."
     )
+    body_plan_share: float = number(
+        gt=0.0,
+        le=1.0,
+        default=BODY_PLAN_SHARE,
+        doc="The share of each limit on the body's motion that the plan uses; the rest is the feedback's, and the "
+        "gate judges the whole limit.",
+    )
     drawn_path_tolerance_m: float = number(
         ge=MIN_DRAWN_PATH_TOLERANCE_M,
         default=DRAWN_PATH_TOLERANCE_M,
@@ -181,10 +193,23 @@ class WheelLimits:
     """The largest ``|jerk|`` of either wheel, m/s³."""
     body: BodyLimits = dataclasses.field(default_factory=BodyLimits)
     """The limits on the body's motion (none by default)."""
+    body_plan_share: float = 1.0
+    """The share of each of ``body`` that the plan uses (:attr:`planned_body`), in (0, 1]."""
+
+    @property
+    def planned_body(self) -> BodyLimits:
+        """The limits on the body's motion that the plan keeps: each of ``body`` times ``body_plan_share``."""
+        if self.body_plan_share == 1.0:
+            return self.body
+        share = self.body_plan_share
+        return BodyLimits(**{k: None if v is None else v * share for k, v in dataclasses.asdict(self.body).items()})
 
     def __post_init__(self) -> None:
         if not isinstance(self.body, BodyLimits):
             raise ConfigError("WheelLimits", "body", f"expected BodyLimits (got {self.body!r:.60})")
+        share = self.body_plan_share
+        if isinstance(share, bool) or not isinstance(share, (int, float)) or not 0.0 < share <= 1.0:
+            raise ConfigError("WheelLimits", "body_plan_share", f"must be in (0, 1] (got {share!r})")
         for f in dataclasses.fields(self)[:3]:
             value = getattr(self, f.name)
             if (

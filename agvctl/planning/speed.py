@@ -104,7 +104,7 @@ def section_limits(
         v = float(brentq(spare_jerk, 0.0, v, xtol=1e-12 * max(v, 1e-12)))
     a = accel(v)
     j = (j_lim - 3.0 * v * a * c1 - v**3 * c2) / f
-    return _within_body(SectionLimits(length_m, v, a, j), k0, k1, limits.body)
+    return _within_body(SectionLimits(length_m, v, a, j), k0, k1, limits.planned_body)
 
 
 def _within_body(lim: SectionLimits, k0: float, k1: float, body: BodyLimits) -> SectionLimits:

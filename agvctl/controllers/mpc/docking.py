@@ -109,6 +109,7 @@ class Docking:
         self._covariance = np.zeros((3, 3))
         self._accel_m_s2 = self.config.accel_m_s2
         self._body = BodyLimits()
+        self._body_plan_share = 1.0
 
     def observe(self, covariance: NDArray[np.float64]) -> None:
         """The pose estimate's 3×3 covariance (m², m rad, rad²) at this sample; zero (the default) for a known pose."""
@@ -124,6 +125,7 @@ class Docking:
         self._covariance = np.zeros((3, 3))
         self._accel_m_s2 = min(self.config.accel_m_s2, reference.limits.wheel_accel_m_s2)
         self._body = reference.limits.body  # the manoeuvre keeps the path's limits on the body's motion too
+        self._body_plan_share = reference.limits.body_plan_share
         path_motions = [m for m in reference.motions if m.kind == "path"]
         self._left = self.config.attempts if path_motions else 0
         if not path_motions:
@@ -191,7 +193,10 @@ class Docking:
             name="docking",
             start=StartPose(x_m=float(x), y_m=float(y), theta_deg=math.degrees(float(theta))),
             limits=PathLimits(
-                wheel_speed_m_s=c.speed_m_s, wheel_accel_m_s2=self._accel_m_s2, **dataclasses.asdict(self._body)
+                wheel_speed_m_s=c.speed_m_s,
+                wheel_accel_m_s2=self._accel_m_s2,
+                body_plan_share=self._body_plan_share,
+                **dataclasses.asdict(self._body),
             ),
             join="stop",
         )
