@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.base import PoseCommand, SolveStatus
+from agvctl.controllers.mpc.body_bounds import BodyBounds
 from agvctl.controllers.mpc.config import MpcConfig, resolved_config, resolved_limits
 from agvctl.controllers.mpc.docking import Docking, EndOfPath
 from agvctl.controllers.mpc.fallback import SetpointFallback
@@ -65,7 +66,7 @@ class MpcStepper:
     * the solver (a subclass's :meth:`_solve`) gives the first setpoints of the horizon, or the fallback
       (:class:`~agvctl.controllers.mpc.fallback.SetpointFallback`: the shifted plan, then the feed-forward) does;
     * the command shaper (:class:`~agvctl.controllers.mpc.shaping.CommandShaper`) applies the rules of motion,
-      the window and the hard limits;
+      the window, the bounds on the body's motion and the hard limits;
     * at the end of the path, :class:`~agvctl.controllers.mpc.docking.EndOfPath` decides whether to dock, and
       :class:`~agvctl.controllers.mpc.rest.Rest` whether to hold the wheels instead of solving: done, the error
       within the pose estimate's uncertainty (:meth:`observe_pose_covariance`).
@@ -105,7 +106,9 @@ class MpcStepper:
         self._window = ReachWindow(self._reach, self._lead_factor_s, self.max_wheel_speed_m_s)
         self._governor = ReferenceGovernor(c, self.separation_m)
         rules = (NoBackingAtStart(c.horizon), TowardTurningPoint(self.separation_m))
-        self._shaper = CommandShaper(rules, self.max_wheel_speed_m_s, self.max_wheel_accel_m_s2 * self.sample_period_s)
+        self._body = BodyBounds(self.sample_period_s, self.separation_m, c.body_command_share, c.body_breakaway_share)
+        a_step = self.max_wheel_accel_m_s2 * self.sample_period_s
+        self._shaper = CommandShaper(rules, self.max_wheel_speed_m_s, a_step, self._body)
         self._end = EndOfPath(Docking(vehicle, c.docking), self.sample_period_s)
         self._rest = Rest(c.rest)
         self._fallback = SetpointFallback(c.horizon)
@@ -146,11 +149,14 @@ class MpcStepper:
         """Start tracking ``reference`` (precomputes its horizon data; clears warm starts and fallbacks). Unless the
         settings fix a_lim, the setpoints change no faster than the reference's own acceleration limit plus what
         the planner leaves to the feedback (:func:`~agvctl.feasibility.feedback_accel_m_s2`), at most eq 5's a_lim:
-        a path planned gently for its load is tracked gently, start-up corrections, turns and stops included."""
+        a path planned gently for its load is tracked gently, start-up corrections, turns and stops included. The
+        path's limits on the body's motion bound every command
+        (:class:`~agvctl.controllers.mpc.body_bounds.BodyBounds`)."""
         if self.config.max_wheel_accel_m_s2 is None:
             planned = reference.limits.wheel_accel_m_s2 + self._feedback_accel_m_s2
             self.max_wheel_accel_m_s2 = min(self._vehicle_accel_m_s2, planned)
             self._shaper.max_step_m_s = self.max_wheel_accel_m_s2 * self.sample_period_s
+        self._body.reset(reference.limits.body)
         grid = self._track(reference)
         self._shaper.reset(grid)
         self._end.reset(reference)

@@ -123,6 +123,16 @@ class MpcConfig:
     prediction model's ``lead_factor_s``, :mod:`~agvctl.controllers.mpc.prediction`). Bounded, so the setpoints
     never run away from a saturated wheel; above 1, so that the PI loop's proportional action can still push a wheel
     that is heavier or stiffer than the controller's model (``docs/decisions/0002-saturation-aware-cascade.md``)."""
+    body_command_share: float = number(gt=0, le=1, default=0.8)
+    """The share of each of the path's limits on the body's acceleration (its ``[limits]`` ``linear_accel_m_s2``,
+    ``angular_accel_rad_s2``, ``lateral_accel_m_s2``) that the commands may use: the mean of the setpoints changes by
+    at most that share of the linear limit per sample, their difference over b by that share of the angular one, and
+    a command's U·ω stays within that share of the lateral one (:mod:`~agvctl.controllers.mpc.body_bounds`). Above
+    the plan's share (``limits.body_plan_share``), so that the feedback has room; below 1, so that what the wheels
+    add (a break-away, a loop's overshoot) stays within the limit the gate judges."""
+    body_breakaway_share: float = number(gt=0, le=1, default=0.5)
+    """The share of the body's per-sample bounds that a command may use while a wheel rests: a wheel breaking away
+    from stiction jumps to its setpoint within a sample, so a smaller first step keeps the jump within the limit."""
     docking: DockingConfig = DockingConfig()
     """When and how to dock, stopped beside the end of the path (:mod:`~agvctl.controllers.mpc.docking`): the
     ``[controller.docking]`` table."""

@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.config import document_fields
+from agvctl.controllers.mpc.body_bounds import BodyBounds
 from agvctl.controllers.mpc.fallback import clamp, limit_command
 from agvctl.controllers.mpc.horizon import HorizonReference, turning_in_place
 from agvctl.feasibility import WheelReach
@@ -208,9 +209,9 @@ class TowardTurningPoint:
 
 
 class CommandShaper:
-    """The previous command and everything a command passes after the solver: the rules, the reachable window and
-    the hard limits ``|s|`` ≤ v_max, ``|s − s_prev|`` ≤ a_lim·T_s
-    (:func:`~agvctl.controllers.mpc.fallback.limit_command`).
+    """The previous command and everything a command passes after the solver: the rules, the reachable window, the
+    bounds on the body's motion (:class:`~agvctl.controllers.mpc.body_bounds.BodyBounds`) and the hard limits
+    ``|s|`` ≤ v_max, ``|s − s_prev|`` ≤ a_lim·T_s (:func:`~agvctl.controllers.mpc.fallback.limit_command`).
 
     Parameters
     ----------
@@ -220,12 +221,21 @@ class CommandShaper:
         v_max, the largest setpoint either way, m/s.
     max_step_m_s : float
         a_lim·T_s, the largest change of a setpoint from the previous command, m/s.
+    body : BodyBounds or None
+        The bounds on the body's motion (None: none).
     """
 
-    def __init__(self, rules: tuple[CommandRule, ...], max_wheel_speed_m_s: float, max_step_m_s: float) -> None:
+    def __init__(
+        self,
+        rules: tuple[CommandRule, ...],
+        max_wheel_speed_m_s: float,
+        max_step_m_s: float,
+        body: BodyBounds | None = None,
+    ) -> None:
         self.rules = rules
         self.max_wheel_speed_m_s = max_wheel_speed_m_s
         self.max_step_m_s = max_step_m_s
+        self.body = body
         self._previous: FloatArray | None = None
 
     def reset(self, grid: HorizonReference) -> None:
@@ -259,6 +269,10 @@ class CommandShaper:
             right = clamp(right, lo_r, hi_r)
         u = step.previous_m_s
         u_l, u_r = u.tolist()
+        body = self.body
+        if body is not None and body.active:
+            v_l, v_r = step.wheel_speed_m_s.tolist()
+            left, right = body.command(left, right, (u_l, u_r), (v_l, v_r))
         left = limit_command(left, u_l, self.max_wheel_speed_m_s, self.max_step_m_s)
         right = limit_command(right, u_r, self.max_wheel_speed_m_s, self.max_step_m_s)
         u[0], u[1] = left, right

@@ -1,0 +1,120 @@
+"""The MPC keeps a path's limits on the body's motion: its commands change the body's speed and yaw rate by at most
+a share of the limits per sample (a smaller share while a wheel rests on its stiction), their centripetal
+acceleration stays within a share of the lateral limit, the QP bounds its setpoints alike, and a path without such
+limits is tracked exactly as before."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from agvctl.controllers.mpc.body_bounds import BREAKAWAY_SPEED_M_S, BodyBounds
+from agvctl.controllers.mpc.config import MpcConfig
+from agvctl.controllers.mpc.ltv import LtvMpcController
+from agvctl.params import VehicleParams
+from agvctl.planning import BodyLimits, PathLimits, PathSpec, plan
+from agvctl.planning.spec import ArcSegment, LineSegment
+
+T, B = 0.04, 0.54
+SHARE, BREAKAWAY = 0.8, 0.5
+GENTLE = BodyLimits(linear_accel_m_s2=0.3, angular_accel_rad_s2=1.0, lateral_accel_m_s2=0.3)
+MOVING = (0.3, 0.3)
+
+
+def bounds(body: BodyLimits = GENTLE) -> BodyBounds:
+    b = BodyBounds(T, B, SHARE, BREAKAWAY)
+    b.reset(body)
+    return b
+
+
+def mean_and_difference(left: float, right: float) -> tuple[float, float]:
+    return 0.5 * (left + right), right - left
+
+
+def test_without_body_limits_every_command_passes_unchanged():
+    b = bounds(BodyLimits())
+    assert not b.active
+    assert b.command(1.0, -1.0, (0.0, 0.0), (0.0, 0.0)) == (1.0, -1.0)
+
+
+def test_a_command_changes_the_bodys_speed_and_yaw_rate_by_at_most_the_share_per_sample():
+    b = bounds()
+    left, right = b.command(0.9, 0.1, (0.2, 0.2), MOVING)
+    mean, difference = mean_and_difference(left, right)
+    assert mean - 0.2 == pytest.approx(SHARE * 0.3 * T)  # the linear limit binds the speed-up
+    assert abs(difference) / B == pytest.approx(SHARE * 1.0 * T)  # the angular one the turn
+    assert b.command(0.205, 0.21, (0.2, 0.2), MOVING) == (0.205, 0.21)  # within both: unchanged
+
+
+def test_a_step_from_a_resting_wheel_uses_the_break_away_share():
+    b = bounds()
+    resting = (0.0, BREAKAWAY_SPEED_M_S / 2)
+    assert b.first_steps(*resting) == pytest.approx((BREAKAWAY * SHARE * 0.3 * T, BREAKAWAY * SHARE * 1.0 * T * B))
+    assert b.first_steps(*MOVING) == pytest.approx((SHARE * 0.3 * T, SHARE * 1.0 * T * B))
+    left, right = b.command(0.5, 0.5, (0.0, 0.0), resting)
+    assert mean_and_difference(left, right)[0] == pytest.approx(BREAKAWAY * SHARE * 0.3 * T)
+
+
+def test_a_commands_centripetal_acceleration_stays_within_the_share_of_the_lateral_limit():
+    b = bounds(BodyLimits(lateral_accel_m_s2=0.3))
+    left, right = b.command(0.3, 0.9, (0.3, 0.9), MOVING)  # U = 0.6 m/s, ω = 1.1 rad/s: 0.67 m/s² asked
+    mean, difference = mean_and_difference(left, right)
+    assert mean == pytest.approx(0.6)
+    assert abs(mean * difference / B) == pytest.approx(SHARE * 0.3)
+
+
+def test_random_requests_keep_every_bound():
+    rng = np.random.default_rng(20261206)
+    b = bounds()
+    for _ in range(2000):
+        previous = tuple(rng.uniform(-0.5, 0.5, 2))
+        speeds = tuple(rng.choice([0.0, 0.3]) * rng.uniform(-1, 1, 2))
+        left, right = b.command(*rng.uniform(-1, 1, 2), previous, speeds)
+        step_mean, step_difference = b.first_steps(*speeds)
+        mean, difference = mean_and_difference(left, right)
+        mean0, difference0 = mean_and_difference(*previous)
+        assert abs(mean - mean0) <= step_mean * (1 + 1e-12)
+        assert abs(difference - difference0) <= step_difference * (1 + 1e-12) + 1e-15
+        if abs(difference0) * abs(mean) <= b.lateral_m2_s2:  # from within the cap, a command stays within it
+            assert abs(mean * difference) <= b.lateral_m2_s2 * (1 + 1e-12)
+
+
+def gentle_bend(vehicle: VehicleParams, body: BodyLimits):
+    segments = (LineSegment(length_m=1.0), ArcSegment(radius_m=0.6, angle_deg=90.0), LineSegment(length_m=0.5))
+    limits = PathLimits(**{k: getattr(body, k) for k in ("linear_accel_m_s2", "angular_accel_rad_s2")})
+    return plan(PathSpec(segments=segments, name="bend", limits=limits), vehicle)
+
+
+def test_the_qp_has_the_body_rate_block_only_where_the_path_limits_the_body(vehicle: VehicleParams):
+    controller = LtvMpcController(vehicle, MpcConfig())
+    assert "body rate" not in controller._qp.rows
+    controller.reset(gentle_bend(vehicle, GENTLE))
+    assert (
+        controller._qp.rows["body rate"].stop - controller._qp.rows["body rate"].start == 2 * controller.config.horizon
+    )
+    controller.reset(gentle_bend(vehicle, BodyLimits()))
+    assert "body rate" not in controller._qp.rows
+
+
+def test_from_an_offset_start_the_commands_keep_the_body_bounds_the_qp_solves(vehicle: VehicleParams):
+    reference = gentle_bend(vehicle, GENTLE)
+    controller = LtvMpcController(vehicle, MpcConfig())
+    controller.reset(reference)
+    b = controller._body
+    pose, speeds, previous = np.array([0.0, -0.04, math.radians(-4.0)]), np.zeros(2), (0.0, 0.0)
+    for i in range(40):  # open loop: the wheels follow each command within a sample
+        cmd = controller.update(i * T, pose, speeds)
+        assert cmd.status == "solved"
+        step_mean, step_difference = b.first_steps(*speeds)
+        mean, difference = mean_and_difference(cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s)
+        mean0, difference0 = mean_and_difference(*previous)
+        assert abs(mean - mean0) <= step_mean * (1 + 1e-9)
+        assert abs(difference - difference0) <= step_difference * (1 + 1e-9)
+        previous, speeds = (
+            (cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s),
+            np.array([cmd.wheel_speed_left_m_s, cmd.wheel_speed_right_m_s]),
+        )
+        u, w = mean, difference / B
+        pose = pose + T * np.array([u * math.cos(pose[2]), u * math.sin(pose[2]), w])
