@@ -6,6 +6,7 @@ limits is tracked exactly as before."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,14 +14,17 @@ import pytest
 from agvctl.controllers.mpc.body_bounds import BREAKAWAY_SPEED_M_S, BodyBounds
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.ltv import LtvMpcController
+from agvctl.evaluation.limits import judge_run
 from agvctl.params import VehicleParams
 from agvctl.planning import BodyLimits, PathLimits, PathSpec, plan
 from agvctl.planning.spec import ArcSegment, LineSegment
+from agvctl.scenario.experiment import load_experiment, run_experiment
 
 T, B = 0.04, 0.54
 SHARE, BREAKAWAY = 0.8, 0.5
 GENTLE = BodyLimits(linear_accel_m_s2=0.3, angular_accel_rad_s2=1.0, lateral_accel_m_s2=0.3)
 MOVING = (0.3, 0.3)
+PAYLOAD = Path(__file__).resolve().parent.parent / "experiments" / "payload"
 
 
 def bounds(body: BodyLimits = GENTLE) -> BodyBounds:
@@ -118,3 +122,12 @@ def test_from_an_offset_start_the_commands_keep_the_body_bounds_the_qp_solves(ve
         )
         u, w = mean, difference / B
         pose = pose + T * np.array([u * math.cos(pose[2]), u * math.sin(pose[2]), w])
+
+
+@pytest.mark.parametrize("name", ["bend_nominal", "bend_heavy", "s_curve_nominal", "s_curve_heavy"])
+def test_a_gentle_path_from_an_offset_start_keeps_its_payloads_limits_and_passes_the_default_gate(name):
+    experiment = load_experiment(PAYLOAD / f"{name}.toml")
+    verdict = judge_run(run_experiment(experiment), experiment.spec.limits, experiment.controller_vehicle)
+    judged = {r.limit for r in verdict.limits if r.default}
+    assert {f"peak_body_{key}" for key in ("linear_accel_m_s2", "lateral_accel_m_s2", "angular_accel_rad_s2")} <= judged
+    assert verdict.passed, [r.limit for r in verdict.limits if not r.passed]
