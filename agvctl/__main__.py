@@ -9,7 +9,6 @@ import contextlib
 import os
 import signal
 import sys
-import threading
 import time
 
 from agvctl.errors import caused_by_interrupt, note_interrupt
@@ -27,14 +26,9 @@ def _on_sigint(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
-def _send_interrupt(main_thread_id: int | None, delay_s: float) -> None:
-    """SIGINT to the main thread after ``delay_s``: sent to the process, the kernel may hand it to this thread, and
-    the main thread would sleep or wait on without noticing it."""
+def _send_interrupt(delay_s: float) -> None:
     time.sleep(delay_s)
-    if main_thread_id is not None and hasattr(signal, "pthread_kill"):
-        signal.pthread_kill(main_thread_id, signal.SIGINT)
-    else:  # no POSIX threads: the process's signal reaches the main thread's handler
-        os.kill(os.getpid(), signal.SIGINT)
+    os.kill(os.getpid(), signal.SIGINT)
 
 
 def _redeliver(args: sys.UnraisableHookArgs) -> None:
@@ -42,7 +36,7 @@ def _redeliver(args: sys.UnraisableHookArgs) -> None:
     command goes on): deliver it again, so that it interrupts the command where that can be handled. Any other
     unraisable exception is reported as Python does."""
     if caused_by_interrupt(args.exc_value):  # sent again from another thread, once this hook has returned
-        _thread.start_new_thread(_send_interrupt, (threading.main_thread().ident, 0.01))
+        _thread.start_new_thread(_send_interrupt, (0.01,))
         return
     sys.__unraisablehook__(args)
 

@@ -111,8 +111,9 @@ def test_an_interrupt_at_any_moment_exits_130_with_no_partial_output(inputs: Pat
 def test_an_interrupt_lost_in_a_finaliser_is_delivered_again() -> None:
     """Python only prints a KeyboardInterrupt raised in a weak-reference callback and goes on; the command's hook
     delivers it again, so the command is interrupted rather than finishing with a traceback on stderr."""
-    code = (
-        "import sys, time, weakref\n"
+    code = (  # Python's own SIGINT handler, which a child of a background job (SIGINT ignored) would lack
+        "import signal, sys, time, weakref\n"
+        "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
         "import agvctl.__main__ as entry\n"
         "sys.unraisablehook = entry._redeliver\n"
         "class Held: pass\n"
