@@ -51,8 +51,22 @@ their wheels at rest (0 A)."""
 
 def default_bounds(vehicle: VehicleParams, log: SimLog, body: BodyLimits | None = None) -> dict[str, DefaultLimit]:
     """The default gate's bounds of a run, each with its reason (the module notes of
-    :mod:`~agvctl.evaluation.limits`): derived from the controller's vehicle, the run's start and the path's limits
-    on the body's motion, each of which bounds what the payload feels (``peak_body_<key>``)."""
+    :mod:`~agvctl.evaluation.limits`).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The controller's model: its motors' torque sets the acceleration bound.
+    log : SimLog
+        The run's log: its start's offset from the path sets the corridor.
+    body : BodyLimits or None
+        The path's limits on the body's motion: each one set bounds what the payload feels (``peak_body_<key>``).
+
+    Returns
+    -------
+    dict of str to DefaultLimit
+        The bound and reason of each default limit, by limit name.
+    """
     start_offset_m = abs(float(log["cross_track_error_m"][0])) if len(log) else 0.0
     if start_offset_m + CORRIDOR_BEYOND_START_M > CORRIDOR_M:
         corridor = DefaultLimit(
