@@ -4,14 +4,17 @@ what the Python loops command, and run in the closed loop."""
 from __future__ import annotations
 
 import re
+import shutil
 import subprocess
 from pathlib import Path
 
 import numpy as np
+import osqp
 import pytest
 
 from agvctl.cli import main
 from agvctl.codegen import back_to_back, generate_code
+from agvctl.controllers.mpc.osqp_fixes import OSQP_VERSION
 from agvctl.controllers.pi import Braking, PIWheelController, WheelLoopOptions, default_pi_gains
 from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS, CompiledPIWheelController
 from agvctl.errors import AgvctlError
@@ -29,6 +32,7 @@ def figure8_code():
 
 def _write(files: dict[str, str], folder: Path) -> None:
     for name, text in files.items():
+        (folder / name).parent.mkdir(parents=True, exist_ok=True)
         (folder / name).write_text(text, encoding="utf-8")
 
 
@@ -171,3 +175,33 @@ def test_codegen_refuses_an_experiment_whose_wheel_loops_are_the_users(tmp_path,
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "controller.wheel_loops" in err
     assert not (tmp_path / "c").exists()
+
+
+@needs_cc
+@pytest.mark.skipif(shutil.which("make") is None or shutil.which("nm") is None, reason="no make or nm")
+@pytest.mark.skipif(osqp.__version__ != OSQP_VERSION, reason=f"the QP's C is generated with osqp {OSQP_VERSION}")
+def test_the_mpcs_qp_solver_is_in_the_folder_and_builds_into_a_library_with_no_heap_and_no_io(figure8_code, tmp_path):
+    qp = figure8_code.qp
+    assert qp.code is not None and "mpc_qp/agv_mpc_qp.h" in figure8_code.files
+    _write(figure8_code.files, tmp_path)
+    done = subprocess.run(["make", "-C", str(tmp_path)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "-Werror" in figure8_code.files["Makefile"] and (tmp_path / "libagv_mpc_qp.a").is_file()
+    listed = subprocess.run(["nm", str(tmp_path / "libagv_mpc_qp.a")], capture_output=True, text=True, check=True)
+    undefined = {line.split()[-1] for line in listed.stdout.splitlines() if re.match(r"^\s+U\s", line)}
+    defined = {line.split()[-1] for line in listed.stdout.splitlines() if re.match(r"^[0-9a-f]+\s+[A-Za-z]\s", line)}
+    assert undefined - defined <= {"memset", "memcpy", "sqrt"}, undefined - defined  # no heap, no file I/O
+    # the workspace holds P, A, their factorisation and the iterates: tens of kB for n = 150, m = 248
+    assert qp.static_bytes is not None and 10_000 < qp.static_bytes < 1_000_000
+    assert f"{qp.static_bytes} bytes of static storage" in figure8_code.files["README.md"]
+
+
+def test_a_pose_controller_without_a_qp_gets_the_loops_only_and_the_readme_says_why(tmp_path):
+    experiment = Path("experiments/line.toml").read_text(encoding="utf-8")
+    experiment = experiment.replace('"../trajectories/', f'"{Path("trajectories").absolute()}/')
+    experiment = experiment.replace('pose = "mpc"\nhorizon = 20\n', 'pose = "ramsete"\n')
+    (tmp_path / "ramsete.toml").write_text(experiment, encoding="utf-8")
+    code = generate_code(tmp_path / "ramsete.toml", measure_memory=False)
+    assert code.experiment.spec.controller.pose == "ramsete"
+    assert not any(name.startswith("mpc_qp/") for name in code.files) and "mpc_qp" not in code.files["Makefile"]
+    assert code.qp.code is None and "solves no QP" in code.files["README.md"]

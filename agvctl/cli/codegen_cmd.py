@@ -1,4 +1,4 @@
-"""``agvctl codegen``: an experiment's PI wheel loops as a folder of dependency-free C99."""
+"""``agvctl codegen``: an experiment's PI wheel loops and its MPC's QP solver as a folder of dependency-free C99."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from agvctl.cli.options import add_vehicle_options
 from agvctl.cli.outputs import check_outputs, files_in, writing
 from agvctl.cli.staging import check_replaceable, staged_outputs
 from agvctl.codegen import generate_code
-from agvctl.codegen.generate import GENERATED_FILES
+from agvctl.codegen.qp import QP_FOLDER
 
 __all__ = ["register", "run"]
 
@@ -22,8 +22,9 @@ def register(sub: Any) -> None:
         help=command_summary("codegen"),
         description="Write the experiment's PI wheel loops (gains, options and vehicle constants baked in) as "
         "dependency-free C99 into DIR: a header with an init/step API, the source, an example caller, a Makefile "
-        "and a README naming the experiment and the agvctl version. The code is compiled once to measure its "
-        "static memory. The pose controller is not generated yet.",
+        "and a README naming the experiment and the agvctl version; for the LTV MPC, the QP it solves each step as "
+        "OSQP's generated solver in DIR/mpc_qp. The code is compiled once to measure its static memory. The pose "
+        "controller's step around its QP is not generated yet.",
     )
     p.add_argument("experiment", metavar="EXPERIMENT.toml")
     add_vehicle_options(p, "the experiment's vehicle")
@@ -35,15 +36,16 @@ def run(args: argparse.Namespace) -> int:
     out_dir = Path(args.out)
     code = generate_code(args.experiment, vehicle=args.vehicle, vehicle_overrides=args.overrides)
     inputs = code.experiment.input_files
-    check_outputs(files_in("--out", out_dir, GENERATED_FILES), inputs, [("--out", out_dir)])
+    check_outputs(files_in("--out", out_dir, code.files), inputs, [("--out", out_dir)])
     check_replaceable("--out", out_dir, inputs)
     with staged_outputs("codegen") as staging:  # the folder is replaced whole, once every file is written
         staged = staging.directory("--out", out_dir)
         with writing("--out", out_dir):
             for name, text in code.files.items():
+                (staged / name).parent.mkdir(parents=True, exist_ok=True)
                 (staged / name).write_text(text, encoding="utf-8")
     print(f"generated the PI wheel loops of {code.experiment.spec.name} as C99 in {out_dir}:")
-    print(f"  {', '.join(code.files)}")
+    print(f"  {', '.join(name for name in code.files if '/' not in name)}")
     if code.memory is None:
         print("  static memory: not measured (no C compiler)")
     else:
@@ -52,5 +54,16 @@ def run(args: argparse.Namespace) -> int:
             f"  static memory: state {m.state_bytes} bytes (caller-owned struct), constants {m.constant_bytes} bytes; "
             "no heap"
         )
+    qp = code.qp
+    if qp.code is None:
+        print(f"  the MPC's QP solver: not generated ({qp.note})")
+    else:
+        memory = "not measured" if qp.static_bytes is None else f"{qp.static_bytes} bytes"
+        print(f"  the MPC's QP solver in {qp_folder(out_dir)}: {qp.note}; static memory {memory}; no heap")
     print(f"  build the example: make -C {out_dir}")
     return 0
+
+
+def qp_folder(out_dir: Path) -> Path:
+    """Where the QP solver's files are written."""
+    return out_dir / QP_FOLDER

@@ -1,9 +1,13 @@
-"""``agvctl codegen``'s API: an experiment's PI wheel loops as a folder of C99 for the vehicle.
+"""``agvctl codegen``'s API: an experiment's PI wheel loops and its MPC's QP solver as a folder of C99 for the
+vehicle.
 
 :func:`generate_code` loads an experiment, builds its wheel loops as a run would (the gains designed or from its
 gains file, its options, the controller's vehicle) and renders them as C
 (:func:`~agvctl.controllers.pi.c_loops.render_wheel_loops_c`), with a README naming the experiment and the agvctl
-version, an example caller and a Makefile. It returns the files' texts; the command line writes them.
+version, an example caller and a Makefile. Where the pose controller is the LTV MPC, the folder
+:data:`~agvctl.codegen.qp.QP_FOLDER` holds the QP it solves each step, as OSQP's generated solver
+(:func:`~agvctl.codegen.qp.experiment_qp`), and the Makefile builds it into a static library. It returns the files'
+texts; the command line writes them.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from typing import Any
 
 from agvctl import __version__
 from agvctl.actuator import Actuator
+from agvctl.codegen.qp import QP_FOLDER, ExperimentQp, experiment_qp
 from agvctl.controllers.pi.c_loops import (
     STRICT_C_FLAGS,
     StaticMemory,
@@ -32,7 +37,8 @@ from agvctl.scenario.experiment import Experiment, load_experiment
 __all__ = ["GENERATED_FILES", "GENERATED_WHEEL_LOOPS", "GeneratedCode", "generate_code"]
 
 GENERATED_FILES = ("agv_wheel_loops.h", "agv_wheel_loops.c", "example_main.c", "Makefile", "README.md")
-"""The files :func:`generate_code` writes, in this order."""
+"""The files :func:`generate_code` writes for every experiment, in this order (then, for the LTV MPC, its QP's files
+under :data:`~agvctl.codegen.qp.QP_FOLDER`)."""
 
 GENERATED_WHEEL_LOOPS = ("pi", "pi_c")
 """The wheel loops an experiment may name for ``agvctl codegen``: the built-in PI loops (in Python or as C)."""
@@ -49,16 +55,19 @@ class GeneratedCode:
     wheel_loops : WheelLoopsC
         The wheel loops' header and source.
     files : dict of str to str
-        Every file of the output folder by name (the wheel loops, ``example_main.c``, ``Makefile``,
-        ``README.md``).
+        Every file of the output folder by its path in the folder (the wheel loops, ``example_main.c``,
+        ``Makefile``, ``README.md``, and the QP solver's under ``mpc_qp/``).
     memory : StaticMemory or None
         The loops' static memory as the compiler lays it out (None: not measured).
+    qp : ExperimentQp
+        The MPC's QP solver, or why there is none.
     """
 
     experiment: Experiment
     wheel_loops: WheelLoopsC
     files: dict[str, str]
     memory: StaticMemory | None
+    qp: ExperimentQp
 
 
 @functools.cache
@@ -77,6 +86,23 @@ def _describe_memory(memory: StaticMemory | None) -> str:
     if memory is None:
         return "not measured (generated without a C compiler)"
     return f"state {memory.state_bytes} bytes (caller-owned), constants {memory.constant_bytes} bytes"
+
+
+def _qp_values(qp: ExperimentQp) -> dict[str, Any]:
+    """What the README and the Makefile say about the QP solver (its sources, objects and include folders)."""
+    code = qp.code
+    if code is None:
+        return {"qp": False, "qp_note": qp.note}
+    sources = [f"{QP_FOLDER}/{path}" for path in code.sources]
+    return {
+        "qp": True,
+        "qp_folder": QP_FOLDER,
+        "qp_prefix": code.prefix,
+        "qp_note": qp.note,
+        "qp_memory": "not measured" if qp.static_bytes is None else f"{qp.static_bytes} bytes",
+        "qp_includes": " ".join(f"-I{QP_FOLDER}/{d}" if d != "." else f"-I{QP_FOLDER}" for d in code.include_dirs),
+        "qp_pairs": [(src, src.replace("/", "_").removesuffix(".c") + ".o") for src in sources],
+    }
 
 
 def _readme_values(
@@ -126,8 +152,8 @@ def generate_code(
     vehicle_overrides : sequence of str
         Dotted-key changes of the vehicle, ``"KEY=VALUE"``.
     measure_memory : bool
-        Compile the loops (once, into the cache of compiled code) to measure their static memory, which the README
-        states. Without a C compiler it is not measured.
+        Compile the loops and the QP solver (once, into the cache of compiled code) to measure their static memory,
+        which the README states. Without a C compiler it is not measured.
 
     Returns
     -------
@@ -144,10 +170,10 @@ def generate_code(
     Examples
     --------
     >>> code = generate_code("experiments/line.toml")
-    >>> sorted(code.files)
-    ['Makefile', 'README.md', 'agv_wheel_loops.c', 'agv_wheel_loops.h', 'example_main.c']
-    >>> "malloc" in code.files["agv_wheel_loops.c"]
-    False
+    >>> [name for name in code.files if not name.startswith("mpc_qp/")]
+    ['agv_wheel_loops.h', 'agv_wheel_loops.c', 'example_main.c', 'Makefile', 'README.md']
+    >>> "malloc" in code.files["agv_wheel_loops.c"], "mpc_qp/agv_mpc_qp.h" in code.files
+    (False, True)
     """
     loaded = load_experiment(experiment, vehicle=vehicle, vehicle_overrides=vehicle_overrides)
     spec = loaded.spec
@@ -165,9 +191,12 @@ def generate_code(
     origin = f"The PI wheel loops of experiment {spec.name!r} ({os.path.basename(spec.source)})."
     code = render_wheel_loops_c(python_loops, origin=origin, generator=generator)
     memory = static_memory(code) if measure_memory and c_compiler() is not None else None
-    values = _readme_values(loaded, code, memory, generator)
+    qp = experiment_qp(loaded, generator=generator, measure_memory=measure_memory and c_compiler() is not None)
+    values = {**_readme_values(loaded, code, memory, generator), **_qp_values(qp)}
     env = _environment()
     files = dict(code.files)
     for name in GENERATED_FILES[len(files) :]:
         files[name] = env.get_template(f"{name}.j2").render(values)
-    return GeneratedCode(loaded, code, files, memory)
+    if qp.code is not None:
+        files.update({f"{QP_FOLDER}/{path}": text for path, text in qp.code.files.items()})
+    return GeneratedCode(loaded, code, files, memory, qp)

@@ -133,6 +133,13 @@ class LtvMpcController(MpcStepper):
         return self._fallback.sequence_m_s.copy()
 
     @property
+    def qp(self) -> StepQp:
+        """The assembled QP: its blocks, its matrices with every entry that can ever be nonzero and its vectors as
+        the last step wrote them (what a generated solver of it is set up on,
+        :func:`~agvctl.controllers.mpc.c_qp.generate_qp_c`)."""
+        return self._qp
+
+    @property
     def osqp_settings(self) -> dict[str, Any]:
         """OSQP's settings as the solver was set up with them: the config's tolerance and limits, then
         :data:`OSQP_SETTINGS`, then the constructor's overrides (what a generated solver of the QP uses too)."""

@@ -1,0 +1,95 @@
+"""An experiment's MPC QP solver as C, for ``agvctl codegen``: the LTV MPC built as a run builds it, set up on the
+experiment's reference, and its QP generated (:func:`~agvctl.controllers.mpc.c_qp.generate_qp_c`) into the
+folder :data:`QP_FOLDER` of the output, with its static memory as the compiler lays it out."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from dataclasses import dataclass
+
+import osqp
+
+from agvctl.controllers.mpc.c_qp import QpC, compile_qp_c, generate_qp_c
+from agvctl.controllers.mpc.ltv import LtvMpcController
+from agvctl.controllers.mpc.osqp_fixes import OSQP_VERSION
+from agvctl.controllers.registry import pose_controllers
+from agvctl.plant.codegen import c_compiler
+from agvctl.scenario.experiment import Experiment
+
+__all__ = ["QP_FOLDER", "ExperimentQp", "experiment_qp"]
+
+QP_FOLDER = "mpc_qp"
+"""The output's folder of the QP solver's files."""
+
+_STATIC_SYMBOLS = frozenset("bBdDrR")
+"""``nm``'s types of static storage: zeroed (bss), initialised (data) and read-only (rodata) objects."""
+
+
+@dataclass(frozen=True)
+class ExperimentQp:
+    """The QP solver of an experiment's pose controller as C, or why there is none.
+
+    Parameters
+    ----------
+    code : QpC or None
+        The generated files (None: not generated, ``note`` says why).
+    note : str
+        What the solver is of, or why it was not generated.
+    static_bytes : int or None
+        The bytes of static storage of the compiled solver, its workspace included (None: not measured).
+    """
+
+    code: QpC | None
+    note: str
+    static_bytes: int | None
+
+
+def _static_bytes(code: QpC) -> int | None:
+    """The compiled solver's static storage, summed over its symbols (None without a compiler or ``nm``)."""
+    nm = shutil.which("nm")
+    if nm is None or c_compiler() is None:
+        return None
+    library = compile_qp_c(code)._name
+    listed = subprocess.run([nm, "-S", "--defined-only", library], capture_output=True, text=True, check=True).stdout
+    total = 0
+    for line in listed.splitlines():
+        parts = line.split()
+        if len(parts) == 4 and parts[2] in _STATIC_SYMBOLS:
+            total += int(parts[1], 16)
+    return total
+
+
+def experiment_qp(experiment: Experiment, *, generator: str, measure_memory: bool = True) -> ExperimentQp:
+    """The QP solver of ``experiment``'s LTV MPC as C99.
+
+    Parameters
+    ----------
+    experiment : Experiment
+        The loaded experiment.
+    generator : str
+        What writes the files (``"agvctl 0.2.0"``).
+    measure_memory : bool
+        Compile the solver (once, into the cache of compiled code) to measure its static storage.
+
+    Returns
+    -------
+    ExperimentQp
+        The files, or why there are none: a pose controller other than the LTV MPC, or an OSQP release other than
+        the one the generator's fixes are written for.
+    """
+    c, spec = experiment.spec.controller, experiment.spec
+    kind = pose_controllers.resolve(c.pose, key="controller.pose", source=spec.source, base_dir=spec.base_dir)
+    controller = kind.make(experiment.controller_vehicle, c.pose_settings)
+    if not isinstance(controller, LtvMpcController):
+        return ExperimentQp(None, f"the pose controller {c.pose!r} solves no QP of its own to generate", None)
+    if osqp.__version__ != OSQP_VERSION:
+        return ExperimentQp(
+            None, f"the QP's C is generated with osqp {OSQP_VERSION}; osqp {osqp.__version__} is installed", None
+        )
+    controller.reset(experiment.reference)  # the QP of this path: its body-rate rows where the path limits the body
+    origin = f"The QP of the LTV MPC of experiment {spec.name!r}."
+    code = generate_qp_c(controller.qp, controller.osqp_settings, origin=origin, generator=generator)
+    horizon = controller.config.horizon
+    note = f"n = {code.n_variables} variables, m = {code.n_constraints} constraints, horizon N = {horizon}"
+    return ExperimentQp(code, note, _static_bytes(code) if measure_memory else None)
