@@ -12,7 +12,6 @@ texts; the command line writes them.
 
 from __future__ import annotations
 
-import functools
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -31,7 +30,7 @@ from agvctl.controllers.pi.c_loops import (
 )
 from agvctl.controllers.pi.options import FEEDFORWARD_RAMP_RAD_S
 from agvctl.errors import ConfigError
-from agvctl.plant.codegen import c_compiler
+from agvctl.plant.codegen import c_compiler, c_templates
 from agvctl.scenario.experiment import Experiment, load_experiment
 
 __all__ = ["GENERATED_FILES", "GENERATED_WHEEL_LOOPS", "GeneratedCode", "generate_code"]
@@ -68,18 +67,6 @@ class GeneratedCode:
     files: dict[str, str]
     memory: StaticMemory | None
     qp: ExperimentQp
-
-
-@functools.cache
-def _environment() -> Any:
-    import jinja2
-
-    return jinja2.Environment(
-        loader=jinja2.PackageLoader("agvctl.codegen", "templates"),
-        undefined=jinja2.StrictUndefined,
-        keep_trailing_newline=True,
-        autoescape=False,
-    )
 
 
 def _describe_memory(memory: StaticMemory | None) -> str:
@@ -193,7 +180,7 @@ def generate_code(
     memory = static_memory(code) if measure_memory and c_compiler() is not None else None
     qp = experiment_qp(loaded, generator=generator, measure_memory=measure_memory and c_compiler() is not None)
     values = {**_readme_values(loaded, code, memory, generator), **_qp_values(qp)}
-    env = _environment()
+    env = c_templates("agvctl.codegen")
     files = dict(code.files)
     for name in GENERATED_FILES[len(files) :]:
         files[name] = env.get_template(f"{name}.j2").render(values)

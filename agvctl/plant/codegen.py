@@ -10,6 +10,7 @@ failed compilation says so with a :class:`RuntimeWarning`.
 from __future__ import annotations
 
 import ctypes
+import functools
 import hashlib
 import os
 import shutil
@@ -130,6 +131,31 @@ class _CCall:
         if status != 0:
             raise RuntimeError(f"{self.name} returned {status}")
         return tuple(o.copy().T for o in buffers.outputs)
+
+
+@functools.cache
+def c_templates(package: str) -> Any:
+    """The Jinja environment of the C templates in ``package``'s ``templates`` folder: an undefined name refused,
+    the text rendered as written (no escaping, the last newline kept).
+
+    Parameters
+    ----------
+    package : str
+        The package that holds the ``templates`` folder (``"agvctl.controllers.pi"``).
+
+    Returns
+    -------
+    jinja2.Environment
+        The environment, one per package.
+    """
+    import jinja2
+
+    return jinja2.Environment(
+        loader=jinja2.PackageLoader(package, "templates"),
+        undefined=jinja2.StrictUndefined,
+        keep_trailing_newline=True,
+        autoescape=False,
+    )
 
 
 def c_compiler() -> str | None:

@@ -18,7 +18,6 @@ and returns OSQP's status, the iterations and the solution.
 from __future__ import annotations
 
 import ctypes
-import functools
 import subprocess
 import tempfile
 from collections.abc import Mapping, Sequence
@@ -34,7 +33,7 @@ from agvctl.controllers.mpc.osqp_fixes import OSQP_FIXES, OSQP_VERSION, SourceFi
 from agvctl.controllers.mpc.qp_blocks import BlockQp
 from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS
 from agvctl.errors import AgvctlError
-from agvctl.plant.codegen import compiled_library
+from agvctl.plant.codegen import c_templates, compiled_library
 
 __all__ = ["STRICT_C_FLAGS", "CompiledQp", "QpC", "QpSolution", "compile_qp_c", "generate_qp_c", "write_qp_c"]
 
@@ -104,18 +103,6 @@ class QpC:
             target.parent.mkdir(parents=True, exist_ok=True)
             target.write_text(text, encoding="utf-8")
         return root
-
-
-@functools.cache
-def _environment() -> Any:
-    import jinja2
-
-    return jinja2.Environment(
-        loader=jinja2.PackageLoader("agvctl.controllers.mpc", "templates"),
-        undefined=jinja2.StrictUndefined,
-        keep_trailing_newline=True,
-        autoescape=False,
-    )
 
 
 def _rows(positions: NDArray[np.int64], per_row: int = 12) -> list[list[int]]:
@@ -218,7 +205,7 @@ def generate_qp_c(
         "p_varying": _rows(qp.p_varying),
         "a_varying": _rows(qp.a_varying),
     }
-    env = _environment()
+    env = c_templates("agvctl.controllers.mpc")
     files[f"{prefix}.h"] = env.get_template("mpc_qp.h.j2").render(values)
     files[f"{prefix}.c"] = env.get_template("mpc_qp.c.j2").render(values)
     return QpC(files, prefix, n, m, len(qp.p_varying), len(qp.a_varying))

@@ -28,7 +28,7 @@ from agvctl.controllers.pi.options import FEEDFORWARD_RAMP_RAD_S, PIGains, Wheel
 from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.errors import AgvctlError
 from agvctl.params import SIDES, VehicleParams
-from agvctl.plant.codegen import compiled_library
+from agvctl.plant.codegen import c_templates, compiled_library
 
 __all__ = [
     "STRICT_C_FLAGS",
@@ -87,14 +87,7 @@ def _c_double(value: float) -> str:
 
 @functools.cache
 def _environment() -> Any:
-    import jinja2
-
-    env = jinja2.Environment(
-        loader=jinja2.PackageLoader("agvctl.controllers.pi", "templates"),
-        undefined=jinja2.StrictUndefined,
-        keep_trailing_newline=True,
-        autoescape=False,
-    )
+    env = c_templates("agvctl.controllers.pi")
     env.filters["c"] = _c_double
     return env
 
