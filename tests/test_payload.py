@@ -18,6 +18,7 @@ from agvctl.evaluation.payload import PAYLOAD_LOG_COLUMNS, PayloadAccelerometer
 from agvctl.fuzz import generate_scenario, load_fuzz_config
 from agvctl.fuzz.generate import scenario_files
 from agvctl.params import load_vehicle
+from agvctl.plots import render_run_panel
 from agvctl.plots.closed_loop import draw_body_accel
 from agvctl.plots.figures import subplots
 from agvctl.scenario.experiment import load_experiment, run_experiment
@@ -128,6 +129,24 @@ def test_the_run_panel_draws_the_payloads_readings_against_a_load_bound():
     labels = [line.get_label() for line in ax.lines]
     assert "payload: body_linear_accel_m_s2" in labels and "peak_body_linear_accel_m_s2 0.5" in labels
     assert not any("lateral" in label for label in labels)  # only the bounds the experiment sets
+    assert not ax.figure.axes[1:]  # no angular bound, no second axis
+    angular = draw_body_accel(ax, result.log, {"peak_body_angular_accel_rad_s2": 1.0})
+    labels = [line.get_label() for line in angular.lines]
+    assert "payload: body_angular_accel_rad_s2 (right axis)" in labels and "peak_body_angular_accel_rad_s2 1" in labels
+
+
+def test_the_panel_of_a_run_with_a_paths_body_limits_draws_them_and_the_next_panel_starts_clean():
+    experiment = load_experiment(EXPERIMENTS / "payload" / "bend_nominal.toml")
+    result = run_experiment(experiment)
+    verdict = judge_run(result, experiment.spec.limits, experiment.controller_vehicle)
+    bounds = {r.limit: r.bound for r in verdict.limits}
+    assert bounds["peak_body_angular_accel_rad_s2"] == 1.0  # the path's, judged by default
+    plain = {k: v for k, v in bounds.items() if not k.startswith("peak_body")}
+    before = render_run_panel(result.log, experiment.controller_vehicle, title="bend", bounds=plain)
+    first = render_run_panel(result.log, experiment.controller_vehicle, title="bend", bounds=bounds)
+    again = render_run_panel(result.log, experiment.controller_vehicle, title="bend", bounds=bounds)
+    after = render_run_panel(result.log, experiment.controller_vehicle, title="bend", bounds=plain)
+    assert first == again and before == after != first  # each drawing starts clean: no second axis left behind
 
 
 def test_a_fuzz_file_places_the_accelerometer_of_every_run(tmp_path: Path):

@@ -58,7 +58,8 @@ def render_run_panel(
         The gate's bounds by limit name (:data:`~agvctl.evaluation.limits.LIMITS`): ``tracking_error_max_m`` and
         ``cross_track_error_max_m`` are drawn on the errors, ``peak_wheel_speed_m_s`` on the wheel
         speeds, ``peak_motor_current_a`` on the currents, ``peak_wheel_accel_m_s2`` on the acceleration, with the
-        payload's readings where ``peak_body_linear_accel_m_s2`` or ``peak_body_lateral_accel_m_s2`` is set.
+        payload's readings where ``peak_body_linear_accel_m_s2`` or ``peak_body_lateral_accel_m_s2`` is set, and its
+        angular reading on a second y axis where ``peak_body_angular_accel_rad_s2`` is.
     mark_time_s : float or None
         The instant to mark (s): the vehicle's position then on the path, a vertical line on the other panels.
     mark_label : str
@@ -136,6 +137,10 @@ def _draw(
 def _clear(axes: Any) -> None:
     """Each of ``axes`` as :func:`_draw` found it, but for the ticks it made (kept for the next run) and what it sets
     again (labels, aspect, locators): no artist of the run, a linear scale, limits from the data."""
+    own = set(axes.flat)
+    figure = axes.flat[0].figure
+    for extra in [ax for ax in figure.axes if ax not in own]:  # a second y axis a run drew (the payload's angular)
+        extra.remove()
     for ax in axes.flat:
         for artist in (*ax.lines, *ax.collections, *ax.patches, *ax.texts):
             artist.remove()
