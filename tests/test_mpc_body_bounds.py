@@ -131,3 +131,18 @@ def test_a_gentle_path_from_an_offset_start_keeps_its_payloads_limits_and_passes
     judged = {r.limit for r in verdict.limits if r.default}
     assert {f"peak_body_{key}" for key in ("linear_accel_m_s2", "lateral_accel_m_s2", "angular_accel_rad_s2")} <= judged
     assert verdict.passed, [r.limit for r in verdict.limits if not r.passed]
+
+
+def test_a_solver_that_plans_without_the_body_bounds_gets_commands_unbounded_by_them_and_tracks(tmp_path):
+    """The NMPC plans without the body's bounds: bounding its commands behind its back would leave its predictions
+    wrong (on this bend it drifted 20 cm off the path); its commands stay its own and the gate judges the limits."""
+    text = (PAYLOAD / "bend_nominal.toml").read_text(encoding="utf-8")
+    text = text.replace('pose = "mpc"', 'pose = "nmpc"').replace(
+        "../../trajectories", str(PAYLOAD.parents[1] / "trajectories")
+    )
+    (tmp_path / "nmpc.toml").write_text(text, encoding="utf-8")
+    experiment = load_experiment(tmp_path / "nmpc.toml")
+    verdict = judge_run(run_experiment(experiment), experiment.spec.limits, experiment.controller_vehicle)
+    others = [r.limit for r in verdict.limits if not r.passed and not r.limit.startswith("peak_body")]
+    assert others == []  # on the path, at its end, on time
+    assert any(r.limit.startswith("peak_body") for r in verdict.limits)  # the path's limits judged

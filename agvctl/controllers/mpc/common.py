@@ -93,6 +93,12 @@ class MpcStepper:
     wrong shape) and propagates, so that the run reports it as its error rather than as a solver failure
     (``docs/decisions/0015-run-errors-exit-3.md``)."""
 
+    keeps_body_bounds: bool = False
+    """Whether the solver constrains its setpoints by the path's body bounds
+    (:class:`~agvctl.controllers.mpc.body_bounds.BodyBounds`): only then does the command shaper bound the commands
+    by them too. Commands bounded behind the back of a solver that plans without the bounds leave its predictions
+    wrong, and its corrections grow instead of settling."""
+
     def __init__(self, vehicle: VehicleParams, config: MpcConfig | None) -> None:
         self.config = c = resolved_config(config or MpcConfig())
         self.sample_period_s = vehicle.control.sample_period_s
@@ -108,7 +114,8 @@ class MpcStepper:
         rules = (NoBackingAtStart(c.horizon), TowardTurningPoint(self.separation_m))
         self._body = BodyBounds(self.sample_period_s, self.separation_m, c.body_command_share, c.body_breakaway_share)
         a_step = self.max_wheel_accel_m_s2 * self.sample_period_s
-        self._shaper = CommandShaper(rules, self.max_wheel_speed_m_s, a_step, self._body)
+        body = self._body if self.keeps_body_bounds else None
+        self._shaper = CommandShaper(rules, self.max_wheel_speed_m_s, a_step, body)
         self._end = EndOfPath(Docking(vehicle, c.docking), self.sample_period_s)
         self._rest = Rest(c.rest)
         self._fallback = SetpointFallback(c.horizon)
@@ -149,8 +156,8 @@ class MpcStepper:
         """Start tracking ``reference`` (precomputes its horizon data; clears warm starts and fallbacks). Unless the
         settings fix a_lim, the setpoints change no faster than the reference's own acceleration limit plus what
         the planner leaves to the feedback (:func:`~agvctl.feasibility.feedback_accel_m_s2`), at most eq 5's a_lim:
-        a path planned gently for its load is tracked gently, start-up corrections, turns and stops included. The
-        path's limits on the body's motion bound every command
+        a path planned gently for its load is tracked gently, start-up corrections, turns and stops included. Where
+        the solver :attr:`keeps_body_bounds`, the path's limits on the body's motion bound every command
         (:class:`~agvctl.controllers.mpc.body_bounds.BodyBounds`)."""
         if self.config.max_wheel_accel_m_s2 is None:
             planned = reference.limits.wheel_accel_m_s2 + self._feedback_accel_m_s2

@@ -125,7 +125,8 @@ class MpcConfig:
     that is heavier or stiffer than the controller's model (``docs/decisions/0002-saturation-aware-cascade.md``)."""
     body_command_share: float = number(gt=0, le=1, default=0.8)
     """The share of each of the path's limits on the body's acceleration (its ``[limits]`` ``linear_accel_m_s2``,
-    ``angular_accel_rad_s2``, ``lateral_accel_m_s2``) that the commands may use: the mean of the setpoints changes by
+    ``angular_accel_rad_s2``, ``lateral_accel_m_s2``) that the LTV MPC's commands may use (the NMPC plans without
+    these bounds, and its commands are not bounded by them): the mean of the setpoints changes by
     at most that share of the linear limit per sample, their difference over b by that share of the angular one, and
     a command's U·ω stays within that share of the lateral one (:mod:`~agvctl.controllers.mpc.body_bounds`). Above
     the plan's share (``limits.body_plan_share``), so that the feedback has room; below 1, so that what the wheels

@@ -104,6 +104,10 @@ class LtvMpcController(MpcStepper):
         Entries that replace those of :data:`OSQP_SETTINGS`.
     """
 
+    keeps_body_bounds = True
+    """The QP bounds its setpoints by the path's body bounds (a body-rate block), so the shaper bounds its commands
+    by them too."""
+
     solver_errors = (osqp.OSQPException,)
     """OSQP's exception for an error in its own workings (a failed or unfinished solve is its status instead)."""
 
