@@ -100,6 +100,10 @@ def test_the_qp_has_the_body_rate_block_only_where_the_path_limits_the_body(vehi
     )
     controller.reset(gentle_bend(vehicle, BodyLimits()))
     assert "body rate" not in controller._qp.rows
+    segments = (LineSegment(length_m=1.0), ArcSegment(radius_m=0.6, angle_deg=90.0))
+    lateral_only = PathSpec(segments=segments, name="bend", limits=PathLimits(lateral_accel_m_s2=0.3))
+    controller.reset(plan(lateral_only, vehicle))  # a lateral bound acts on the commands, no rate rows needed
+    assert controller._body.active and "body rate" not in controller._qp.rows
 
 
 def test_from_an_offset_start_the_commands_keep_the_body_bounds_the_qp_solves(vehicle: VehicleParams):

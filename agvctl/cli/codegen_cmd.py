@@ -59,11 +59,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"  the MPC's QP solver: not generated ({qp.note})")
     else:
         memory = "not measured" if qp.static_bytes is None else f"{qp.static_bytes} bytes"
-        print(f"  the MPC's QP solver in {qp_folder(out_dir)}: {qp.note}; static memory {memory}; no heap")
+        print(f"  the MPC's QP solver in {out_dir / QP_FOLDER}: {qp.note}; static memory {memory}; no heap")
     print(f"  build the example: make -C {out_dir}")
     return 0
-
-
-def qp_folder(out_dir: Path) -> Path:
-    """Where the QP solver's files are written."""
-    return out_dir / QP_FOLDER

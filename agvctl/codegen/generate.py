@@ -178,7 +178,7 @@ def generate_code(
     origin = f"The PI wheel loops of experiment {spec.name!r} ({os.path.basename(spec.source)})."
     code = render_wheel_loops_c(python_loops, origin=origin, generator=generator)
     memory = static_memory(code) if measure_memory and c_compiler() is not None else None
-    qp = experiment_qp(loaded, generator=generator, measure_memory=measure_memory and c_compiler() is not None)
+    qp = experiment_qp(loaded, generator=generator, measure_memory=measure_memory)
     values = {**_readme_values(loaded, code, memory, generator), **_qp_values(qp)}
     env = c_templates("agvctl.codegen")
     files = dict(code.files)

@@ -4,14 +4,13 @@ order of the limits' table; its module notes and record 0040 the reasons)."""
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 from agvctl.config import document_fields
 from agvctl.feasibility import torque_accel_limit_m_s2
 from agvctl.log import SimLog
 from agvctl.params import VehicleParams
-from agvctl.planning.spec import BodyLimits
+from agvctl.planning.spec import BODY_LIMIT_KEYS, BodyLimits
 
 __all__ = ["DefaultLimit", "default_bounds"]
 
@@ -97,10 +96,8 @@ def default_bounds(vehicle: VehicleParams, log: SimLog, body: BodyLimits | None 
         "solver_failures": DefaultLimit(0, "every controller step succeeds"),
         "non_finite_commands": DefaultLimit(0, "every pose command is a finite number"),
     }
-    for field in dataclasses.fields(BodyLimits) if body is not None else ():
-        bound = getattr(body, field.name)
+    for key in BODY_LIMIT_KEYS if body is not None else ():
+        bound = getattr(body, key)
         if bound is not None:
-            defaults[f"peak_body_{field.name}"] = DefaultLimit(
-                bound, f"the payload feels the path's limits.{field.name}"
-            )
+            defaults[f"peak_body_{key}"] = DefaultLimit(bound, f"the payload feels the path's limits.{key}")
     return defaults

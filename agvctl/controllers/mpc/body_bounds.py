@@ -69,7 +69,9 @@ class BodyBounds:
         """The largest change of their difference s_r − s_l per sample, m/s (inf: none)."""
         self.lateral_m2_s2 = math.inf if lateral is None else share * lateral * b
         """The largest ``|mean · difference|``, U ω b, m²/s² (inf: none)."""
-        self.active = not all(math.isinf(x) for x in (self.mean_step_m_s, self.difference_step_m_s, self.lateral_m2_s2))
+        self.bounds_rates = not (math.isinf(self.mean_step_m_s) and math.isinf(self.difference_step_m_s))
+        """Whether a bound acts on the change of the mean or the difference (what a solver's rate rows bound)."""
+        self.active = self.bounds_rates or not math.isinf(self.lateral_m2_s2)
         """Whether any bound acts."""
 
     def first_steps(self, speed_left_m_s: float, speed_right_m_s: float) -> tuple[float, float]:

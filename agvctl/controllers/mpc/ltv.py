@@ -158,7 +158,7 @@ class LtvMpcController(MpcStepper):
 
     def _retarget(self, reference: Reference) -> HorizonReference:
         """``reference``'s horizon grid, and each block's precompute for it."""
-        if self._body.active != self._with_body:
+        if self._body.bounds_rates != self._with_body:
             self._build_problem()  # the body's rate rows where the path limits the body's motion, none elsewhere
         grid = HorizonReference(reference, self.config, self.sample_period_s, self._model)
         ff = grid.feedforward_m_s
@@ -183,7 +183,7 @@ class LtvMpcController(MpcStepper):
             Rate(N),
             FirstMove(),
             *self._model.constraint_blocks(N, box),
-            *([BodyRate(N, self._body, box)] if self._body.active else []),
+            *([BodyRate(N, self._body, box)] if self._body.bounds_rates else []),
             *([Reversal(M, c.weight_reversal)] if M else []),
             StateCost(c, self._frame, self.nx, b),
             InputCost(c),
@@ -192,7 +192,7 @@ class LtvMpcController(MpcStepper):
     def _build_problem(self) -> None:
         c, N = self.config, self.config.horizon
         variables = [VariableBlock("states", N * self.nx), VariableBlock("setpoints", 2 * N)]
-        self._with_body = self._body.active
+        self._with_body = self._body.bounds_rates
         self._qp: StepQp = BlockQp(variables, self._blocks())
         qp = self._qp
         self._i_setpoints = qp.layout.start("setpoints")
