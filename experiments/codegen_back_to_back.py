@@ -1,4 +1,5 @@
-"""Back-to-back of the generated C wheel loops against the Python ones over the acceptance fuzz's scenarios.
+"""Back-to-back of the generated C against the Python over the acceptance fuzz's scenarios: the wheel loops, or the
+MPC's QP solver.
 
 For each of the first N scenarios of ``experiments/fuzz/acceptance.toml`` and each of its pose controllers, the
 closed loop runs with the Python PI wheel loops driving the plant and the generated C loops (``wheel_loops =
@@ -7,19 +8,24 @@ alone (:func:`agvctl.codegen.back_to_back`). Prints the largest DA voltage diffe
 samples where the two disagree on which loops were clamped, and whether every limit's verdict is the same in the two
 runs. Warnings of a scenario (a path near the voltage headroom) are noted, as ``agvctl fuzz`` notes them.
 
-Run:  python experiments/codegen_back_to_back.py [--scenarios 100] [--jobs 2]
+With ``--part qp``, each scenario's LTV MPC (the ``mpc`` runs only) runs with OSQP in Python and with the C generated
+for its QP (``qp_solver = "osqp_c"``), each in its own closed loop (:func:`agvctl.codegen.qp_back_to_back`): the
+largest difference of the commanded DA voltages, sample by sample, and the verdicts.
+
+Run:  python experiments/codegen_back_to_back.py [--part loops|qp] [--scenarios 100] [--jobs 2]
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import tempfile
 import time
 import warnings
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from agvctl.codegen import back_to_back
+from agvctl.codegen import back_to_back, qp_back_to_back
 from agvctl.fuzz.report import FuzzTask
 from agvctl.fuzz.run import fuzz_tasks
 from agvctl.fuzz.spec import load_fuzz_config
@@ -28,8 +34,8 @@ FUZZ_FILE = Path(__file__).parent / "fuzz" / "acceptance.toml"
 
 
 def compare(task: FuzzTask) -> tuple[int, str, int, float, int, bool, bool, bool]:
-    """One scenario with one pose controller: (scenario, controller, samples, largest DA difference in V, clamped
-    mismatches, same verdicts, Python passed, C passed)."""
+    """One scenario with one pose controller, its wheel loops: (scenario, controller, samples, largest DA difference
+    in V, clamped mismatches, same verdicts, Python passed, C passed)."""
     with tempfile.TemporaryDirectory(prefix="agvctl-b2b-") as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for name, text in task.files:
@@ -47,16 +53,38 @@ def compare(task: FuzzTask) -> tuple[int, str, int, float, int, bool, bool, bool
     )
 
 
+def compare_qp(task: FuzzTask) -> tuple[int, str, int, float, int, bool, bool, bool]:
+    """One scenario with the LTV MPC, its QP solver: as :func:`compare` (no clamped flags: 0)."""
+    with tempfile.TemporaryDirectory(prefix="agvctl-b2b-") as tmp, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for name, text in task.files:
+            Path(tmp, name).write_text(text, encoding="utf-8")
+        r = qp_back_to_back(Path(tmp, task.files[-1][0]))
+    return (
+        task.scenario,
+        task.controller,
+        r.samples,
+        r.max_da_difference_v,
+        0,
+        r.same_verdicts,
+        r.python.passed,
+        r.c.passed,
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenarios", type=int, default=100)
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--part", choices=("loops", "qp"), default="loops")
     args = parser.parse_args()
     spec = load_fuzz_config(FUZZ_FILE)
+    if args.part == "qp":
+        spec = dataclasses.replace(spec, controllers=("mpc",))
     tasks = fuzz_tasks(spec, list(range(args.scenarios))).tasks
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.jobs) as pool:
-        rows = list(pool.map(compare, tasks))
+        rows = list(pool.map(compare_qp if args.part == "qp" else compare, tasks))
     wall = time.perf_counter() - t0
     print(
         f"{len(rows)} runs ({args.scenarios} scenarios of {FUZZ_FILE.name} x {', '.join(spec.controllers)}), "

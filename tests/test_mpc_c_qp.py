@@ -13,7 +13,8 @@ import numpy as np
 import osqp
 import pytest
 
-from agvctl.controllers.mpc.c_qp import STRICT_C_FLAGS, CompiledQp, QpSolution, generate_qp_c, write_qp_c
+from agvctl.controllers.mpc.c_qp import STRICT_C_FLAGS, generate_qp_c, write_qp_c
+from agvctl.controllers.mpc.c_solver import CompiledQp, QpSolution
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.osqp_fixes import OSQP_FIXES, OSQP_VERSION, SourceFix
 from agvctl.errors import AgvctlError

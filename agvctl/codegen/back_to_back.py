@@ -6,10 +6,15 @@ loop (software-in-the-loop, as an embedded code generator checks its code agains
 and measurements (:class:`SideBySideWheelLoops`): the largest difference of their DA voltages and of their
 clamped flags, sample by sample. Then the C loops drive the plant alone. Both runs are judged against the
 experiment's gate, limit by limit.
+
+:func:`qp_back_to_back` runs the experiment's LTV MPC twice, with OSQP in Python and with its generated C
+(``qp_solver = "osqp_c"``), each in its own closed loop: the largest difference of the commanded DA voltages, sample
+by sample, and the two verdicts.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,12 +22,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.base import WheelSpeedController
+from agvctl.controllers.mpc.config import MpcConfig
+from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.pi.c_loops import CompiledPIWheelController
 from agvctl.controllers.pi.wheel_loop import PIWheelController
+from agvctl.errors import ConfigError
 from agvctl.evaluation.limits import RunVerdict, judge_run
 from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
 
-__all__ = ["BackToBack", "SideBySideWheelLoops", "back_to_back"]
+__all__ = ["BackToBack", "QpBackToBack", "SideBySideWheelLoops", "back_to_back", "qp_back_to_back"]
 
 
 class SideBySideWheelLoops:
@@ -113,8 +121,11 @@ class BackToBack:
     @property
     def same_verdicts(self) -> bool:
         """Whether every limit and requirement passes or fails alike in the two runs."""
-        ours = [(v.limit, v.passed) for v in self.python.limits]
-        return ours == [(v.limit, v.passed) for v in self.c.limits]
+        return _same_verdicts(self.python, self.c)
+
+
+def _same_verdicts(first: RunVerdict, second: RunVerdict) -> bool:
+    return [(v.limit, v.passed) for v in first.limits] == [(v.limit, v.passed) for v in second.limits]
 
 
 def _judged(experiment: Experiment, wheel_controller: WheelSpeedController) -> RunVerdict:
@@ -157,3 +168,74 @@ def back_to_back(experiment: str | Path | Experiment) -> BackToBack:
         python,
         c,
     )
+
+
+@dataclass(frozen=True)
+class QpBackToBack:
+    """The comparison of an experiment's LTV MPC on OSQP in Python and on OSQP's generated C, each in its own closed
+    loop.
+
+    Parameters
+    ----------
+    experiment : str
+        The experiment's name.
+    samples : int
+        The samples compared (both runs' samples; a run that ends early differs by infinity).
+    max_da_difference_v : float
+        The largest absolute difference of the commanded DA voltages, sample by sample, V.
+    python : RunVerdict
+        The run with OSQP in Python, judged.
+    c : RunVerdict
+        The run with the generated C solver, judged.
+    """
+
+    experiment: str
+    samples: int
+    max_da_difference_v: float
+    python: RunVerdict
+    c: RunVerdict
+
+    @property
+    def same_verdicts(self) -> bool:
+        """Whether every limit and requirement passes or fails alike in the two runs."""
+        return _same_verdicts(self.python, self.c)
+
+
+def qp_back_to_back(experiment: str | Path | Experiment) -> QpBackToBack:
+    """Run an experiment's LTV MPC with OSQP in Python, then with its generated C (``qp_solver = "osqp_c"``).
+
+    Parameters
+    ----------
+    experiment : str, Path or Experiment
+        The experiment file, or one loaded; its pose controller is the LTV MPC (``pose = "mpc"``), whatever its
+        ``qp_solver``.
+
+    Returns
+    -------
+    QpBackToBack
+        The largest difference of the commanded DA voltages and both runs' verdicts.
+
+    Raises
+    ------
+    ConfigError
+        The pose controller is not the LTV MPC, or the C solver cannot be built here (no compiler, another OSQP).
+    """
+    loaded = experiment if isinstance(experiment, Experiment) else load_experiment(experiment)
+    spec, vehicle = loaded.spec, loaded.controller_vehicle
+    settings = spec.controller.pose_settings
+    if spec.controller.pose != "mpc" or not isinstance(settings, MpcConfig):
+        problem = f"the QP solvers' back-to-back runs the LTV MPC ('mpc'), not {spec.controller.pose!r}"
+        raise ConfigError(str(spec.source), "controller.pose", problem)
+    runs = []
+    for solver in ("osqp", "osqp_c"):
+        controller = LtvMpcController(vehicle, dataclasses.replace(settings, qp_solver=solver))
+        result = run_experiment(loaded, pose_controller=controller)
+        runs.append((result, judge_run(result, spec.limits, vehicle, spec.requirements)))
+    (python, python_verdict), (c, c_verdict) = runs
+    difference = float("inf")
+    if python.n_samples == c.n_samples:
+        difference = max(
+            float(np.max(np.abs(np.asarray(python.log.columns[k]) - np.asarray(c.log.columns[k]))))
+            for k in ("da_command_left_v", "da_command_right_v")
+        )
+    return QpBackToBack(spec.name, python.n_samples, difference, python_verdict, c_verdict)

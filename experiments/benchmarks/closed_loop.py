@@ -9,7 +9,8 @@ feed-forward in place of the MPC, which shows what the MPC costs.
 The MPC talks to OSQP through its public interface (``OSQP.update``, ``OSQP.solve``). As a peer, the same loop
 runs with the MPC's solver calls sent straight to osqp's compiled solver object (``OSQP._solver``, a private
 attribute of osqp 1.x), which skips the public wrapper's argument handling and result namespace; the ratio says
-what the public interface costs.
+what the public interface costs. A third runs the MPC on OSQP's C generated for its QP (``qp_solver = "osqp_c"``,
+through ctypes): the same commands, and the ratio of its loop's wall time to the first's.
 
 Run:  python experiments/benchmarks/closed_loop.py [--repeat 5]
 """
@@ -88,12 +89,15 @@ def main() -> int:
     mpc = LtvMpcController(vehicle, MpcConfig(wheel_loop_time_constant_s=tau))
     peer = LtvMpcController(vehicle, MpcConfig(wheel_loop_time_constant_s=tau))
     peer._solver = CompiledOsqp(peer._solver)  # type: ignore[assignment]
+    generated = LtvMpcController(vehicle, MpcConfig(wheel_loop_time_constant_s=tau, qp_solver="osqp_c"))
     once(mpc)  # warm-up: the compiled plant and OSQP set up once
     once(peer)
-    runs, peer_runs = [], []
-    for _ in range(args.repeat):  # interleaved, so that both see the same machine
+    once(generated)
+    runs, peer_runs, generated_runs = [], [], []
+    for _ in range(args.repeat):  # interleaved, so that all see the same machine
         runs.append(once(mpc))
         peer_runs.append(once(peer))
+        generated_runs.append(once(generated))
     peer_p50 = statistics.median(m["solve_time_p50_ms"] for _, m in peer_runs)
     walls = [w for w, _ in runs]
     p50 = statistics.median(m["solve_time_p50_ms"] for _, m in runs)
@@ -114,6 +118,12 @@ def main() -> int:
     print(
         f"  the same, OSQP's compiled solver directly  median {peer_p50:.3f} ms: the public interface costs "
         f"{(p50 / peer_p50 - 1.0) * 100:.0f} % of the step (ratio {p50 / peer_p50:.2f})"
+    )
+    generated_wall = statistics.median(w for w, _ in generated_runs)
+    generated_p50 = statistics.median(m["solve_time_p50_ms"] for _, m in generated_runs)
+    print(
+        f"  the same, its QP solved by generated C     wall {generated_wall:.3f} s, MPC step median "
+        f"{generated_p50:.3f} ms (wall ratio to OSQP in Python {generated_wall / wall:.2f})"
     )
     print(
         f"  tracking                                   rms {m0['tracking_error_rms_m'] * 1e3:.2f} mm   "

@@ -6,7 +6,7 @@ state just after set-up, into three solvers of the same QP:
 
 * Python: ``osqp.OSQP`` set up as the controller sets it up, a step being ``update(...)`` and ``solve()`` as the
   controller calls them (``perf_counter_ns`` around both);
-* C through ctypes: :class:`~agvctl.controllers.mpc.c_qp.CompiledQp`, a step being one call of the entry point
+* C through ctypes: :class:`~agvctl.controllers.mpc.c_solver.CompiledQp`, a step being one call of the entry point
   (update and solve), numpy arrays in and out (``perf_counter_ns`` around the call), interleaved step by step with
   the Python solver so both see the same machine load;
 * C alone: the same entry point called in a loop in C over all the steps, each timed with
@@ -30,7 +30,8 @@ from typing import Any
 import numpy as np
 import osqp
 
-from agvctl.controllers.mpc.c_qp import STRICT_C_FLAGS, CompiledQp, QpC, generate_qp_c
+from agvctl.controllers.mpc.c_qp import STRICT_C_FLAGS, QpC, generate_qp_c
+from agvctl.controllers.mpc.c_solver import CompiledQp
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.plant.codegen import compiled_library
 from agvctl.scenario.experiment import load_experiment, run_experiment

@@ -12,12 +12,15 @@ of silently skipping a fix. Two Jinja2 templates beside this module add the entr
 :attr:`~agvctl.controllers.mpc.qp_blocks.BlockQp.a_varying`, baked in as ``static const`` data), solves warm-started,
 and returns OSQP's status, the iterations and the solution.
 
-:class:`CompiledQp` is that C compiled by :func:`~agvctl.plant.codegen.compiled_library` and called through ctypes.
+:func:`compile_qp_c` compiles it into the cache of compiled code; :mod:`~agvctl.controllers.mpc.c_solver` calls it
+through ctypes, each solver with a state of its own (``<prefix>_state_save`` and ``_state_load``, appended to the
+workspace: copies of its objects, so that several solvers share one library).
 """
 
 from __future__ import annotations
 
 import ctypes
+import re
 import subprocess
 import tempfile
 from collections.abc import Mapping, Sequence
@@ -35,7 +38,7 @@ from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS
 from agvctl.errors import AgvctlError
 from agvctl.plant.codegen import c_templates, compiled_library
 
-__all__ = ["STRICT_C_FLAGS", "CompiledQp", "QpC", "QpSolution", "compile_qp_c", "generate_qp_c", "write_qp_c"]
+__all__ = ["STRICT_C_FLAGS", "QpC", "compile_qp_c", "generate_qp_c", "write_qp_c"]
 
 FloatArray = NDArray[np.float64]
 
@@ -141,7 +144,36 @@ def _osqp_files(
     for fix in fixes:
         path = fix.path.format(workspace=f"{prefix}_workspace")
         files[path] = fix.apply(files[path])
+    workspace = f"{prefix}_workspace.c"
+    files[workspace] += _state_functions(files[workspace], prefix)
     return files
+
+
+_OBJECT = re.compile(r"^(?!const\b|static\b)[A-Za-z_]\w*\s+([A-Za-z_]\w*)\s*(?:\[\d+\])?\s*[=;]", re.MULTILINE)
+"""A definition at file scope of the generated workspace: a type, the object's name, its size if an array, then its
+initialiser or the end."""
+
+
+def _state_functions(workspace: str, prefix: str) -> str:
+    """C appended to the workspace's file: its objects' size in bytes, and copies of them to and from a buffer (the
+    solver's state, ``<prefix>_state_bytes``, ``_state_save``, ``_state_load``; declared in the entry point's
+    header)."""
+    names = _OBJECT.findall(workspace)
+    if f"{prefix}_solver" not in names or f"{prefix}_work" not in names:
+        raise AgvctlError("the generated workspace does not define the solver and its workspace as expected")
+    sizes = " +\n        ".join(f"sizeof {name}" for name in names)
+    save = "".join(f"    memcpy(to, &{name}, sizeof {name});\n    to += sizeof {name};\n" for name in names)
+    load = "".join(f"    memcpy(&{name}, from, sizeof {name});\n    from += sizeof {name};\n" for name in names)
+    return (
+        "\n/* The solver's state as one block of bytes (appended by agvctl; see the entry point's header). */\n"
+        "#include <string.h>\n\n"
+        f"unsigned long {prefix}_state_bytes(void);\n"
+        f"void {prefix}_state_save(unsigned char *to);\n"
+        f"void {prefix}_state_load(const unsigned char *from);\n\n"
+        f"unsigned long {prefix}_state_bytes(void)\n{{\n    return (unsigned long)({sizes});\n}}\n\n"
+        f"void {prefix}_state_save(unsigned char *to)\n{{\n{save}}}\n\n"
+        f"void {prefix}_state_load(const unsigned char *from)\n{{\n{load}}}\n"
+    )
 
 
 def generate_qp_c(
@@ -276,148 +308,3 @@ def compile_qp_c(code: QpC) -> ctypes.CDLL:
         raise AgvctlError(f"the generated QP solver does not compile: {message[0] if message else exc}") from None
     except OSError as exc:
         raise AgvctlError(f"the generated QP solver cannot be compiled or loaded: {exc}") from None
-
-
-class _Info(ctypes.Structure):
-    _fields_ = [("status", ctypes.c_int), ("iterations", ctypes.c_int), ("error", ctypes.c_int)]
-
-
-@dataclass(frozen=True)
-class QpSolution:
-    """What one solve of the generated solver gives.
-
-    Parameters
-    ----------
-    status : int
-        OSQP's status value (``osqp.SolverStatus``: 1 solved, 2 solved inaccurate, 7 iteration limit, …; 0: an
-        update failed and nothing was solved).
-    iterations : int
-        The ADMM iterations of this solve.
-    x : ndarray
-        The primal solution z, n values (a copy).
-    y : ndarray
-        The dual solution, m values (a copy).
-    """
-
-    status: int
-    iterations: int
-    x: FloatArray
-    y: FloatArray
-
-
-class CompiledQp:
-    """The generated solver of one QP, compiled (:func:`compile_qp_c`) and called through ctypes.
-
-    The solver's workspace is static data of the library, which a process loads once: every :class:`CompiledQp` of
-    the same generated code shares one solver, which continues from where the last solve left it, as on the vehicle
-    (a second, independent solver needs code generated with another ``prefix``). Not for two threads at once.
-
-    Parameters
-    ----------
-    code : QpC
-        The generated C.
-
-    Raises
-    ------
-    AgvctlError
-        No C compiler, or the generated code does not compile.
-    """
-
-    def __init__(self, code: QpC) -> None:
-        lib = compile_qp_c(code)
-        p = code.prefix
-        self.code = code
-        self._solve = getattr(lib, f"{p}_solve")
-        self._solve.argtypes = [ctypes.c_void_p] * 8
-        self._solve.restype = ctypes.c_int
-        self._warm_start = getattr(lib, f"{p}_warm_start")
-        self._warm_start.argtypes = [ctypes.c_void_p] * 2
-        self._warm_start.restype = ctypes.c_int
-        self._set_rho = getattr(lib, f"{p}_set_rho")
-        self._set_rho.argtypes = [ctypes.c_double]
-        self._set_rho.restype = ctypes.c_int
-        sizes = [ctypes.c_int() for _ in range(4)]
-        getattr(lib, f"{p}_dimensions")(*[ctypes.byref(v) for v in sizes])
-        expected = (code.n_variables, code.n_constraints, code.n_p_varying, code.n_a_varying)
-        if tuple(v.value for v in sizes) != expected:
-            raise AgvctlError(f"the compiled QP solver has sizes {[v.value for v in sizes]}, expected {expected}")
-        # buffers allocated once, their addresses taken once (taking a numpy array's address costs microseconds)
-        self._sizes = (code.n_variables, code.n_constraints, code.n_constraints, code.n_p_varying, code.n_a_varying)
-        self._inputs = [np.empty(max(1, size)) for size in self._sizes]
-        self._input_addresses = [int(b.ctypes.data) for b in self._inputs]
-        self._x = np.empty(code.n_variables)
-        self._y = np.empty(code.n_constraints)
-        self._info = _Info()
-        self._outputs = (int(self._x.ctypes.data), int(self._y.ctypes.data), ctypes.addressof(self._info))
-
-    def _load(self, i: int, values: FloatArray | None, name: str) -> int | None:
-        """``values`` copied into input buffer ``i``; its address (None: a NULL pointer in C)."""
-        if values is None:
-            return None
-        size = self._sizes[i]
-        if np.shape(values) != (size,):
-            raise ValueError(f"{name} has shape {np.shape(values)}, expected ({size},)")
-        self._inputs[i][:size] = values
-        return self._input_addresses[i]
-
-    def solve(
-        self,
-        q: FloatArray,
-        lower: FloatArray,
-        upper: FloatArray,
-        p_values: FloatArray | None = None,
-        a_values: FloatArray | None = None,
-    ) -> QpSolution:
-        """One step: load the vectors and, when given, the varying entries' values; solve warm-started.
-
-        Parameters
-        ----------
-        q : ndarray
-            The cost's linear term, n values.
-        lower, upper : ndarray
-            The bounds, m values each (clipped to ±1e30 in C, as OSQP's Python interface clips them).
-        p_values : ndarray or None
-            P's varying entries, in the order of ``BlockQp.p_varying`` (None: P keeps its values).
-        a_values : ndarray or None
-            A's varying entries, in the order of ``BlockQp.a_varying`` (None: A keeps its values).
-
-        Returns
-        -------
-        QpSolution
-            OSQP's status, the iterations and the solution.
-
-        Raises
-        ------
-        AgvctlError
-            An OSQP call in C returned an error (its exit flag).
-        """
-        vectors = ((q, "q"), (lower, "lower"), (upper, "upper"), (p_values, "p_values"), (a_values, "a_values"))
-        addresses = [self._load(i, values, name) for i, (values, name) in enumerate(vectors)]
-        error = self._solve(*addresses, *self._outputs)
-        if error:
-            raise AgvctlError(f"the generated QP solver's update or solve failed: OSQP exit flag {error}")
-        return QpSolution(int(self._info.status), int(self._info.iterations), self._x.copy(), self._y.copy())
-
-    def warm_start(self, x: FloatArray, y: FloatArray) -> None:
-        """Start the next solve from ``x`` (n values) and ``y`` (m values).
-
-        Parameters
-        ----------
-        x : ndarray
-            The primal start.
-        y : ndarray
-            The dual start.
-        """
-        if self._warm_start(self._load(0, x, "x"), self._load(1, y, "y")):  # q's and l's buffers have their sizes
-            raise AgvctlError("the generated QP solver refused the warm start")
-
-    def set_rho(self, rho: float) -> None:
-        """Set ADMM's step size ρ (the KKT matrix is factorised again).
-
-        Parameters
-        ----------
-        rho : float
-            The step size, > 0.
-        """
-        if self._set_rho(float(rho)):
-            raise AgvctlError(f"the generated QP solver refused rho = {rho}")

@@ -29,6 +29,7 @@ __all__ = [
     "ErrorFrame",
     "MpcConfig",
     "PredictionModel",
+    "QpSolver",
     "resolved_config",
     "resolved_limits",
     "wheel_loop_time_constant_s",
@@ -36,6 +37,7 @@ __all__ = [
 
 PredictionModel = Literal["kinematic", "kinematic+wheel_loop"]
 ErrorFrame = Literal["path", "world"]
+QpSolver = Literal["osqp", "osqp_c"]
 
 
 @document_fields
@@ -159,6 +161,11 @@ class MpcConfig:
     """The largest rate of the governed clock while it catches up: behind the loop's clock and within
     ``governor_lag_start_m`` of the reference, the governed clock runs up to this much faster than time (the
     reference's speed along the path scaled alike), so a delay is made up."""
+    qp_solver: QpSolver = "osqp"
+    """The LTV MPC's QP solver: OSQP through its Python package (``"osqp"``), or OSQP's C generated for this QP,
+    compiled with the system compiler and called in the loop (``"osqp_c"``: the solver ``agvctl codegen`` writes for
+    the vehicle, software-in-the-loop; the same answers bit for bit, :mod:`~agvctl.controllers.mpc.c_solver`). The
+    generated solver keeps no time, so it takes no ``max_solve_time_s``. The NMPC solves with IPOPT."""
     max_iterations: int = number(ge=1, le=1_000_000, default=4000)
     """The solver's iteration limit per step (OSQP's own default): a tracking step needs tens, the first steps from
     a far-off start several hundred, and a step with both wheels at their limits on a path planned with little

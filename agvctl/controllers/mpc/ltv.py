@@ -41,6 +41,7 @@ from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
 from agvctl.controllers.mpc.body_rate import BodyRate
+from agvctl.controllers.mpc.c_solver import GeneratedOsqp, QpSolverError
 from agvctl.controllers.mpc.common import MpcStepper
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.error_frames import ERROR_FRAMES
@@ -61,7 +62,7 @@ from agvctl.controllers.mpc.ltv_qp import (
 from agvctl.controllers.mpc.ltv_qp_model import Dynamics, StateCost
 from agvctl.controllers.mpc.qp_blocks import BlockQp, VariableBlock
 from agvctl.controllers.mpc.shaping import HorizonStep
-from agvctl.errors import ConfigError, expect_instance
+from agvctl.errors import AgvctlError, ConfigError, expect_instance
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 
@@ -108,8 +109,9 @@ class LtvMpcController(MpcStepper):
     """The QP bounds its setpoints by the path's body bounds (a body-rate block), so the shaper bounds its commands
     by them too."""
 
-    solver_errors = (osqp.OSQPException,)
-    """OSQP's exception for an error in its own workings (a failed or unfinished solve is its status instead)."""
+    solver_errors = (osqp.OSQPException, QpSolverError)
+    """OSQP's exceptions for an error in its own workings, in Python or in its generated C (a failed or unfinished
+    solve is its status instead)."""
 
     def __init__(
         self,
@@ -200,7 +202,6 @@ class LtvMpcController(MpcStepper):
         self._zeros_z = np.zeros(qp.layout.n_variables)
         self._zeros_y = np.zeros(qp.n_rows)
 
-        self._solver = osqp.OSQP()
         settings = {
             "eps_abs": c.tolerance,
             "eps_rel": c.tolerance,
@@ -212,11 +213,28 @@ class LtvMpcController(MpcStepper):
         self._osqp_settings = settings
         self._rho = float(settings["rho"])
         try:
-            self._solver.setup(qp.P, qp.q, qp.A, qp.lower, qp.upper, **settings)
+            self._solver = self._set_up(settings)
         except (TypeError, ValueError) as exc:  # OSQP's own refusal of a setting's name or value
             problem = " ".join(str(exc).split())
             raise ConfigError("LtvMpcController", "osqp_settings", problem) from None
         # at rest the problem above is the zero problem: A's varying entries are set at reset
+
+    def _set_up(self, settings: dict[str, Any]) -> osqp.OSQP | GeneratedOsqp:
+        """The solver set up on the QP: OSQP, or its C generated for the QP (``qp_solver``)."""
+        qp = self._qp
+        if self.config.qp_solver == "osqp":
+            solver = osqp.OSQP()
+            solver.setup(qp.P, qp.q, qp.A, qp.lower, qp.upper, **settings)
+            return solver
+        if self.config.max_solve_time_s is not None:
+            problem = "the generated C solver keeps no time: leave max_solve_time_s unset with qp_solver = 'osqp_c'"
+            raise ConfigError("LtvMpcController", "max_solve_time_s", problem)
+        try:
+            return GeneratedOsqp(qp, settings)
+        except ConfigError:
+            raise
+        except AgvctlError as exc:  # no compiler, or another OSQP release than the generator's
+            raise ConfigError("LtvMpcController", "qp_solver", f"'osqp_c' cannot be used here: {exc}") from None
 
     # -- one step -----------------------------------------------------------------------------------------
 
