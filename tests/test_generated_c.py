@@ -153,6 +153,22 @@ def test_codegen_writes_the_folder_and_prints_the_static_memory(tmp_path, capsys
     assert main(["codegen", "experiments/line.toml", "--out", str(out)]) == 0  # its own output: replaced whole
 
 
+@needs_cc
+@pytest.mark.skipif(shutil.which("make") is None, reason="no make")
+def test_codegen_keeps_what_make_built_in_its_folder_and_replaces_it_after_make_clean(tmp_path, capsys):
+    out = tmp_path / "c"
+    assert main(["codegen", "experiments/line.toml", "--out", str(out)]) == 0
+    subprocess.run(["make", "-C", str(out)], check=True, capture_output=True)
+    built = {p.name for p in out.iterdir()}
+    capsys.readouterr()
+    assert main(["codegen", "experiments/line.toml", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "which agvctl did not write there" in err
+    assert {p.name for p in out.iterdir()} == built  # the build is kept
+    subprocess.run(["make", "-C", str(out), "clean"], check=True, capture_output=True)
+    assert main(["codegen", "experiments/line.toml", "--out", str(out)]) == 0
+
+
 def test_codegen_refuses_a_folder_of_the_users_and_leaves_it_untouched(tmp_path, capsys):
     (tmp_path / "notes.txt").write_text("mine", encoding="utf-8")
     assert main(["codegen", "experiments/line.toml", "--out", str(tmp_path)]) == 2

@@ -1,8 +1,9 @@
 """Output folders are whole: each command writing one (``run --out``, ``check --report-dir``, ``fuzz --out``) writes
 it beside its place and moves it there once everything is written, replacing an old agvctl output whole — so an
 error or an interrupt leaves the old folder as it was and no temporary one, two runs never mix their files and a
-re-run leaves no stale file. A folder that holds files but is not an agvctl output, or holds an input, is refused
-before anything runs (one line, exit 2). An output that cannot be written stops the command before it runs."""
+re-run leaves no stale file. A folder that holds files but is not an agvctl output, an output into which something
+else came since, or a folder that holds an input, is refused before anything runs (one line, exit 2). An output that
+cannot be written stops the command before it runs."""
 
 from __future__ import annotations
 
@@ -41,8 +42,7 @@ def test_a_rerun_into_an_output_folder_replaces_it_whole(tmp_path: Path, capsys:
     exp, out = _experiment(tmp_path), tmp_path / "out"
     assert run(capsys, "run", exp, "--out", out)[0] == 0
     assert (out / "path.png").is_file() and (out / MARKER).is_file()
-    (out / "stale.png").write_bytes(b"an earlier run's plot")
-    assert run(capsys, "run", exp, "--out", out, "--no-plot")[0] == 0
+    assert run(capsys, "run", exp, "--out", out, "--no-plot")[0] == 0  # the first run's plots are gone
     assert sorted(p.name for p in out.iterdir()) == sorted(
         [MARKER, "log.csv", "summary.json", "experiment.toml", "plant_vehicle.toml"]
     )
@@ -53,11 +53,12 @@ def test_a_fuzz_rerun_leaves_no_stale_failure_file(tmp_path: Path, capsys: pytes
     (tmp_path / "fz.toml").write_text(FUZZ)
     out = tmp_path / "out"
     argv = ["fuzz", tmp_path / "fz.toml", "--out", out, "--jobs", "1", "--no-plot", "--junit", out / "j.xml"]
+    with staged_outputs("fuzz") as staging:  # an earlier run's folder, with a failure this run does not find
+        failures = staging.directory("--out", out) / "failures"
+        failures.mkdir()
+        (failures / "s9_00000_ramsete.toml").write_text("an earlier run's failure\n")
     first = run(capsys, *argv)[0]
     assert first in (0, 1) and (out / "summary.json").is_file() and (out / "j.xml").is_file()
-    (out / "failures").mkdir(exist_ok=True)
-    (out / "failures" / "s9_00000_ramsete.toml").write_text("an earlier run's failure\n")
-    assert run(capsys, *argv)[0] == first
     assert not (out / "failures" / "s9_00000_ramsete.toml").exists() and (out / "j.xml").is_file()
     _no_temporaries(tmp_path)
 
@@ -76,6 +77,33 @@ def test_a_folder_that_is_not_an_agvctl_output_is_refused(
     code, out, err = run(capsys, *argv, "--out", theirs)
     assert code == 2 and out == ""
     one_line(err, f"agvctl: --out: {theirs} holds files that are not an agvctl output; refusing to replace it")
+    assert _files(tmp_path) == before
+
+
+@pytest.mark.parametrize("change", ["added", "edited", "linked"])
+def test_an_output_folder_that_holds_anything_agvctl_did_not_write_there_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: str
+) -> None:
+    """A build's object beside generated code, notes, an edited file, a link in place of a file: the user's, so the
+    rerun refuses to replace the folder (one line naming the file, exit 2) and changes nothing."""
+    exp, out = _experiment(tmp_path), tmp_path / "out"
+    assert run(capsys, "run", exp, "--out", out, "--no-plot")[0] == 0
+    if change == "added":
+        (out / "notes").mkdir()
+        (out / "notes" / "mine.txt").write_text("the user's own notes\n")
+        named = "notes/mine.txt, which agvctl did not write there"
+    elif change == "edited":
+        (out / "experiment.toml").write_text("# the user's edit\n", encoding="utf-8")
+        named = "experiment.toml, changed since agvctl wrote it"
+    else:
+        (out / "log.csv").unlink()
+        (tmp_path / "elsewhere.csv").write_text("the user's own log\n")
+        (out / "log.csv").symlink_to(tmp_path / "elsewhere.csv")
+        named = "log.csv, which agvctl did not write there"
+    before = _files(tmp_path)
+    code, _, err = run(capsys, "run", exp, "--out", out, "--no-plot")
+    assert code == 2
+    one_line(err, f"agvctl: --out: {out} holds {named}; refusing to replace it (move it out, or choose another")
     assert _files(tmp_path) == before
 
 

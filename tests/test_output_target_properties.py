@@ -22,7 +22,20 @@ from agvctl.errors import ConfigError
 from agvctl.fileio import write_text
 
 NAMES = ("a", "b", "c")
-KINDS = ("missing", "file", "input", "folder", "empty", "ours", "ours-with-input", "fifo", "socket", "device", "link")
+KINDS = (
+    "missing",
+    "file",
+    "input",
+    "folder",
+    "empty",
+    "ours",
+    "ours-with-input",
+    "ours-and-theirs",
+    "fifo",
+    "socket",
+    "device",
+    "link",
+)
 LINK_TARGETS = ("a", "b/e", "c", ".", "..", "../w/a", "../outside.txt", "missing/x", "a/../b", "loop")
 COMPONENTS = ("a", "b", "c", "e", "..", "new", ".")
 MODES = ("file", "staged file", "folder", "atomic write alone", "staged folder alone")
@@ -36,10 +49,12 @@ def _make(p: Path, kind: str, link: str, inputs: list[Path]) -> None:
         p.write_text(f"the user's {p.name}\n")
         if kind == "input":
             inputs.append(p)
-    elif kind in ("folder", "ours", "ours-with-input"):
+    elif kind in ("folder", "ours", "ours-with-input", "ours-and-theirs"):
         p.mkdir()
         (p / "e").write_text("the user's e\n")
-        if kind != "folder":
+        if kind == "ours-and-theirs":  # an output that listed no files, into which the user put e since
+            (p / MARKER).write_text("an earlier run's\nfiles 0\n")
+        elif kind != "folder":
             (p / MARKER).write_text("an earlier run's\n")
         if kind == "ours-with-input":
             inputs.append(p / "e")
@@ -91,7 +106,10 @@ def _allowed(root: Path, target: Path, mode: str, inputs: list[Path]) -> Path | 
         return real if stat.S_ISREG(s.st_mode) and not is_input else None
     if not stat.S_ISDIR(s.st_mode):
         return None
-    ours = (real / MARKER).is_file() or not any(real.iterdir())
+    marker = real / MARKER
+    lists_files = marker.is_file() and "\nfiles " in "\n" + marker.read_text()
+    only_marker = {p.name for p in real.iterdir()} <= {MARKER}
+    ours = (marker.is_file() and (not lists_files or only_marker)) or not any(real.iterdir())
     holds_input = any(real in p.resolve().parents for p in inputs) and mode == "folder"
     return real if ours and not holds_input else None
 

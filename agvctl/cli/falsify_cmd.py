@@ -93,15 +93,15 @@ def _texts(result: FalsifyResult, out_dir: Path) -> dict[Path, str]:
 
 
 def _journal_folder(out_dir: Path, inputs: list[Path]) -> Path:
-    """The output folder, made (with the marker) if missing, to hold the journal while the search goes."""
+    """The output folder, made if missing, to hold the journal while the search goes: its marker lists no files, since
+    the search adds to the journal as it goes (the end of the run lists them again)."""
     check_replaceable("--out", out_dir, inputs)
     with writing("--out", out_dir):
         if not out_dir.exists():
             make_folders(out_dir)
-        if not (out_dir / MARKER).exists():
-            (out_dir / MARKER).write_text(
-                "an output folder of agvctl falsify: the next run into it resumes or replaces it\n", encoding="utf-8"
-            )
+        (out_dir / MARKER).write_text(
+            "an output folder of agvctl falsify: the next run into it resumes or replaces it\n", encoding="utf-8"
+        )
     return out_dir / JOURNAL
 
 

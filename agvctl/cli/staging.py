@@ -7,9 +7,12 @@ error or an interrupt leaves no half-written output, two runs into one folder ne
 leaves no stale file of an earlier one (a plot it no longer draws, a failure it no longer finds).
 
 Every path is resolved against the real file system first (:func:`agvctl.fileio.real_path`), and the tool works on
-the resolved path only. Only a folder that is empty or an agvctl output (it holds the marker file :data:`MARKER`)
-is replaced; any other folder is refused before anything runs (:func:`check_replaceable`), and so is a folder
-holding an input of the command. The commit checks again on the folder it has just moved aside, and puts back one
+the resolved path only. Only a folder that is empty or an agvctl output is replaced: it holds the marker file
+:data:`MARKER`, which lists every file the command wrote with its SHA-256, and nothing else, each file unchanged. A
+folder into which something else came since (a build's objects, a user's notes, an edited file) is refused, as any
+other folder is, before anything runs (:func:`check_replaceable`), and so is a folder holding an input of the command.
+A marker without a list (written by an earlier agvctl, or by a command that adds to its folder as it goes) marks the
+folder as an output whole. The commit checks again on the folder it has just moved aside, and puts back one
 that is no longer an agvctl output. Only a regular file is replaced by an output file. A SIGINT during the moves is
 held until they are done: the old folder is never lost half-way.
 """
@@ -18,6 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import hashlib
 import os
 import shutil
 import signal
@@ -44,13 +48,67 @@ MARKER = ".agvctl-output"
 """The file that marks a folder as an agvctl output, which the next run into it may replace whole."""
 
 
-def _is_ours(folder: Path) -> bool:
-    """``folder`` is empty or holds the marker as a regular file (a symbolic link named so does not count)."""
+_FILES = "files "
+"""The marker's line that opens its list of files: ``files <count>``, then ``<sha256>  <relative path>`` each."""
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def _marker_text(command: str, folder: Path) -> str:
+    """The marker of ``folder`` as written: what it is, and every file in it with its SHA-256."""
+    files = sorted((p.relative_to(folder).as_posix(), p) for p in folder.rglob("*") if p.is_file() and p.name != MARKER)
+    lines = [
+        f"an output folder of agvctl {command}: the next run into it replaces it whole, as long as it holds only the "
+        "files below, unchanged",
+        f"{_FILES}{len(files)}",
+        *(f"{_sha256(path)}  {name}" for name, path in files),
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def _foreign(folder: Path) -> str | None:
+    """Why ``folder`` is not an agvctl output that may be replaced (None: it is one, or it is empty).
+
+    An output holds the marker as a regular file (a symbolic link named so does not count); where the marker lists
+    files, the folder holds no other file and each listed file unchanged.
+    """
     try:
         marker = os.lstat(folder / MARKER).st_mode
     except FileNotFoundError:
-        return not any(folder.iterdir())
-    return stat.S_ISREG(marker)
+        return None if not any(folder.iterdir()) else "files that are not an agvctl output"
+    if not stat.S_ISREG(marker):
+        return "files that are not an agvctl output"
+    lines = (folder / MARKER).read_text(encoding="utf-8", errors="replace").splitlines()
+    if not any(line.startswith(_FILES) for line in lines):
+        return None  # a marker without a list: the folder is an output whole
+    start = next(i for i, line in enumerate(lines) if line.startswith(_FILES))
+    listed: dict[str, str] = {}
+    for line in lines[start + 1 :]:
+        digest, _, name = line.partition("  ")
+        listed[name] = digest
+    for root, dirs, names in os.walk(folder):
+        dirs.sort()
+        for name in sorted(names) + [d for d in dirs if os.path.islink(os.path.join(root, d))]:
+            path = Path(root, name)
+            relative = path.relative_to(folder).as_posix()
+            if relative == MARKER:
+                continue
+            if relative not in listed or not stat.S_ISREG(os.lstat(path).st_mode):
+                return f"{relative}, which agvctl did not write there"
+            if _sha256(path) != listed[relative]:
+                return f"{relative}, changed since agvctl wrote it"
+    return None
+
+
+def _is_ours(folder: Path) -> bool:
+    """``folder`` is empty or an agvctl output that may be replaced (see :func:`_foreign`)."""
+    return _foreign(folder) is None
 
 
 def check_replaceable(flag: str, directory: str | Path, inputs: Iterable[str | Path]) -> None:
@@ -79,12 +137,11 @@ def check_replaceable(flag: str, directory: str | Path, inputs: Iterable[str | P
         with contextlib.suppress(OSError):
             if d in real_path(p).parents:
                 raise ConfigError(flag, "", f"{directory} holds {p}, an input of this command; refusing to replace it")
-    if not _is_ours(d):
+    foreign = _foreign(d)
+    if foreign is not None:
+        advice = "remove it" if foreign.startswith("files") else "move it out"
         raise ConfigError(
-            flag,
-            "",
-            f"{directory} holds files that are not an agvctl output; refusing to replace it (remove it, or choose "
-            "another folder)",
+            flag, "", f"{directory} holds {foreign}; refusing to replace it ({advice}, or choose another folder)"
         )
 
 
@@ -248,6 +305,7 @@ class Staging:
                     os.replace(staged, final)
             for flag, final, staged in self._dirs:
                 with writing(flag, final):
+                    (staged / MARKER).write_text(_marker_text(self.command, staged), encoding="utf-8")
                     _swap_in(staged, final)
             self._files, self._dirs, self._made = [], [], []
 
