@@ -10,9 +10,11 @@ runs. Warnings of a scenario (a path near the voltage headroom) are noted, as ``
 
 With ``--part qp``, each scenario's LTV MPC (the ``mpc`` runs only) runs with OSQP in Python and with the C generated
 for its QP (``qp_solver = "osqp_c"``), each in its own closed loop (:func:`agvctl.codegen.qp_back_to_back`): the
-largest difference of the commanded DA voltages, sample by sample, and the verdicts.
+largest difference of the commanded DA voltages, sample by sample, and the verdicts. ``--part qp_float`` does the
+same with the C in single precision (``qp_solver = "osqp_c_float"``), and prints the largest difference of the
+tracking errors' RMS too.
 
-Run:  python experiments/codegen_back_to_back.py [--part loops|qp] [--scenarios 100] [--jobs 2]
+Run:  python experiments/codegen_back_to_back.py [--part loops|qp|qp_float] [--scenarios 100] [--jobs 2]
 """
 
 from __future__ import annotations
@@ -25,7 +27,10 @@ import warnings
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+import numpy as np
+
 from agvctl.codegen import back_to_back, qp_back_to_back
+from agvctl.controllers.mpc.config import QpSolver
 from agvctl.fuzz.report import FuzzTask
 from agvctl.fuzz.run import fuzz_tasks
 from agvctl.fuzz.spec import load_fuzz_config
@@ -53,38 +58,47 @@ def compare(task: FuzzTask) -> tuple[int, str, int, float, int, bool, bool, bool
     )
 
 
-def compare_qp(task: FuzzTask) -> tuple[int, str, int, float, int, bool, bool, bool]:
-    """One scenario with the LTV MPC, its QP solver: as :func:`compare` (no clamped flags: 0)."""
+def compare_qp(task: FuzzTask, solver: QpSolver = "osqp_c") -> tuple[int, str, int, float, float, bool, bool, bool]:
+    """One scenario with the LTV MPC, its QP solver: as :func:`compare`, with the difference of the tracking errors'
+    RMS in m in place of the clamped mismatches, and the samples negative where the two runs' counts differ."""
     with tempfile.TemporaryDirectory(prefix="agvctl-b2b-") as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for name, text in task.files:
             Path(tmp, name).write_text(text, encoding="utf-8")
-        r = qp_back_to_back(Path(tmp, task.files[-1][0]))
+        r = qp_back_to_back(Path(tmp, task.files[-1][0]), solver)
+    rms = abs(r.python.metrics["tracking_error_rms_m"] - r.c.metrics["tracking_error_rms_m"])
+    samples = r.samples if r.samples == r.samples_c else -r.samples
     return (
         task.scenario,
         task.controller,
-        r.samples,
+        samples,
         r.max_da_difference_v,
-        0,
+        rms,
         r.same_verdicts,
         r.python.passed,
         r.c.passed,
     )
 
 
+def compare_qp_float(task: FuzzTask) -> tuple[int, str, int, float, float, bool, bool, bool]:
+    """:func:`compare_qp` with the solver in single precision."""
+    return compare_qp(task, "osqp_c_float")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenarios", type=int, default=100)
     parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--part", choices=("loops", "qp"), default="loops")
+    parser.add_argument("--part", choices=("loops", "qp", "qp_float"), default="loops")
     args = parser.parse_args()
     spec = load_fuzz_config(FUZZ_FILE)
-    if args.part == "qp":
+    if args.part != "loops":
         spec = dataclasses.replace(spec, controllers=("mpc",))
     tasks = fuzz_tasks(spec, list(range(args.scenarios))).tasks
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.jobs) as pool:
-        rows = list(pool.map(compare_qp if args.part == "qp" else compare, tasks))
+        work = {"loops": compare, "qp": compare_qp, "qp_float": compare_qp_float}[args.part]
+        rows = list(pool.map(work, tasks))
     wall = time.perf_counter() - t0
     print(
         f"{len(rows)} runs ({args.scenarios} scenarios of {FUZZ_FILE.name} x {', '.join(spec.controllers)}), "
@@ -92,11 +106,23 @@ def main() -> None:
     )
     for controller in spec.controllers:
         mine = [r for r in rows if r[1] == controller]
-        print(
-            f"  {controller:<8} samples {sum(r[2] for r in mine):>7}   largest DA difference "
-            f"{max(r[3] for r in mine):.3g} V   clamped mismatches {sum(r[4] for r in mine)}   "
+        verdicts = (
             f"verdicts differ in {sum(not r[5] for r in mine)} runs   "
             f"passed: Python {sum(r[6] for r in mine)}, C {sum(r[7] for r in mine)} of {len(mine)}"
+        )
+        if args.part == "loops":
+            print(
+                f"  {controller:<8} samples {sum(r[2] for r in mine):>7}   largest DA difference "
+                f"{max(r[3] for r in mine):.3g} V   clamped mismatches {sum(r[4] for r in mine)}   {verdicts}"
+            )
+            continue
+        da = np.array([r[3] for r in mine])
+        rms_mm = np.array([r[4] for r in mine]) * 1e3
+        print(
+            f"  {controller:<8} samples {sum(abs(r[2]) for r in mine):>7}   DA difference per run: median "
+            f"{np.median(da):.3g} V, largest {da.max():.3g} V   RMS tracking difference: median "
+            f"{np.median(rms_mm):.3g} mm, largest {rms_mm.max():.3g} mm   runs ending at another sample: "
+            f"{sum(r[2] < 0 for r in mine)}   {verdicts}"
         )
 
 

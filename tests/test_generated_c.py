@@ -212,6 +212,21 @@ def test_the_mpcs_qp_solver_is_in_the_folder_and_builds_into_a_library_with_no_h
     assert f"{qp.static_bytes} bytes of static storage" in figure8_code.files["README.md"]
 
 
+@needs_cc
+@pytest.mark.skipif(shutil.which("make") is None, reason="no make")
+@pytest.mark.skipif(osqp.__version__ != OSQP_VERSION, reason=f"the QP's C is generated with osqp {OSQP_VERSION}")
+def test_with_float_the_qp_solver_is_single_precision_builds_strictly_and_takes_less_memory(figure8_code, tmp_path):
+    single = generate_code("experiments/figure8.toml", single=True)
+    assert single.qp.code is not None and single.qp.code.single
+    assert "#define OSQP_USE_FLOAT" in single.files["mpc_qp/osqp_configure.h"]
+    assert "single precision (float)" in single.files["README.md"]
+    _write(single.files, tmp_path)
+    done = subprocess.run(["make", "-C", str(tmp_path)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert single.qp.static_bytes is not None and figure8_code.qp.static_bytes is not None
+    assert single.qp.static_bytes < 0.8 * figure8_code.qp.static_bytes  # the workspace's values in 4 bytes, not 8
+
+
 def test_a_pose_controller_without_a_qp_gets_the_loops_only_and_the_readme_says_why(tmp_path):
     experiment = Path("experiments/line.toml").read_text(encoding="utf-8")
     experiment = experiment.replace('"../trajectories/', f'"{Path("trajectories").absolute()}/')

@@ -29,12 +29,18 @@ def register(sub: Any) -> None:
     p.add_argument("experiment", metavar="EXPERIMENT.toml")
     add_vehicle_options(p, "the experiment's vehicle")
     p.add_argument("--out", metavar="DIR", required=True, help="output directory (new, empty, or an agvctl output)")
+    p.add_argument(
+        "--float",
+        action="store_true",
+        help="generate the MPC's QP solver in single precision (for a processor without a double-precision unit; "
+        "qp_solver = 'osqp_c_float' runs it in the closed loop)",
+    )
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     out_dir = Path(args.out)
-    code = generate_code(args.experiment, vehicle=args.vehicle, vehicle_overrides=args.overrides)
+    code = generate_code(args.experiment, vehicle=args.vehicle, vehicle_overrides=args.overrides, single=args.float)
     inputs = code.experiment.input_files
     check_outputs(files_in("--out", out_dir, code.files), inputs, [("--out", out_dir)])
     check_replaceable("--out", out_dir, inputs)

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.base import WheelSpeedController
-from agvctl.controllers.mpc.config import MpcConfig
+from agvctl.controllers.mpc.config import MpcConfig, QpSolver
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.pi.c_loops import CompiledPIWheelController
 from agvctl.controllers.pi.wheel_loop import PIWheelController
@@ -180,9 +180,12 @@ class QpBackToBack:
     experiment : str
         The experiment's name.
     samples : int
-        The samples compared (both runs' samples; a run that ends early differs by infinity).
+        The samples of the run with OSQP in Python.
+    samples_c : int
+        The samples of the run with the generated solver (another count where the run ends at another time).
     max_da_difference_v : float
-        The largest absolute difference of the commanded DA voltages, sample by sample, V.
+        The largest absolute difference of the commanded DA voltages, sample by sample over the samples both runs
+        have, V.
     python : RunVerdict
         The run with OSQP in Python, judged.
     c : RunVerdict
@@ -191,6 +194,7 @@ class QpBackToBack:
 
     experiment: str
     samples: int
+    samples_c: int
     max_da_difference_v: float
     python: RunVerdict
     c: RunVerdict
@@ -201,14 +205,17 @@ class QpBackToBack:
         return _same_verdicts(self.python, self.c)
 
 
-def qp_back_to_back(experiment: str | Path | Experiment) -> QpBackToBack:
-    """Run an experiment's LTV MPC with OSQP in Python, then with its generated C (``qp_solver = "osqp_c"``).
+def qp_back_to_back(experiment: str | Path | Experiment, solver: QpSolver = "osqp_c") -> QpBackToBack:
+    """Run an experiment's LTV MPC with OSQP in Python, then with its generated C.
 
     Parameters
     ----------
     experiment : str, Path or Experiment
         The experiment file, or one loaded; its pose controller is the LTV MPC (``pose = "mpc"``), whatever its
         ``qp_solver``.
+    solver : {'osqp_c', 'osqp_c_float'}
+        The generated solver to compare: in double precision (the same answers, bit for bit), or in single
+        precision (its error measured).
 
     Returns
     -------
@@ -227,15 +234,14 @@ def qp_back_to_back(experiment: str | Path | Experiment) -> QpBackToBack:
         problem = f"the QP solvers' back-to-back runs the LTV MPC ('mpc'), not {spec.controller.pose!r}"
         raise ConfigError(str(spec.source), "controller.pose", problem)
     runs = []
-    for solver in ("osqp", "osqp_c"):
-        controller = LtvMpcController(vehicle, dataclasses.replace(settings, qp_solver=solver))
+    for qp_solver in ("osqp", solver):
+        controller = LtvMpcController(vehicle, dataclasses.replace(settings, qp_solver=qp_solver))
         result = run_experiment(loaded, pose_controller=controller)
         runs.append((result, judge_run(result, spec.limits, vehicle, spec.requirements)))
     (python, python_verdict), (c, c_verdict) = runs
-    difference = float("inf")
-    if python.n_samples == c.n_samples:
-        difference = max(
-            float(np.max(np.abs(np.asarray(python.log.columns[k]) - np.asarray(c.log.columns[k]))))
-            for k in ("da_command_left_v", "da_command_right_v")
-        )
-    return QpBackToBack(spec.name, python.n_samples, difference, python_verdict, c_verdict)
+    n = min(python.n_samples, c.n_samples)
+    difference = max(
+        float(np.max(np.abs(np.asarray(python.log.columns[k][:n]) - np.asarray(c.log.columns[k][:n]))))
+        for k in ("da_command_left_v", "da_command_right_v")
+    )
+    return QpBackToBack(spec.name, python.n_samples, c.n_samples, difference, python_verdict, c_verdict)

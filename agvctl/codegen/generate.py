@@ -127,6 +127,7 @@ def generate_code(
     vehicle: str | Path | None = None,
     vehicle_overrides: Sequence[str] = (),
     measure_memory: bool = True,
+    single: bool = False,
 ) -> GeneratedCode:
     """The C99 of an experiment's PI wheel loops, with its gains and vehicle constants baked in.
 
@@ -141,6 +142,10 @@ def generate_code(
     measure_memory : bool
         Compile the loops and the QP solver (once, into the cache of compiled code) to measure their static memory,
         which the README states. Without a C compiler it is not measured.
+    single : bool
+        Generate the MPC's QP solver in single precision (``float``), for a processor without a double-precision
+        unit. The wheel loops stay in double: a few dozen operations per sample, which a software ``double`` does
+        in microseconds.
 
     Returns
     -------
@@ -178,7 +183,7 @@ def generate_code(
     origin = f"The PI wheel loops of experiment {spec.name!r} ({os.path.basename(spec.source)})."
     code = render_wheel_loops_c(python_loops, origin=origin, generator=generator)
     memory = static_memory(code) if measure_memory and c_compiler() is not None else None
-    qp = experiment_qp(loaded, generator=generator, measure_memory=measure_memory)
+    qp = experiment_qp(loaded, generator=generator, measure_memory=measure_memory, single=single)
     values = {**_readme_values(loaded, code, memory, generator), **_qp_values(qp)}
     env = c_templates("agvctl.codegen")
     files = dict(code.files)

@@ -60,7 +60,9 @@ def _static_bytes(code: QpC) -> int | None:
     return total
 
 
-def experiment_qp(experiment: Experiment, *, generator: str, measure_memory: bool = True) -> ExperimentQp:
+def experiment_qp(
+    experiment: Experiment, *, generator: str, measure_memory: bool = True, single: bool = False
+) -> ExperimentQp:
     """The QP solver of ``experiment``'s LTV MPC as C99.
 
     Parameters
@@ -71,6 +73,8 @@ def experiment_qp(experiment: Experiment, *, generator: str, measure_memory: boo
         What writes the files (``"agvctl 0.2.0"``).
     measure_memory : bool
         Compile the solver (once, into the cache of compiled code) to measure its static storage.
+    single : bool
+        Generate the solver in single precision (``float``).
 
     Returns
     -------
@@ -89,7 +93,8 @@ def experiment_qp(experiment: Experiment, *, generator: str, measure_memory: boo
         )
     controller.reset(experiment.reference)  # the QP of this path: its body-rate rows where the path limits the body
     origin = f"The QP of the LTV MPC of experiment {spec.name!r}."
-    code = generate_qp_c(controller.qp, controller.osqp_settings, origin=origin, generator=generator)
+    code = generate_qp_c(controller.qp, controller.osqp_settings, origin=origin, generator=generator, single=single)
     horizon = controller.config.horizon
-    note = f"n = {code.n_variables} variables, m = {code.n_constraints} constraints, horizon N = {horizon}"
+    precision = "single precision (float)" if single else "double precision"
+    note = f"n = {code.n_variables} variables, m = {code.n_constraints} constraints, horizon N = {horizon}, {precision}"
     return ExperimentQp(code, note, _static_bytes(code) if measure_memory else None)

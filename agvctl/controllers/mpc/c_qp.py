@@ -68,6 +68,8 @@ class QpC:
         The varying entries of P, in the order of :attr:`~agvctl.controllers.mpc.qp_blocks.BlockQp.p_varying`.
     n_a_varying : int
         The varying entries of A, in the order of :attr:`~agvctl.controllers.mpc.qp_blocks.BlockQp.a_varying`.
+    single : bool
+        The solver computes in single precision (``float``; the entry point takes and gives ``double``).
     """
 
     files: dict[str, str]
@@ -76,6 +78,7 @@ class QpC:
     n_constraints: int
     n_p_varying: int
     n_a_varying: int
+    single: bool = False
 
     @property
     def sources(self) -> list[str]:
@@ -114,7 +117,7 @@ def _rows(positions: NDArray[np.int64], per_row: int = 12) -> list[list[int]]:
 
 
 def _osqp_files(
-    qp: BlockQp[Any, Any], settings: Mapping[str, Any], prefix: str, fixes: Sequence[SourceFix]
+    qp: BlockQp[Any, Any], settings: Mapping[str, Any], prefix: str, fixes: Sequence[SourceFix], single: bool
 ) -> dict[str, str]:
     """OSQP's generated solver for ``qp`` set up with ``settings``, as ``{relative path: text}``, fixes applied."""
     if osqp.__version__ != OSQP_VERSION:
@@ -128,7 +131,7 @@ def _osqp_files(
             parameters="matrices",
             extension_name=None,
             force_rewrite=True,
-            use_float=False,
+            use_float=single,
             printing_enable=False,
             profiling_enable=False,
             interrupt_enable=False,
@@ -184,6 +187,7 @@ def generate_qp_c(
     generator: str,
     prefix: str = PREFIX,
     fixes: Sequence[SourceFix] = OSQP_FIXES,
+    single: bool = False,
 ) -> QpC:
     """The C99 of ``qp``'s solver: OSQP's generated code for it, fixed to compile warning-free, and the entry point.
 
@@ -208,6 +212,9 @@ def generate_qp_c(
     fixes : sequence of SourceFix
         The source fixes to apply (all of :data:`~agvctl.controllers.mpc.osqp_fixes.OSQP_FIXES`; fewer to see
         what one of them is for).
+    single : bool
+        Generate the solver in single precision (``float``: for a processor whose floating-point unit has no
+        ``double``); the entry point still takes and gives ``double``, rounded on the way in.
 
     Returns
     -------
@@ -219,7 +226,7 @@ def generate_qp_c(
     AgvctlError
         Another OSQP release than ``osqp_fixes.OSQP_VERSION``, or one of the fixes does not apply.
     """
-    files = _osqp_files(qp, settings, prefix, fixes)
+    files = _osqp_files(qp, settings, prefix, fixes, single)
     n, m = qp.layout.n_variables, qp.n_rows
     values = {
         "prefix": prefix,
@@ -230,6 +237,7 @@ def generate_qp_c(
         "osqp_version": OSQP_VERSION,
         "origin": origin,
         "generator": generator,
+        "single": single,
         "n": n,
         "m": m,
         "n_p": len(qp.p_varying),
@@ -240,7 +248,7 @@ def generate_qp_c(
     env = c_templates("agvctl.controllers.mpc")
     files[f"{prefix}.h"] = env.get_template("mpc_qp.h.j2").render(values)
     files[f"{prefix}.c"] = env.get_template("mpc_qp.c.j2").render(values)
-    return QpC(files, prefix, n, m, len(qp.p_varying), len(qp.a_varying))
+    return QpC(files, prefix, n, m, len(qp.p_varying), len(qp.a_varying), single)
 
 
 def write_qp_c(
@@ -252,6 +260,7 @@ def write_qp_c(
     generator: str,
     prefix: str = PREFIX,
     fixes: Sequence[SourceFix] = OSQP_FIXES,
+    single: bool = False,
 ) -> QpC:
     """Write the C99 of ``qp``'s solver (:func:`generate_qp_c`) into ``folder``.
 
@@ -271,13 +280,15 @@ def write_qp_c(
         The entry point's stem and the prefix of every name the files define.
     fixes : sequence of SourceFix
         The source fixes to apply.
+    single : bool
+        Generate the solver in single precision.
 
     Returns
     -------
     QpC
         The files written.
     """
-    code = generate_qp_c(qp, settings, origin=origin, generator=generator, prefix=prefix, fixes=fixes)
+    code = generate_qp_c(qp, settings, origin=origin, generator=generator, prefix=prefix, fixes=fixes, single=single)
     code.write(folder)
     return code
 

@@ -238,7 +238,7 @@ _GENERATED: dict[str, QpC] = {}
 _GENERATED_LOCK = threading.Lock()
 
 
-def generated_qp(qp: BlockQp[Any, Any], settings: Mapping[str, Any]) -> QpC:
+def generated_qp(qp: BlockQp[Any, Any], settings: Mapping[str, Any], *, single: bool = False) -> QpC:
     """The generated solver of ``qp`` set up with ``settings``, generated once per process for the same data.
 
     Parameters
@@ -247,13 +247,15 @@ def generated_qp(qp: BlockQp[Any, Any], settings: Mapping[str, Any]) -> QpC:
         The assembled QP, as the controller sets its solver up on it.
     settings : mapping of str to Any
         OSQP's settings.
+    single : bool
+        In single precision.
 
     Returns
     -------
     QpC
         The generated C (:func:`~agvctl.controllers.mpc.c_qp.generate_qp_c`).
     """
-    digest = hashlib.sha256(repr(sorted(settings.items())).encode())
+    digest = hashlib.sha256(repr((single, sorted(settings.items()))).encode())
     for matrix in (qp.P, qp.A):
         for part in (matrix.indptr, matrix.indices, matrix.data):
             digest.update(np.ascontiguousarray(part).tobytes())
@@ -263,7 +265,8 @@ def generated_qp(qp: BlockQp[Any, Any], settings: Mapping[str, Any]) -> QpC:
     with _GENERATED_LOCK:
         code = _GENERATED.get(key)
         if code is None:
-            code = generate_qp_c(qp, settings, origin="an LTV MPC in the closed loop", generator="agvctl")
+            origin = "an LTV MPC in the closed loop"
+            code = generate_qp_c(qp, settings, origin=origin, generator="agvctl", single=single)
             _GENERATED[key] = code
         return code
 
@@ -291,6 +294,8 @@ class GeneratedOsqp:
         The assembled QP, in the state the solver is set up on.
     settings : mapping of str to Any
         OSQP's settings (``time_limit`` has no effect: the generated solver keeps no time).
+    single : bool
+        Generate the solver in single precision (``qp_solver = "osqp_c_float"``).
 
     Raises
     ------
@@ -298,8 +303,8 @@ class GeneratedOsqp:
         Another OSQP release than the generator's, no C compiler, or the code does not compile.
     """
 
-    def __init__(self, qp: BlockQp[Any, Any], settings: Mapping[str, Any]) -> None:
-        self.solver = CompiledQp(generated_qp(qp, settings))
+    def __init__(self, qp: BlockQp[Any, Any], settings: Mapping[str, Any], *, single: bool = False) -> None:
+        self.solver = CompiledQp(generated_qp(qp, settings, single=single))
         self._vectors: dict[str, Any] = {}
 
     def update(self, **arguments: Any) -> None:

@@ -37,7 +37,7 @@ __all__ = [
 
 PredictionModel = Literal["kinematic", "kinematic+wheel_loop"]
 ErrorFrame = Literal["path", "world"]
-QpSolver = Literal["osqp", "osqp_c"]
+QpSolver = Literal["osqp", "osqp_c", "osqp_c_float"]
 
 
 @document_fields
@@ -164,8 +164,9 @@ class MpcConfig:
     qp_solver: QpSolver = "osqp"
     """The LTV MPC's QP solver: OSQP through its Python package (``"osqp"``), or OSQP's C generated for this QP,
     compiled with the system compiler and called in the loop (``"osqp_c"``: the solver ``agvctl codegen`` writes for
-    the vehicle, software-in-the-loop; the same answers bit for bit, :mod:`~agvctl.controllers.mpc.c_solver`). The
-    generated solver keeps no time, so it takes no ``max_solve_time_s``. The NMPC solves with IPOPT."""
+    the vehicle, software-in-the-loop; the same answers bit for bit, :mod:`~agvctl.controllers.mpc.c_solver`), or
+    that C in single precision (``"osqp_c_float"``, for a processor without a double-precision unit). The generated
+    solver keeps no time, so it takes no ``max_solve_time_s``. The NMPC solves with IPOPT."""
     max_iterations: int = number(ge=1, le=1_000_000, default=4000)
     """The solver's iteration limit per step (OSQP's own default): a tracking step needs tens, the first steps from
     a far-off start several hundred, and a step with both wheels at their limits on a path planned with little

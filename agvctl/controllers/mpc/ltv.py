@@ -227,14 +227,15 @@ class LtvMpcController(MpcStepper):
             solver.setup(qp.P, qp.q, qp.A, qp.lower, qp.upper, **settings)
             return solver
         if self.config.max_solve_time_s is not None:
-            problem = "the generated C solver keeps no time: leave max_solve_time_s unset with qp_solver = 'osqp_c'"
+            problem = f"the generated C solver keeps no time: leave it unset with qp_solver = {self.config.qp_solver!r}"
             raise ConfigError("LtvMpcController", "max_solve_time_s", problem)
         try:
-            return GeneratedOsqp(qp, settings)
+            return GeneratedOsqp(qp, settings, single=self.config.qp_solver == "osqp_c_float")
         except ConfigError:
             raise
         except AgvctlError as exc:  # no compiler, or another OSQP release than the generator's
-            raise ConfigError("LtvMpcController", "qp_solver", f"'osqp_c' cannot be used here: {exc}") from None
+            problem = f"{self.config.qp_solver!r} cannot be used here: {exc}"
+            raise ConfigError("LtvMpcController", "qp_solver", problem) from None
 
     # -- one step -----------------------------------------------------------------------------------------
 
