@@ -160,3 +160,22 @@ def test_without_a_compiler_the_c_solver_is_refused_in_one_line_naming_its_key(t
     with pytest.raises(ConfigError, match="qp_solver: 'osqp_c' cannot be used here: .*cannot be compiled") as caught:
         _with_c_solver(figure8)
     assert "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize(
+    ("pose", "keys", "named"),
+    [
+        ("nmpc", 'qp_solver = "osqp_c"\n', "controller.qp_solver: 'osqp_c' is the LTV MPC's QP solver"),
+        ("mpc", 'qp_solver = "osqp_c"\nmax_solve_time_s = 0.01\n', "controller.max_solve_time_s: the generated C"),
+    ],
+)
+def test_a_setting_the_controller_cannot_keep_is_refused_in_one_line_naming_the_files_key(
+    pose, keys, named, tmp_path, capsys
+):
+    experiment = Path("experiments/line.toml").read_text(encoding="utf-8")
+    experiment = experiment.replace('"../trajectories/', f'"{Path("trajectories").absolute()}/')
+    experiment = experiment.replace('pose = "mpc"\n', f'pose = "{pose}"\n{keys}')
+    (tmp_path / "bad.toml").write_text(experiment, encoding="utf-8")
+    assert main(["run", str(tmp_path / "bad.toml"), "--no-plot"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{tmp_path / 'bad.toml'}: {named}" in err

@@ -258,9 +258,13 @@ def run_experiment(
     vehicle = e.controller_vehicle
     where: dict[str, Any] = {"source": e.spec.source, "base_dir": e.spec.base_dir}
     if pose_controller is None:
-        pose_controller = pose_controllers.resolve(c.pose, key="controller.pose", **where).make(
-            vehicle, c.pose_settings
-        )
+        kind = pose_controllers.resolve(c.pose, key="controller.pose", **where)
+        try:
+            pose_controller = kind.make(vehicle, c.pose_settings)
+        except ConfigError as exc:  # a built-in controller refusing its settings: name the file's key
+            if exc.source != getattr(kind.make, "__name__", None):
+                raise
+            raise ConfigError(e.spec.source, f"controller.{exc.key}", exc.problem) from None
     if wheel_controller is None:
         loops = wheel_loop_kinds.resolve(c.wheel_loops, key="controller.wheel_loops", **where)
         wheel_controller = loops.make(vehicle, c.wheel_loops_settings, e.wheel_loops)

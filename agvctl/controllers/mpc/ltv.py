@@ -214,6 +214,8 @@ class LtvMpcController(MpcStepper):
         self._rho = float(settings["rho"])
         try:
             self._solver = self._set_up(settings)
+        except ConfigError:
+            raise
         except (TypeError, ValueError) as exc:  # OSQP's own refusal of a setting's name or value
             problem = " ".join(str(exc).split())
             raise ConfigError("LtvMpcController", "osqp_settings", problem) from None
