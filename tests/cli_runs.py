@@ -4,6 +4,7 @@ give."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 
 import pytest
 
@@ -34,3 +35,13 @@ def assert_clean(call: Callable[[], object], *sources: str) -> object:
         assert len(message.splitlines()) == 1, message
         assert message.startswith(sources), message
         return None
+
+
+def line_experiment(folder: Path, name: str, old: str, new: str) -> Path:
+    """``experiments/line.toml`` with ``old`` replaced by ``new`` (e.g. a ``[controller]`` key added), written into
+    ``folder`` as ``name`` with its path file found where it is."""
+    text = Path("experiments/line.toml").read_text(encoding="utf-8")
+    text = text.replace('"../trajectories/', f'"{Path("trajectories").absolute()}/')
+    assert old in text, old
+    (folder / name).write_text(text.replace(old, new), encoding="utf-8")
+    return folder / name

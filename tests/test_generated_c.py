@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import osqp
 import pytest
+from cli_runs import line_experiment
 
 from agvctl.cli import main
 from agvctl.codegen import back_to_back, generate_code
@@ -126,10 +127,7 @@ def test_in_the_closed_loop_of_fuzz_scenarios_the_c_loops_match_the_python_loops
 
 @needs_cc
 def test_an_experiment_runs_its_wheel_loops_as_c_when_it_names_pi_c(tmp_path, capsys):
-    experiment = Path("experiments/line.toml").read_text(encoding="utf-8")
-    experiment = experiment.replace('"../trajectories/', f'"{Path("trajectories").absolute()}/')
-    experiment = experiment.replace("[controller]\n", '[controller]\nwheel_loops = "pi_c"\n')
-    (tmp_path / "line_c.toml").write_text(experiment, encoding="utf-8")
+    line_experiment(tmp_path, "line_c.toml", "[controller]\n", '[controller]\nwheel_loops = "pi_c"\n')
     assert main(["check", str(tmp_path / "line_c.toml"), "--jobs", "1"]) == 0
     assert "1 of 1 experiments passed" in capsys.readouterr().out
 
@@ -178,10 +176,7 @@ def test_codegen_refuses_a_folder_of_the_users_and_leaves_it_untouched(tmp_path,
 
 
 def test_codegen_refuses_an_experiment_whose_wheel_loops_are_the_users(tmp_path, capsys):
-    experiment = Path("experiments/line.toml").read_text(encoding="utf-8")
-    experiment = experiment.replace('"../trajectories/', f'"{Path("trajectories").absolute()}/')
-    experiment = experiment.replace("[controller]\n", '[controller]\nwheel_loops = "loops.py:Mine"\n')
-    (tmp_path / "mine.toml").write_text(experiment, encoding="utf-8")
+    line_experiment(tmp_path, "mine.toml", "[controller]\n", '[controller]\nwheel_loops = "loops.py:Mine"\n')
     (tmp_path / "loops.py").write_text(
         "class Mine:\n    def __init__(self, vehicle, settings): pass\n    def reset(self): pass\n"
         "    def update(self, setpoint_rad_s, measured_rad_s): return setpoint_rad_s * 0.0\n",
@@ -228,10 +223,7 @@ def test_with_float_the_qp_solver_is_single_precision_builds_strictly_and_takes_
 
 
 def test_a_pose_controller_without_a_qp_gets_the_loops_only_and_the_readme_says_why(tmp_path):
-    experiment = Path("experiments/line.toml").read_text(encoding="utf-8")
-    experiment = experiment.replace('"../trajectories/', f'"{Path("trajectories").absolute()}/')
-    experiment = experiment.replace('pose = "mpc"\nhorizon = 20\n', 'pose = "ramsete"\n')
-    (tmp_path / "ramsete.toml").write_text(experiment, encoding="utf-8")
+    line_experiment(tmp_path, "ramsete.toml", 'pose = "mpc"\nhorizon = 20\n', 'pose = "ramsete"\n')
     code = generate_code(tmp_path / "ramsete.toml", measure_memory=False)
     assert code.experiment.spec.controller.pose == "ramsete"
     assert not any(name.startswith("mpc_qp/") for name in code.files) and "mpc_qp" not in code.files["Makefile"]

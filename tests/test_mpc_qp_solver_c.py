@@ -7,12 +7,12 @@ cannot run."""
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import osqp
 import pytest
+from cli_runs import line_experiment
 
 from agvctl.cli import main
 from agvctl.codegen.back_to_back import qp_back_to_back
@@ -124,10 +124,7 @@ def test_two_controllers_stepped_in_turn_in_one_process_each_command_as_alone():
 
 
 def test_check_runs_an_experiment_that_names_the_c_solver(tmp_path, capsys):
-    experiment = Path("experiments/line.toml").read_text(encoding="utf-8")
-    experiment = experiment.replace('"../trajectories/', f'"{Path("trajectories").absolute()}/')
-    experiment = experiment.replace("[controller]\n", '[controller]\nqp_solver = "osqp_c"\n')
-    (tmp_path / "line_c.toml").write_text(experiment, encoding="utf-8")
+    line_experiment(tmp_path, "line_c.toml", "[controller]\n", '[controller]\nqp_solver = "osqp_c"\n')
     assert main(["check", str(tmp_path / "line_c.toml"), "--jobs", "1"]) == 0
     assert "1 of 1 experiments passed" in capsys.readouterr().out
 
@@ -172,10 +169,7 @@ def test_without_a_compiler_the_c_solver_is_refused_in_one_line_naming_its_key(t
 def test_a_setting_the_controller_cannot_keep_is_refused_in_one_line_naming_the_files_key(
     pose, keys, named, tmp_path, capsys
 ):
-    experiment = Path("experiments/line.toml").read_text(encoding="utf-8")
-    experiment = experiment.replace('"../trajectories/', f'"{Path("trajectories").absolute()}/')
-    experiment = experiment.replace('pose = "mpc"\n', f'pose = "{pose}"\n{keys}')
-    (tmp_path / "bad.toml").write_text(experiment, encoding="utf-8")
+    line_experiment(tmp_path, "bad.toml", 'pose = "mpc"\n', f'pose = "{pose}"\n{keys}')
     assert main(["run", str(tmp_path / "bad.toml"), "--no-plot"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"{tmp_path / 'bad.toml'}: {named}" in err
