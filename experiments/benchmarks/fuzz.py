@@ -4,14 +4,18 @@ Runs ``experiments/fuzz/acceptance.toml`` (500 scenarios; by default only its fi
 controller, as the speed goal counts) through :func:`agvctl.fuzz.run.fuzz` with ``--jobs`` spawned worker
 processes, and prints the wall time, scenarios/s and runs/s, the simulated time per wall second, and where a run's
 time goes (the per-run wall time spent in the workers). Goal: the 500 scenarios in ≤ 4 min with 2 jobs on a
-2-core machine.
+2-core machine. With ``--qp-solver osqp_c`` (or ``osqp_c_float``), the LTV MPC's QP is solved by its generated C
+(``[controller] qp_solver``) in a second fuzz run of the same scenarios, and the ratio of the two wall times is
+printed (the first, with OSQP in Python, the peer).
 
 Run:  python experiments/benchmarks/fuzz.py [--jobs 2] [--scenarios 500] [--controllers mpc,ramsete]
+                                            [--qp-solver osqp_c]  (with the LTV MPC, ``mpc``, alone)
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import statistics
 import sys
 import time
@@ -29,6 +33,7 @@ def main() -> int:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--scenarios", type=int, default=None, help="default: the configuration's 500")
     ap.add_argument("--controllers", default=None, help="comma-separated (default: the configuration's first)")
+    ap.add_argument("--qp-solver", default=None, choices=("osqp_c", "osqp_c_float"), help="also with this solver")
     args = ap.parse_args()
 
     spec = load_fuzz_config(CONFIG)
@@ -37,6 +42,16 @@ def main() -> int:
     t0 = time.perf_counter()
     report = fuzz(spec, jobs=args.jobs)
     wall = time.perf_counter() - t0
+    if args.qp_solver:
+        generated = dataclasses.replace(spec, controller={**spec.controller, "qp_solver": args.qp_solver})
+        t1 = time.perf_counter()
+        generated_report = fuzz(generated, jobs=args.jobs)
+        generated_wall = time.perf_counter() - t1
+        passed = sum(s["passed"] for s in generated_report.statistics().values())
+        print(
+            f"with qp_solver = {args.qp_solver!r}: wall time {generated_wall:.1f} s, {passed} of "
+            f"{len(generated_report.outcomes)} runs passed; ratio to OSQP in Python {generated_wall / wall:.2f}"
+        )
     runs = len(report.outcomes)
     simulated = sum(o.simulated_s for o in report.outcomes)
     per_run = [o.wall_time_s for o in report.outcomes]
