@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agvctl.controllers.mpc.body_bounds import BREAKAWAY_SPEED_M_S, BodyBounds
+from agvctl.controllers.mpc.body_bounds import NEAR_REST_SPEED_M_S, BodyBounds
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.evaluation.limits import judge_run
@@ -52,9 +52,9 @@ def test_a_command_changes_the_bodys_speed_and_yaw_rate_by_at_most_the_share_per
     assert b.command(0.205, 0.21, (0.2, 0.2), MOVING) == (0.205, 0.21)  # within both: unchanged
 
 
-def test_a_step_from_a_resting_wheel_uses_the_break_away_share():
+def test_a_step_with_a_wheel_at_or_near_rest_uses_the_break_away_share():
     b = bounds()
-    resting = (0.0, BREAKAWAY_SPEED_M_S / 2)
+    resting = (0.0, NEAR_REST_SPEED_M_S / 2)
     assert b.first_steps(*resting) == pytest.approx((BREAKAWAY * SHARE * 0.3 * T, BREAKAWAY * SHARE * 1.0 * T * B))
     assert b.first_steps(*MOVING) == pytest.approx((SHARE * 0.3 * T, SHARE * 1.0 * T * B))
     left, right = b.command(0.5, 0.5, (0.0, 0.0), resting)

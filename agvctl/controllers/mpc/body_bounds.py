@@ -9,8 +9,10 @@ the commands change by at most a share (``body_command_share``) of it per sample
   command;
 * |U ω| ≤ share · ``lateral_accel_m_s2``: a command's centripetal acceleration.
 
-While a wheel rests (below :data:`BREAKAWAY_SPEED_M_S`), a step uses ``body_breakaway_share`` of these: the wheel
-breaks away from stiction and reaches its setpoint within a sample, so what it feels is the step itself. The LTV
+While a wheel is at or near rest (below :data:`NEAR_REST_SPEED_M_S`), a step uses ``body_breakaway_share`` of these:
+within a sample or two the wheel breaks away, stops or reverses, and there its friction jumps (from holding to
+sliding, or across zero speed) faster than the wheel loop acts, so what the body feels is that jump on top of the
+step. The LTV
 MPC constrains its setpoints by the same bounds (:class:`~agvctl.controllers.mpc.body_rate.BodyRate`); the command
 shaper (:class:`~agvctl.controllers.mpc.shaping.CommandShaper`) applies them to every command, a fallback's and the
 rest's included. A path with no such limit leaves every command as it was.
@@ -23,10 +25,12 @@ import math
 from agvctl.controllers.mpc.fallback import clamp
 from agvctl.planning.spec import BodyLimits
 
-__all__ = ["BREAKAWAY_SPEED_M_S", "BodyBounds"]
+__all__ = ["NEAR_REST_SPEED_M_S", "BodyBounds"]
 
-BREAKAWAY_SPEED_M_S = 0.005
-"""A wheel slower than 5 mm/s rests on its stiction: the next step of its setpoint is a break-away."""
+NEAR_REST_SPEED_M_S = 0.01
+"""A wheel slower than 1 cm/s is at rest or about to be: within a sample or two it breaks away from its stiction,
+stops, or reverses, and its friction jumps. Wide enough to take in the stops and reversals, narrow enough that
+start-up corrections keep their pace (``docs/decisions/0041-what-the-payload-feels.md``)."""
 
 
 class BodyBounds:
@@ -41,7 +45,7 @@ class BodyBounds:
     command_share : float
         The share of each limit the commands use, in (0, 1].
     breakaway_share : float
-        The share of the per-sample bounds a step uses while a wheel rests, in (0, 1].
+        The share of the per-sample bounds a step uses while a wheel is at or near rest, in (0, 1].
     """
 
     def __init__(
@@ -85,10 +89,10 @@ class BodyBounds:
         Returns
         -------
         tuple of float
-            (mean, difference), m/s: the bounds, times ``breakaway_share`` while a wheel rests.
+            (mean, difference), m/s: the bounds, times ``breakaway_share`` while a wheel is at or near rest.
         """
         scale = 1.0
-        if min(abs(speed_left_m_s), abs(speed_right_m_s)) < BREAKAWAY_SPEED_M_S:
+        if min(abs(speed_left_m_s), abs(speed_right_m_s)) < NEAR_REST_SPEED_M_S:
             scale = self.breakaway_share
         return scale * self.mean_step_m_s, scale * self.difference_step_m_s
 

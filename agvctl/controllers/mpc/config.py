@@ -134,8 +134,9 @@ class MpcConfig:
     the plan's share (``limits.body_plan_share``), so that the feedback has room; below 1, so that what the wheels
     add (a break-away, a loop's overshoot) stays within the limit the gate judges."""
     body_breakaway_share: float = number(gt=0, le=1, default=0.5)
-    """The share of the body's per-sample bounds that a command may use while a wheel rests: a wheel breaking away
-    from stiction jumps to its setpoint within a sample, so a smaller first step keeps the jump within the limit."""
+    """The share of the body's per-sample bounds that a command may use while a wheel is at or near rest (below 1 cm/s,
+    :data:`~agvctl.controllers.mpc.body_bounds.NEAR_REST_SPEED_M_S`): a wheel breaking away, stopping or reversing
+    meets its friction's jump within a sample, so a smaller step keeps the jump and the step within the limit."""
     docking: DockingConfig = DockingConfig()
     """When and how to dock, stopped beside the end of the path (:mod:`~agvctl.controllers.mpc.docking`): the
     ``[controller.docking]`` table."""
