@@ -10,10 +10,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import tomli_w
 
 from agvctl.controllers.mpc.body_bounds import NEAR_REST_SPEED_M_S, BodyBounds
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.ltv import LtvMpcController
+from agvctl.controllers.pi.options import Braking
 from agvctl.evaluation.limits import judge_run
 from agvctl.params import VehicleParams
 from agvctl.planning import BodyLimits, PathLimits, PathSpec, plan
@@ -150,3 +152,28 @@ def test_a_solver_that_plans_without_the_body_bounds_gets_commands_unbounded_by_
     others = [r.limit for r in verdict.limits if not r.passed and not r.limit.startswith("peak_body")]
     assert others == []  # on the path, at its end, on time
     assert any(r.limit.startswith("peak_body") for r in verdict.limits)  # the path's limits judged
+
+
+@pytest.mark.parametrize(
+    ("limits", "named", "braking"),
+    [
+        ({"linear_accel_m_s2": 0.3}, None, Braking.GENTLE_STOP),
+        ({"angular_accel_rad_s2": 1.0}, None, Braking.GENTLE_STOP),
+        ({"lateral_accel_m_s2": 0.3}, None, Braking.FULL),
+        ({}, None, Braking.FULL),
+        ({"linear_accel_m_s2": 0.3}, "full", Braking.FULL),
+    ],
+)
+def test_the_wheel_loops_brake_gently_to_a_stop_where_the_path_limits_the_bodys_acceleration(
+    limits, named, braking, tmp_path
+):
+    """A wheel braked at the full current decelerates at up to 2.7 a_lim into its stop: unless the experiment names
+    a braking, a path with a payload's acceleration limits gets gentle stops (its loops and the resolved file)."""
+    path = {"name": "l", "segments": [{"type": "line", "length_m": 1.0}], "limits": limits}
+    (tmp_path / "l.path.toml").write_text(tomli_w.dumps(path), encoding="utf-8")
+    controller = {"pose": "mpc", **({"braking": named} if named else {})}
+    experiment = {"name": "e", "trajectory": "l.path.toml", "controller": controller}
+    (tmp_path / "e.toml").write_text(tomli_w.dumps(experiment), encoding="utf-8")
+    loaded = load_experiment(tmp_path / "e.toml")
+    assert loaded.wheel_loops.options.braking is braking
+    assert loaded.spec.controller.braking == braking.value

@@ -45,6 +45,7 @@ from typing import Any
 from agvctl.config import build, document_fields, load_toml
 from agvctl.config.references import reference_file
 from agvctl.controllers.base import PoseController, WheelSpeedController
+from agvctl.controllers.pi.options import braking_for
 from agvctl.controllers.registry import WheelLoops, design_wheel_loops, pose_controllers
 from agvctl.controllers.registry import wheel_loops as wheel_loop_kinds
 from agvctl.errors import ConfigError, expect_instance
@@ -201,6 +202,8 @@ def experiment_from_spec(spec: ExperimentSpec, *, vehicle_overrides: Sequence[st
         path = load_path(traj)
     reference = plan(path, controller_vehicle)
     c = spec.controller
+    if c.braking is None:  # the path decides: gentle stops where it limits the body's acceleration
+        c = dataclasses.replace(c, braking=braking_for(reference.limits.body).value)
     wheel_loops = design_wheel_loops(
         controller_vehicle,
         None if c.pi_gains is None else spec.resolve(c.pi_gains),

@@ -172,10 +172,12 @@ class ControllerSpec:
     """Add the Coulomb-friction voltage τ_c R/k_t to the PI output (ramped in near zero speed): the wheels then
     answer small setpoints instead of sitting in the friction until the integrator winds up
     (:attr:`~agvctl.controllers.pi.options.WheelLoopOptions.coulomb_feedforward`)."""
-    braking: BrakingName = _LOOPS.braking.value
+    braking: BrakingName | None = None
     """How hard the PI loops may brake a wheel: ``"full"`` (the current limit), ``"symmetric"`` (always no harder
     than a_lim, eq 5, friction helping) or ``"gentle_stop"`` (so only in the last sample before a wheel stops;
-    for paths that stop wheels to reverse them) (:class:`~agvctl.controllers.pi.options.Braking`)."""
+    for paths that stop wheels to reverse them) (:class:`~agvctl.controllers.pi.options.Braking`). None (default):
+    ``"gentle_stop"`` on a path whose ``[limits]`` bound the body's acceleration (a payload's), ``"full"`` elsewhere
+    (:func:`~agvctl.controllers.pi.options.braking_for`); a loaded experiment holds the one it takes."""
     steering_priority: bool = _LOOPS.steering_priority
     """When both wheel loops ask for more current than the amplifier gives, the same way, keep the difference of
     the currents they ask (the torque that steers) and give up speed instead
@@ -193,10 +195,11 @@ class ControllerSpec:
 
     @property
     def wheel_loop_options(self) -> WheelLoopOptions:
-        """The PI wheel loops' options this table sets (the others at their defaults)."""
+        """The PI wheel loops' options this table sets (the others at their defaults; braking unset: full, until an
+        experiment's path sets it)."""
         return WheelLoopOptions(
             coulomb_feedforward=self.coulomb_feedforward,
-            braking=Braking(self.braking),
+            braking=_LOOPS.braking if self.braking is None else Braking(self.braking),
             steering_priority=self.steering_priority,
         )
 

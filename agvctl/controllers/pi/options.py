@@ -15,8 +15,9 @@ import control
 
 from agvctl.config import check_fields, document_fields, number
 from agvctl.errors import expect_instance
+from agvctl.planning.spec import BodyLimits
 
-__all__ = ["FEEDFORWARD_RAMP_RAD_S", "Braking", "PIGains", "WheelLoopOptions"]
+__all__ = ["FEEDFORWARD_RAMP_RAD_S", "Braking", "PIGains", "WheelLoopOptions", "braking_for"]
 
 
 FEEDFORWARD_RAMP_RAD_S = 2.0
@@ -67,6 +68,28 @@ class Braking(enum.Enum):
     """With that current only in the last sample before a wheel stops; at speed with the full limit."""
 
 
+def braking_for(body: BodyLimits) -> Braking:
+    """The braking an experiment's wheel loops take unless it names one: gentle stops on a path that limits the
+    body's acceleration (a payload's ``linear_accel_m_s2`` or ``angular_accel_rad_s2``), full braking elsewhere.
+
+    A wheel braked at the full current near a stop decelerates at up to 2.7 a_lim and then stops dead, its friction
+    jumping as it does; the load feels both. Limited to a_lim in the last sample before the stop, the wheel comes to
+    rest as gently as the plan brings it there, and at speed it keeps its full authority.
+
+    Parameters
+    ----------
+    body : BodyLimits
+        The path's limits on the body's motion.
+
+    Returns
+    -------
+    Braking
+        :attr:`Braking.GENTLE_STOP` where an acceleration limit is set, else :attr:`Braking.FULL`.
+    """
+    limited = body.linear_accel_m_s2 is not None or body.angular_accel_rad_s2 is not None
+    return Braking.GENTLE_STOP if limited else Braking.FULL
+
+
 @document_fields
 @dataclass(frozen=True)
 class WheelLoopOptions:
@@ -84,7 +107,8 @@ class WheelLoopOptions:
     """Clamp the output to the window of predicted current ((u − k_e ω)/R within ±I_max) and the DA range, and stop
     the integrator there."""
     braking: Braking = Braking.FULL
-    """How hard the loops may brake a wheel."""
+    """How hard the loops may brake a wheel (an experiment's loops: :func:`braking_for` its path unless it names
+    one)."""
     steering_priority: bool = True
     """When both loops ask for more than their usable voltage the same way, the one asking more gets its limit and
     the other the same current less: the difference of the currents they ask, the torque that turns the vehicle, is
