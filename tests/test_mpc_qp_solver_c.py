@@ -166,10 +166,12 @@ def test_without_a_compiler_the_c_solver_is_refused_in_one_line_naming_its_key(t
         ("mpc", 'qp_solver = "osqp_c"\nmax_solve_time_s = 0.01\n', "controller.max_solve_time_s: the generated C"),
     ],
 )
+@pytest.mark.parametrize("command", [["run", "--no-plot"], ["check", "--jobs", "1"]])
 def test_a_setting_the_controller_cannot_keep_is_refused_in_one_line_naming_the_files_key(
-    pose, keys, named, tmp_path, capsys
+    pose, keys, named, command, tmp_path, capsys
 ):
+    """Before any run: a file's settings pass the controller's own rules when they are read."""
     line_experiment(tmp_path, "bad.toml", 'pose = "mpc"\n', f'pose = "{pose}"\n{keys}')
-    assert main(["run", str(tmp_path / "bad.toml"), "--no-plot"]) == 2
+    assert main([command[0], str(tmp_path / "bad.toml"), *command[1:]]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"{tmp_path / 'bad.toml'}: {named}" in err

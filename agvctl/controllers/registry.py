@@ -33,7 +33,7 @@ from agvctl.controllers.base import PoseCommand, PoseController, WheelSpeedContr
 from agvctl.controllers.baselines.feedforward import FeedForwardPoseController
 from agvctl.controllers.baselines.ltv_lqr import LtvLqrConfig, LtvLqrController
 from agvctl.controllers.baselines.ramsete import RamseteConfig, RamseteController
-from agvctl.controllers.mpc.config import MpcConfig
+from agvctl.controllers.mpc.config import MpcConfig, check_ltv_settings, check_nmpc_settings
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.nonlinear import NonlinearMpcController
 from agvctl.controllers.pi.c_loops import CompiledPIWheelController
@@ -73,6 +73,10 @@ class PoseControllerKind:
     """What the controller is, in a few words, for ``--help`` and the docs."""
     fit_wheel_loop: Callable[[Any, WheelLoopDesign], Any] | None = None
     """Completes the settings with the experiment's wheel loops (e.g. the MPC's model of their lag)."""
+    check: Callable[[Any], None] | None = None
+    """What the controller asks of its settings beyond each field's range, raising a
+    :class:`~agvctl.errors.ConfigError` that names the key: run where a file's settings are read, so a bad
+    combination is refused before any run."""
 
 
 def _mpc_wheel_loop(config: MpcConfig, wheel: WheelLoopDesign) -> MpcConfig:
@@ -83,8 +87,12 @@ def _mpc_wheel_loop(config: MpcConfig, wheel: WheelLoopDesign) -> MpcConfig:
 
 
 POSE_CONTROLLERS: dict[str, PoseControllerKind] = {
-    "mpc": PoseControllerKind(LtvMpcController, MpcConfig, "linear time-varying MPC on OSQP", _mpc_wheel_loop),
-    "nmpc": PoseControllerKind(NonlinearMpcController, MpcConfig, "nonlinear MPC on CasADi/IPOPT", _mpc_wheel_loop),
+    "mpc": PoseControllerKind(
+        LtvMpcController, MpcConfig, "linear time-varying MPC on OSQP", _mpc_wheel_loop, check_ltv_settings
+    ),
+    "nmpc": PoseControllerKind(
+        NonlinearMpcController, MpcConfig, "nonlinear MPC on CasADi/IPOPT", _mpc_wheel_loop, check_nmpc_settings
+    ),
     "ramsete": PoseControllerKind(RamseteController, RamseteConfig, "WPILib's Ramsete unicycle law (yardstick)"),
     "ltv_lqr": PoseControllerKind(LtvLqrController, LtvLqrConfig, "WPILib's LTV unicycle LQR (yardstick)"),
     "none": PoseControllerKind(

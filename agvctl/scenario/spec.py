@@ -248,6 +248,11 @@ class ControllerSpec:
                 )
             return dataclasses.replace(base, pose_settings=None, **parts)
         pose_settings: Any = build(kind.settings, rest, source=source, prefix=prefix)
+        if kind.check is not None:
+            try:
+                kind.check(pose_settings)
+            except ConfigError as exc:  # the controller's rule, at the file's key
+                raise ConfigError(source, join_key(prefix, exc.key), exc.problem) from None
         return dataclasses.replace(base, pose_settings=pose_settings, pose_settings_file=settings_file, **parts)
 
     def to_file(self) -> dict[str, Any]:

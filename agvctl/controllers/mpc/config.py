@@ -22,6 +22,7 @@ from agvctl.controllers.ranges import (
     MIN_SOLVE_TIME_S,
     MIN_WHEEL_SPEED_M_S,
 )
+from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 
 __all__ = [
@@ -30,6 +31,8 @@ __all__ = [
     "MpcConfig",
     "PredictionModel",
     "QpSolver",
+    "check_ltv_settings",
+    "check_nmpc_settings",
     "resolved_config",
     "resolved_limits",
     "wheel_loop_time_constant_s",
@@ -182,6 +185,43 @@ class MpcConfig:
 
     def __post_init__(self) -> None:
         check_fields(self)
+
+
+def check_ltv_settings(config: MpcConfig) -> None:
+    """What the LTV MPC asks of its settings beyond each field's range: a generated C solver keeps no time, so it
+    takes no solve-time limit.
+
+    Parameters
+    ----------
+    config : MpcConfig
+        The settings.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``max_solve_time_s`` (source ``LtvMpcController``).
+    """
+    if config.qp_solver != "osqp" and config.max_solve_time_s is not None:
+        problem = f"the generated C solver keeps no time: leave it unset with qp_solver = {config.qp_solver!r}"
+        raise ConfigError("LtvMpcController", "max_solve_time_s", problem)
+
+
+def check_nmpc_settings(config: MpcConfig) -> None:
+    """What the NMPC asks of its settings beyond each field's range: it solves with IPOPT, so it takes no QP solver.
+
+    Parameters
+    ----------
+    config : MpcConfig
+        The settings.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``qp_solver`` (source ``NonlinearMpcController``).
+    """
+    if config.qp_solver != "osqp":
+        problem = f"{config.qp_solver!r} is the LTV MPC's QP solver; the NMPC solves with IPOPT (remove it)"
+        raise ConfigError("NonlinearMpcController", "qp_solver", problem)
 
 
 DEFAULT_WHEEL_LOOP_TIME_CONSTANT_S = 0.1

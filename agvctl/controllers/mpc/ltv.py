@@ -43,7 +43,7 @@ from agvctl.angles import wrap_angle
 from agvctl.controllers.mpc.body_rate import BodyRate
 from agvctl.controllers.mpc.c_solver import GeneratedOsqp, QpSolverError
 from agvctl.controllers.mpc.common import MpcStepper
-from agvctl.controllers.mpc.config import MpcConfig
+from agvctl.controllers.mpc.config import MpcConfig, check_ltv_settings
 from agvctl.controllers.mpc.error_frames import ERROR_FRAMES
 from agvctl.controllers.mpc.fallback import clamp
 from agvctl.controllers.mpc.horizon import HorizonReference
@@ -228,9 +228,7 @@ class LtvMpcController(MpcStepper):
             solver = osqp.OSQP()
             solver.setup(qp.P, qp.q, qp.A, qp.lower, qp.upper, **settings)
             return solver
-        if self.config.max_solve_time_s is not None:
-            problem = f"the generated C solver keeps no time: leave it unset with qp_solver = {self.config.qp_solver!r}"
-            raise ConfigError("LtvMpcController", "max_solve_time_s", problem)
+        check_ltv_settings(self.config)
         try:
             return GeneratedOsqp(qp, settings, single=self.config.qp_solver == "osqp_c_float")
         except ConfigError:

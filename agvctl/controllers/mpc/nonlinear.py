@@ -21,10 +21,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.mpc.common import MpcStepper
-from agvctl.controllers.mpc.config import MpcConfig
+from agvctl.controllers.mpc.config import MpcConfig, check_nmpc_settings
 from agvctl.controllers.mpc.horizon import HorizonReference
 from agvctl.controllers.mpc.shaping import HorizonStep
-from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 from agvctl.planning.reference import Reference
 
@@ -115,9 +114,7 @@ class NonlinearMpcController(MpcStepper):
         ipopt_options: dict[str, Any] | None = None,
     ) -> None:
         super().__init__(vehicle, config)
-        if self.config.qp_solver != "osqp":
-            problem = f"{self.config.qp_solver!r} is the LTV MPC's QP solver; the NMPC solves with IPOPT (remove it)"
-            raise ConfigError("NonlinearMpcController", "qp_solver", problem)
+        check_nmpc_settings(self.config)
         self.nx = self._model.n_states
         self._w0: FloatArray | None = None
         self._lam_x0: FloatArray | None = None
