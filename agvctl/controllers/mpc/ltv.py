@@ -127,6 +127,7 @@ class LtvMpcController(MpcStepper):
         if osqp_settings is not None:
             expect_instance(osqp_settings, Mapping, "LtvMpcController", "osqp_settings")
         self._osqp_overrides = dict(osqp_settings or {})
+        check_ltv_settings(self.config)
         self._frame = ERROR_FRAMES[self.config.error_frame](self.config.horizon, self.sample_period_s)
         self.nx = self._model.n_states
         self._build_problem()
@@ -228,11 +229,8 @@ class LtvMpcController(MpcStepper):
             solver = osqp.OSQP()
             solver.setup(qp.P, qp.q, qp.A, qp.lower, qp.upper, **settings)
             return solver
-        check_ltv_settings(self.config)
         try:
             return GeneratedOsqp(qp, settings, single=self.config.qp_solver == "osqp_c_float")
-        except ConfigError:
-            raise
         except AgvctlError as exc:  # no compiler, or another OSQP release than the generator's
             problem = f"{self.config.qp_solver!r} cannot be used here: {exc}"
             raise ConfigError("LtvMpcController", "qp_solver", problem) from None
