@@ -1,5 +1,5 @@
-"""Back-to-back of the generated C against the Python over the acceptance fuzz's scenarios: the wheel loops, or the
-MPC's QP solver.
+"""Back-to-back of the generated C against the Python over the acceptance fuzz's scenarios: the wheel loops, the
+MPC's QP solver, or the whole Ramsete cascade.
 
 For each of the first N scenarios of ``experiments/fuzz/acceptance.toml`` and each of its pose controllers, the
 closed loop runs with the Python PI wheel loops driving the plant and the generated C loops (``wheel_loops =
@@ -12,30 +12,36 @@ With ``--part qp``, each scenario's LTV MPC (the ``mpc`` runs only) runs with OS
 for its QP (``qp_solver = "osqp_c"``), each in its own closed loop (:func:`agvctl.codegen.qp_back_to_back`): the
 largest difference of the commanded DA voltages, sample by sample, and the verdicts. ``--part qp_float`` does the
 same with the C in single precision (``qp_solver = "osqp_c_float"``), and prints the largest difference of the
-tracking errors' RMS too.
+tracking errors' RMS too. ``--part cascade`` runs each scenario's Ramsete cascade (the ``ramsete`` runs) in Python
+and as generated C, the law (``pose = "ramsete_c"``) and the loops (``wheel_loops = "pi_c"``), each in its own
+closed loop (:func:`agvctl.codegen.cascade_back_to_back`).
 
-Run:  python experiments/codegen_back_to_back.py [--part loops|qp|qp_float] [--scenarios 100] [--jobs 2]
+Run:  python experiments/codegen_back_to_back.py [--part loops|qp|qp_float|cascade] [--scenarios 100] [--jobs 2]
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import tempfile
 import time
 import warnings
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from agvctl.codegen import back_to_back, qp_back_to_back
+from agvctl.codegen import back_to_back, cascade_back_to_back, qp_back_to_back
 from agvctl.controllers.mpc.config import QpSolver
 from agvctl.fuzz.report import FuzzTask
 from agvctl.fuzz.run import fuzz_tasks
 from agvctl.fuzz.spec import load_fuzz_config
 
 FUZZ_FILE = Path(__file__).parent / "fuzz" / "acceptance.toml"
+SOLVERS: dict[str, QpSolver] = {"qp": "osqp_c", "qp_float": "osqp_c_float"}
+"""The generated QP solver each ``--part`` compares with OSQP in Python."""
 
 
 def compare(task: FuzzTask) -> tuple[int, str, int, float, int, bool, bool, bool]:
@@ -58,14 +64,16 @@ def compare(task: FuzzTask) -> tuple[int, str, int, float, int, bool, bool, bool
     )
 
 
-def compare_qp(task: FuzzTask, solver: QpSolver = "osqp_c") -> tuple[int, str, int, float, float, bool, bool, bool]:
-    """One scenario with the LTV MPC, its QP solver: as :func:`compare`, with the difference of the tracking errors'
-    RMS in m in place of the clamped mismatches, and the samples negative where the two runs' counts differ."""
+def compare_runs(task: FuzzTask, part: str) -> tuple[int, str, int, float, float, bool, bool, bool]:
+    """One scenario run in Python and as generated C, each in its own closed loop (``part``: ``"qp"``, ``"qp_float"``
+    or ``"cascade"``): as :func:`compare`, with the difference of the tracking errors' RMS in m in place of the
+    clamped mismatches, and the samples negative where the two runs' counts differ."""
     with tempfile.TemporaryDirectory(prefix="agvctl-b2b-") as tmp, warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for name, text in task.files:
             Path(tmp, name).write_text(text, encoding="utf-8")
-        r = qp_back_to_back(Path(tmp, task.files[-1][0]), solver)
+        experiment = Path(tmp, task.files[-1][0])
+        r = cascade_back_to_back(experiment) if part == "cascade" else qp_back_to_back(experiment, SOLVERS[part])
     rms = abs(r.python.metrics["tracking_error_rms_m"] - r.c.metrics["tracking_error_rms_m"])
     samples = r.samples if r.samples == r.samples_c else -r.samples
     return (
@@ -80,25 +88,22 @@ def compare_qp(task: FuzzTask, solver: QpSolver = "osqp_c") -> tuple[int, str, i
     )
 
 
-def compare_qp_float(task: FuzzTask) -> tuple[int, str, int, float, float, bool, bool, bool]:
-    """:func:`compare_qp` with the solver in single precision."""
-    return compare_qp(task, "osqp_c_float")
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenarios", type=int, default=100)
     parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--part", choices=("loops", "qp", "qp_float"), default="loops")
+    parser.add_argument("--part", choices=("loops", "qp", "qp_float", "cascade"), default="loops")
     args = parser.parse_args()
     spec = load_fuzz_config(FUZZ_FILE)
     if args.part != "loops":
-        spec = dataclasses.replace(spec, controllers=("mpc",))
+        spec = dataclasses.replace(spec, controllers=("ramsete",) if args.part == "cascade" else ("mpc",))
     tasks = fuzz_tasks(spec, list(range(args.scenarios))).tasks
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.jobs) as pool:
-        work = {"loops": compare, "qp": compare_qp, "qp_float": compare_qp_float}[args.part]
-        rows = list(pool.map(work, tasks))
+        if args.part == "loops":
+            rows: list[tuple[int, str, int, float, Any, bool, bool, bool]] = list(pool.map(compare, tasks))
+        else:
+            rows = list(pool.map(functools.partial(compare_runs, part=args.part), tasks))
     wall = time.perf_counter() - t0
     print(
         f"{len(rows)} runs ({args.scenarios} scenarios of {FUZZ_FILE.name} x {', '.join(spec.controllers)}), "

@@ -50,7 +50,8 @@ def run(args: argparse.Namespace) -> int:
             for name, text in code.files.items():
                 (staged / name).parent.mkdir(parents=True, exist_ok=True)
                 (staged / name).write_text(text, encoding="utf-8")
-    print(f"generated the PI wheel loops of {code.experiment.spec.name} as C99 in {out_dir}:")
+    what = "controller cascade" if code.cascade.generated else "PI wheel loops"
+    print(f"generated the {what} of {code.experiment.spec.name} as C99 in {out_dir}:")
     print(f"  {', '.join(name for name in code.files if '/' not in name)}")
     if code.memory is None:
         print("  static memory: not measured (no C compiler)")
@@ -61,8 +62,10 @@ def run(args: argparse.Namespace) -> int:
             "no heap"
         )
     qp = code.qp
-    if qp.code is None:
-        print(f"  the MPC's QP solver: not generated ({qp.note})")
+    if code.cascade.generated:
+        print(f"  agv_cascade_step: pose, motor speeds in, DA voltages out; {code.cascade.note}")
+    elif qp.code is None:
+        print(f"  the pose controller's step and the MPC's QP solver: not generated ({qp.note})")
     else:
         memory = "not measured" if qp.static_bytes is None else f"{qp.static_bytes} bytes"
         print(f"  the MPC's QP solver in {out_dir / QP_FOLDER}: {qp.note}; static memory {memory}; no heap")

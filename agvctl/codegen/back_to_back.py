@@ -9,7 +9,8 @@ experiment's gate, limit by limit.
 
 :func:`qp_back_to_back` runs the experiment's LTV MPC twice, with OSQP in Python and with its generated C
 (``qp_solver = "osqp_c"``), each in its own closed loop: the largest difference of the commanded DA voltages, sample
-by sample, and the two verdicts.
+by sample, and the two verdicts. :func:`cascade_back_to_back` does the same for a whole cascade that is generated:
+the Ramsete law and the PI loops in Python, then both as C.
 """
 
 from __future__ import annotations
@@ -21,7 +22,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.controllers.base import WheelSpeedController
+from agvctl.controllers.base import PoseController, WheelSpeedController
+from agvctl.controllers.baselines.c_ramsete import CompiledRamseteController
+from agvctl.controllers.baselines.ramsete import RamseteConfig, RamseteController
 from agvctl.controllers.mpc.config import MpcConfig, QpSolver
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.pi.c_loops import CompiledPIWheelController
@@ -30,7 +33,14 @@ from agvctl.errors import ConfigError
 from agvctl.evaluation.limits import RunVerdict, judge_run
 from agvctl.scenario.experiment import Experiment, load_experiment, run_experiment
 
-__all__ = ["BackToBack", "QpBackToBack", "SideBySideWheelLoops", "back_to_back", "qp_back_to_back"]
+__all__ = [
+    "BackToBack",
+    "RunsBackToBack",
+    "SideBySideWheelLoops",
+    "back_to_back",
+    "cascade_back_to_back",
+    "qp_back_to_back",
+]
 
 
 class SideBySideWheelLoops:
@@ -171,25 +181,26 @@ def back_to_back(experiment: str | Path | Experiment) -> BackToBack:
 
 
 @dataclass(frozen=True)
-class QpBackToBack:
-    """The comparison of an experiment's LTV MPC on OSQP in Python and on OSQP's generated C, each in its own closed
-    loop.
+class RunsBackToBack:
+    """Two runs of one experiment, its controller in Python and as generated C, each in its own closed loop: the
+    LTV MPC on OSQP in Python and on OSQP's generated solver (:func:`qp_back_to_back`), or the whole cascade
+    (:func:`cascade_back_to_back`).
 
     Parameters
     ----------
     experiment : str
         The experiment's name.
     samples : int
-        The samples of the run with OSQP in Python.
+        The samples of the run in Python.
     samples_c : int
-        The samples of the run with the generated solver (another count where the run ends at another time).
+        The samples of the run with the generated C (another count where the run ends at another time).
     max_da_difference_v : float
         The largest absolute difference of the commanded DA voltages, sample by sample over the samples both runs
         have, V.
     python : RunVerdict
-        The run with OSQP in Python, judged.
+        The run in Python, judged.
     c : RunVerdict
-        The run with the generated C solver, judged.
+        The run with the generated C, judged.
     """
 
     experiment: str
@@ -205,7 +216,7 @@ class QpBackToBack:
         return _same_verdicts(self.python, self.c)
 
 
-def qp_back_to_back(experiment: str | Path | Experiment, solver: QpSolver = "osqp_c") -> QpBackToBack:
+def qp_back_to_back(experiment: str | Path | Experiment, solver: QpSolver = "osqp_c") -> RunsBackToBack:
     """Run an experiment's LTV MPC with OSQP in Python, then with its generated C.
 
     Parameters
@@ -219,7 +230,7 @@ def qp_back_to_back(experiment: str | Path | Experiment, solver: QpSolver = "osq
 
     Returns
     -------
-    QpBackToBack
+    RunsBackToBack
         The largest difference of the commanded DA voltages and both runs' verdicts.
 
     Raises
@@ -233,15 +244,62 @@ def qp_back_to_back(experiment: str | Path | Experiment, solver: QpSolver = "osq
     if spec.controller.pose != "mpc" or not isinstance(settings, MpcConfig):
         problem = f"the QP solvers' back-to-back runs the LTV MPC ('mpc'), not {spec.controller.pose!r}"
         raise ConfigError(str(spec.source), "controller.pose", problem)
+    controllers = [LtvMpcController(vehicle, dataclasses.replace(settings, qp_solver=q)) for q in ("osqp", solver)]
+    return _two_runs(loaded, controllers[0], controllers[1])
+
+
+def _two_runs(
+    loaded: Experiment,
+    python: PoseController,
+    c: PoseController,
+    wheels: tuple[WheelSpeedController, WheelSpeedController] | None = None,
+) -> RunsBackToBack:
+    """``loaded`` run with each controller pair in its own closed loop, compared by their DA commands."""
+    spec, vehicle = loaded.spec, loaded.controller_vehicle
     runs = []
-    for qp_solver in ("osqp", solver):
-        controller = LtvMpcController(vehicle, dataclasses.replace(settings, qp_solver=qp_solver))
-        result = run_experiment(loaded, pose_controller=controller)
+    for k, pose in enumerate((python, c)):
+        result = run_experiment(loaded, pose_controller=pose, wheel_controller=None if wheels is None else wheels[k])
         runs.append((result, judge_run(result, spec.limits, vehicle, spec.requirements)))
-    (python, python_verdict), (c, c_verdict) = runs
-    n = min(python.n_samples, c.n_samples)
+    (first, first_verdict), (second, second_verdict) = runs
+    n = min(first.n_samples, second.n_samples)
     difference = max(
-        float(np.max(np.abs(np.asarray(python.log.columns[k][:n]) - np.asarray(c.log.columns[k][:n]))))
+        float(np.max(np.abs(np.asarray(first.log.columns[k][:n]) - np.asarray(second.log.columns[k][:n]))))
         for k in ("da_command_left_v", "da_command_right_v")
     )
-    return QpBackToBack(spec.name, python.n_samples, c.n_samples, difference, python_verdict, c_verdict)
+    return RunsBackToBack(spec.name, first.n_samples, second.n_samples, difference, first_verdict, second_verdict)
+
+
+def cascade_back_to_back(experiment: str | Path | Experiment) -> RunsBackToBack:
+    """Run an experiment's Ramsete cascade in Python, then as generated C: the law (``pose = "ramsete_c"``) and the
+    PI loops (``wheel_loops = "pi_c"``), the C that ``agvctl codegen`` writes.
+
+    Parameters
+    ----------
+    experiment : str, Path or Experiment
+        The experiment file, or one loaded; its pose controller is the Ramsete law (``"ramsete"`` or
+        ``"ramsete_c"``) and its wheel loops the built-in PI loops.
+
+    Returns
+    -------
+    RunsBackToBack
+        The largest difference of the commanded DA voltages and both runs' verdicts.
+
+    Raises
+    ------
+    ConfigError
+        The pose controller is not the Ramsete law, or the wheel loops are not the built-in PI loops.
+    AgvctlError
+        No C compiler, or the generated code does not compile.
+    """
+    loaded = experiment if isinstance(experiment, Experiment) else load_experiment(experiment)
+    spec, vehicle = loaded.spec, loaded.controller_vehicle
+    settings = spec.controller.pose_settings
+    if spec.controller.pose not in ("ramsete", "ramsete_c") or not isinstance(settings, RamseteConfig):
+        problem = f"the cascade's back-to-back runs the Ramsete law ('ramsete'), not {spec.controller.pose!r}"
+        raise ConfigError(str(spec.source), "controller.pose", problem)
+    if spec.controller.wheel_loops not in ("pi", "pi_c"):
+        problem = f"the cascade's back-to-back runs the PI loops ('pi'), not {spec.controller.wheel_loops!r}"
+        raise ConfigError(str(spec.source), "controller.wheel_loops", problem)
+    gains, options = loaded.wheel_loops.design.gains, loaded.wheel_loops.options
+    loops = (PIWheelController(vehicle, gains, options), CompiledPIWheelController(vehicle, gains, options))
+    return _two_runs(loaded, RamseteController(vehicle, settings), CompiledRamseteController(vehicle, settings), loops)

@@ -1,10 +1,12 @@
-"""``agvctl codegen``'s API: an experiment's PI wheel loops and its MPC's QP solver as a folder of C99 for the
-vehicle.
+"""``agvctl codegen``'s API: an experiment's PI wheel loops, its pose controller where it is generated, and its MPC's
+QP solver as a folder of C99 for the vehicle.
 
 :func:`generate_code` loads an experiment, builds its wheel loops as a run would (the gains designed or from its
 gains file, its options, the controller's vehicle) and renders them as C
 (:func:`~agvctl.controllers.pi.c_loops.render_wheel_loops_c`), with a README naming the experiment and the agvctl
-version, an example caller and a Makefile. Where the pose controller is the LTV MPC, the folder
+version, an example caller and a Makefile. Where the pose controller is generated (the Ramsete law), the folder holds
+the whole cascade (:func:`~agvctl.codegen.cascade.experiment_cascade`): the law, the reference as data, and one step
+function from pose and motor speeds to DA voltages. Where the pose controller is the LTV MPC, the folder
 :data:`~agvctl.codegen.qp.QP_FOLDER` holds the QP it solves each step, as OSQP's generated solver
 (:func:`~agvctl.codegen.qp.experiment_qp`), and the Makefile builds it into a static library. It returns the files'
 texts; the command line writes them.
@@ -20,6 +22,7 @@ from typing import Any
 
 from agvctl import __version__
 from agvctl.actuator import Actuator
+from agvctl.codegen.cascade import ExperimentCascade, experiment_cascade
 from agvctl.codegen.qp import QP_FOLDER, ExperimentQp, experiment_qp
 from agvctl.controllers.pi.c_loops import (
     STRICT_C_FLAGS,
@@ -36,7 +39,8 @@ from agvctl.scenario.experiment import Experiment, load_experiment
 __all__ = ["GENERATED_FILES", "GENERATED_WHEEL_LOOPS", "GeneratedCode", "generate_code"]
 
 GENERATED_FILES = ("agv_wheel_loops.h", "agv_wheel_loops.c", "example_main.c", "Makefile", "README.md")
-"""The files :func:`generate_code` writes for every experiment, in this order (then, for the LTV MPC, its QP's files
+"""The files :func:`generate_code` writes for every experiment, in this order (then, where the pose controller is
+generated, the cascade's files, :data:`~agvctl.codegen.cascade.CASCADE_FILES`, and for the LTV MPC its QP's files
 under :data:`~agvctl.codegen.qp.QP_FOLDER`)."""
 
 GENERATED_WHEEL_LOOPS = ("pi", "pi_c")
@@ -60,6 +64,8 @@ class GeneratedCode:
         The loops' static memory as the compiler lays it out (None: not measured).
     qp : ExperimentQp
         The MPC's QP solver, or why there is none.
+    cascade : ExperimentCascade
+        The whole cascade's step (the pose controller, the reference and the loops), or why there is none.
     """
 
     experiment: Experiment
@@ -67,6 +73,7 @@ class GeneratedCode:
     files: dict[str, str]
     memory: StaticMemory | None
     qp: ExperimentQp
+    cascade: ExperimentCascade
 
 
 def _describe_memory(memory: StaticMemory | None) -> str:
@@ -184,11 +191,19 @@ def generate_code(
     code = render_wheel_loops_c(python_loops, origin=origin, generator=generator)
     memory = static_memory(code) if measure_memory and c_compiler() is not None else None
     qp = experiment_qp(loaded, generator=generator, measure_memory=measure_memory, single=single)
-    values = {**_readme_values(loaded, code, memory, generator), **_qp_values(qp)}
+    cascade = experiment_cascade(loaded, generator=generator)
+    values = {
+        **_readme_values(loaded, code, memory, generator),
+        **_qp_values(qp),
+        "cascade": cascade.generated,
+        "cascade_note": cascade.note,
+        "pose_prefix": cascade.pose_prefix,
+    }
     env = c_templates("agvctl.codegen")
     files = dict(code.files)
     for name in GENERATED_FILES[len(files) :]:
         files[name] = env.get_template(f"{name}.j2").render(values)
+    files.update(cascade.files)
     if qp.code is not None:
         files.update({f"{QP_FOLDER}/{path}": text for path, text in qp.code.files.items()})
-    return GeneratedCode(loaded, code, files, memory, qp)
+    return GeneratedCode(loaded, code, files, memory, qp, cascade)

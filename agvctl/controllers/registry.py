@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 from agvctl.config import document_fields
 from agvctl.config.references import Registry, checked_vector, describe_plugin, made_by, plugin_settings
 from agvctl.controllers.base import PoseCommand, PoseController, WheelSpeedController
+from agvctl.controllers.baselines.c_ramsete import CompiledRamseteController
 from agvctl.controllers.baselines.feedforward import FeedForwardPoseController
 from agvctl.controllers.baselines.ltv_lqr import LtvLqrConfig, LtvLqrController
 from agvctl.controllers.baselines.ramsete import RamseteConfig, RamseteController
@@ -94,6 +95,11 @@ POSE_CONTROLLERS: dict[str, PoseControllerKind] = {
         NonlinearMpcController, MpcConfig, "nonlinear MPC on CasADi/IPOPT", _mpc_wheel_loop, check_nmpc_settings
     ),
     "ramsete": PoseControllerKind(RamseteController, RamseteConfig, "WPILib's Ramsete unicycle law (yardstick)"),
+    "ramsete_c": PoseControllerKind(
+        CompiledRamseteController,
+        RamseteConfig,
+        "the same Ramsete law as generated C99, compiled and called through ctypes (software-in-the-loop)",
+    ),
     "ltv_lqr": PoseControllerKind(LtvLqrController, LtvLqrConfig, "WPILib's LTV unicycle LQR (yardstick)"),
     "none": PoseControllerKind(
         lambda vehicle, settings: FeedForwardPoseController(), None, "the reference's feed-forward only"

@@ -12,6 +12,7 @@ from __future__ import annotations
 import ctypes
 import functools
 import hashlib
+import math
 import os
 import shutil
 import subprocess
@@ -133,10 +134,42 @@ class _CCall:
         return tuple(o.copy().T for o in buffers.outputs)
 
 
+def c_double(value: float) -> str:
+    """A double as a C literal that parses back to the same bits (Python's shortest round-trip repr).
+
+    Parameters
+    ----------
+    value : float
+        The number (finite or infinite).
+
+    Returns
+    -------
+    str
+        Its C literal (``INFINITY`` and ``-INFINITY`` from ``<math.h>`` for the infinities).
+
+    Raises
+    ------
+    ValueError
+        ``value`` is NaN.
+
+    Examples
+    --------
+    >>> c_double(0.1), c_double(float("-inf"))
+    ('0.1', '-INFINITY')
+    """
+    x = float(value)
+    if math.isnan(x):
+        raise ValueError("a NaN constant cannot be generated")
+    if math.isinf(x):
+        return "INFINITY" if x > 0 else "-INFINITY"
+    return repr(x)
+
+
 @functools.cache
 def c_templates(package: str) -> Any:
     """The Jinja environment of the C templates in ``package``'s ``templates`` folder: an undefined name refused,
-    the text rendered as written (no escaping, the last newline kept).
+    the text rendered as written (no escaping, the last newline kept), and the filter ``c`` writing a double as a
+    C literal of the same bits (:func:`c_double`).
 
     Parameters
     ----------
@@ -150,12 +183,14 @@ def c_templates(package: str) -> Any:
     """
     import jinja2
 
-    return jinja2.Environment(
+    env = jinja2.Environment(
         loader=jinja2.PackageLoader(package, "templates"),
         undefined=jinja2.StrictUndefined,
         keep_trailing_newline=True,
         autoescape=False,
     )
+    env.filters["c"] = c_double
+    return env
 
 
 def c_compiler() -> str | None:

@@ -10,11 +10,11 @@ set = { "wheels.right.radius_m" = 0.1005, "motor.coulomb_friction_n_m" = 0.08, "
 initial_pose = { x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }
 sensor_seed = 0                                 # the true sensors' noise seed (agvctl.sensing)
 [controller]
-pose = "mpc"            # "mpc" | "nmpc" | "ramsete" | "ltv_lqr" | "none", or yours: "package.module:Name"
+pose = "mpc"            # "mpc" | "nmpc" | "ramsete" | "ramsete_c" | "ltv_lqr" | "none", or "package.module:Name"
 compute_delay = "none"  # or "one_sample"
 localization = "truth"  # or "odometry" (encoder counts), "ekf" (+ fixes), or yours
 wheel_speed = "exact"   # or "count_difference", "kalman" (from the encoder counts), or yours
-wheel_loops = "pi"      # the PI loops (pi_gains, coulomb_feedforward, ...), or yours
+wheel_loops = "pi"      # the PI loops (pi_gains, coulomb_feedforward, ...), "pi_c" (as C), or yours
 horizon = 20            # ...and the pose controller's settings (for the MPCs, controllers.mpc_common.MpcConfig)
 [limits]                # agvctl.evaluation.limits.LIMITS; checked by `agvctl check`, reported by `agvctl run`
 tracking_error_max_m = 0.03

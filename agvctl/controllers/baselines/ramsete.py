@@ -22,8 +22,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 from agvctl.config import check_fields, document_fields, number
 from agvctl.controllers.baselines.unicycle import UnicycleTracker
 from agvctl.controllers.ranges import MAX_WEIGHT, MAX_WHEEL_SPEED_M_S, MIN_WHEEL_SPEED_M_S
@@ -84,8 +82,8 @@ def ramsete_law(
     (0.5, 0.1)
     """
     e_x, e_y, e_theta = error
-    k = 2.0 * zeta * math.sqrt(yaw_rate_rad_s**2 + b_rad2_m2 * speed_m_s**2)
-    sinc = float(np.sinc(e_theta / math.pi))  # numpy's sinc is sin(πx)/(πx)
+    k = 2.0 * zeta * math.sqrt(yaw_rate_rad_s * yaw_rate_rad_s + b_rad2_m2 * (speed_m_s * speed_m_s))
+    sinc = math.sin(e_theta) / e_theta if e_theta != 0.0 else 1.0
     speed = speed_m_s * math.cos(e_theta) + k * e_x
     yaw_rate = yaw_rate_rad_s + k * e_theta + b_rad2_m2 * speed_m_s * sinc * e_y
     return speed, yaw_rate

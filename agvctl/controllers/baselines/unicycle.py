@@ -144,6 +144,13 @@ class UnicycleTracker:
             [g.x_m, g.y_m, g.theta_rad, g.speed_m_s, g.yaw_rate_rad_s, g.wheel_speed_left_m_s, g.wheel_speed_right_m_s]
         )
 
+    @property
+    def reference_rows(self) -> FloatArray:
+        """The reference on the control grid since the last :meth:`reset`: row k at t = k·T_s holds x (m), y (m),
+        heading (rad), speed (m/s), yaw rate (rad/s) and the left and right wheel speeds (m/s); from the last row on
+        the reference rests at its end."""
+        return self._grid
+
     def _reference_at(self, t_s: float) -> FloatArray:
         """(x_m, y_m, theta_rad, speed_m_s, yaw_rate_rad_s, left_m_s, right_m_s) of the reference at ``t_s``."""
         if self._reference is None:

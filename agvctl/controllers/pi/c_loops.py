@@ -15,8 +15,6 @@ loops.
 from __future__ import annotations
 
 import ctypes
-import functools
-import math
 import subprocess
 from dataclasses import dataclass
 from typing import Any
@@ -28,13 +26,15 @@ from agvctl.controllers.pi.options import FEEDFORWARD_RAMP_RAD_S, PIGains, Wheel
 from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.errors import AgvctlError
 from agvctl.params import SIDES, VehicleParams
-from agvctl.plant.codegen import c_templates, compiled_library
+from agvctl.plant.codegen import c_double, c_templates, compiled_library
 
 __all__ = [
     "STRICT_C_FLAGS",
     "CompiledPIWheelController",
+    "GeneratedC",
     "StaticMemory",
     "WheelLoopsC",
+    "compile_generated_c",
     "compile_wheel_loops",
     "render_wheel_loops_c",
     "static_memory",
@@ -48,7 +48,35 @@ PREFIX = "agv_wheel_loops"
 
 
 @dataclass(frozen=True)
-class WheelLoopsC:
+class GeneratedC:
+    """One generated C module: a header and its source.
+
+    Parameters
+    ----------
+    header : str
+        ``<prefix>.h``: the API.
+    source : str
+        ``<prefix>.c``: the code and its constants as ``static const`` data.
+    prefix : str
+        The files' stem and the names' prefix.
+    """
+
+    header: str
+    source: str
+    prefix: str
+
+    @property
+    def files(self) -> dict[str, str]:
+        """``{file name: text}``: the header and the source."""
+        return {f"{self.prefix}.h": self.header, f"{self.prefix}.c": self.source}
+
+    def single_unit(self) -> str:
+        """The source with the header pasted in place of its ``#include``: one translation unit."""
+        return self.source.replace(f'#include "{self.prefix}.h"', self.header, 1)
+
+
+@dataclass(frozen=True)
+class WheelLoopsC(GeneratedC):
     """The generated C of the wheel loops.
 
     Parameters
@@ -61,35 +89,7 @@ class WheelLoopsC:
         The files' stem and the names' prefix.
     """
 
-    header: str
-    source: str
     prefix: str = PREFIX
-
-    @property
-    def files(self) -> dict[str, str]:
-        """``{file name: text}``: the header and the source."""
-        return {f"{self.prefix}.h": self.header, f"{self.prefix}.c": self.source}
-
-    def single_unit(self) -> str:
-        """The source with the header pasted in place of its ``#include``: one translation unit."""
-        return self.source.replace(f'#include "{self.prefix}.h"', self.header, 1)
-
-
-def _c_double(value: float) -> str:
-    """A double as a C literal that parses back to the same bits (Python's shortest round-trip repr)."""
-    x = float(value)
-    if math.isnan(x):
-        raise ValueError("a NaN constant cannot be generated")
-    if math.isinf(x):
-        return "INFINITY" if x > 0 else "-INFINITY"
-    return repr(x)
-
-
-@functools.cache
-def _environment() -> Any:
-    env = c_templates("agvctl.controllers.pi")
-    env.filters["c"] = _c_double
-    return env
 
 
 def render_wheel_loops_c(loops: PIWheelController, *, origin: str, generator: str) -> WheelLoopsC:
@@ -138,7 +138,7 @@ def render_wheel_loops_c(loops: PIWheelController, *, origin: str, generator: st
         "macro": PREFIX.upper(),
         "origin": origin,
         "generator": generator,
-        "sample_period_s": _c_double(g.dt_s),
+        "sample_period_s": c_double(g.dt_s),
         "comment": (
             f"k_p = {g.kp:.6g} V s/rad, k_i = {g.ki:.6g} V/rad; coulomb_feedforward = "
             f"{str(options.coulomb_feedforward).lower()}, anti_windup = {str(options.anti_windup).lower()}, "
@@ -150,15 +150,44 @@ def render_wheel_loops_c(loops: PIWheelController, *, origin: str, generator: st
         "anti_windup": int(options.anti_windup),
         "steering_priority": int(options.steering_priority),
     }
-    env = _environment()
+    env = c_templates("agvctl.controllers.pi")
     return WheelLoopsC(
         header=env.get_template("wheel_loops.h.j2").render(values),
         source=env.get_template("wheel_loops.c.j2").render(values),
     )
 
 
-def compile_wheel_loops(code: WheelLoopsC) -> ctypes.CDLL:
+def compile_generated_c(code: GeneratedC, what: str) -> ctypes.CDLL:
     """``code`` compiled with :data:`STRICT_C_FLAGS` into the cache of compiled code (once) and loaded.
+
+    Parameters
+    ----------
+    code : GeneratedC
+        The generated C.
+    what : str
+        What it is, for the error message (``"wheel loops"``).
+
+    Returns
+    -------
+    ctypes.CDLL
+        The library.
+
+    Raises
+    ------
+    AgvctlError
+        No C compiler, or the compiler refused the code (its first message line).
+    """
+    try:
+        return compiled_library(code.single_unit(), code.prefix, flags=(*STRICT_C_FLAGS, "-fPIC", "-shared"))
+    except subprocess.CalledProcessError as exc:
+        message = (exc.stderr or b"").decode(errors="replace").strip().splitlines()
+        raise AgvctlError(f"the generated {what} do not compile: {message[0] if message else exc}") from None
+    except OSError as exc:
+        raise AgvctlError(f"the generated {what} cannot be compiled or loaded: {exc}") from None
+
+
+def compile_wheel_loops(code: WheelLoopsC) -> ctypes.CDLL:
+    """The wheel loops' C compiled and loaded (:func:`compile_generated_c`).
 
     Parameters
     ----------
@@ -176,13 +205,7 @@ def compile_wheel_loops(code: WheelLoopsC) -> ctypes.CDLL:
     AgvctlError
         No C compiler, or the compiler refused the code (its first message line).
     """
-    try:
-        return compiled_library(code.single_unit(), code.prefix, flags=(*STRICT_C_FLAGS, "-fPIC", "-shared"))
-    except subprocess.CalledProcessError as exc:
-        message = (exc.stderr or b"").decode(errors="replace").strip().splitlines()
-        raise AgvctlError(f"the generated wheel loops do not compile: {message[0] if message else exc}") from None
-    except OSError as exc:
-        raise AgvctlError(f"the generated wheel loops cannot be compiled or loaded: {exc}") from None
+    return compile_generated_c(code, "wheel loops")
 
 
 @dataclass(frozen=True)

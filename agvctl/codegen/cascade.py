@@ -1,0 +1,92 @@
+"""An experiment's whole controller cascade as C99, where its pose controller is generated: the pose controller,
+the reference it tracks as data, and one step function over it and the wheel loops.
+
+:func:`experiment_cascade` builds the experiment's pose controller as a run builds it; where it is the Ramsete law
+(``pose = "ramsete"`` or ``"ramsete_c"``) it renders the law's C
+(:func:`~agvctl.controllers.baselines.c_ramsete.render_ramsete_c`), the reference's rows on the control grid
+(``agv_reference.c``) and ``agv_cascade.{h,c}``: time (as the sample k), pose and measured motor speeds in, DA
+voltages out, through the generated wheel loops. Other pose controllers have no generated step yet, and it says so.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from agvctl.controllers.baselines.c_ramsete import render_ramsete_c
+from agvctl.controllers.baselines.ramsete import RamseteController
+from agvctl.controllers.pi.c_loops import PREFIX as LOOPS_PREFIX
+from agvctl.controllers.registry import pose_controllers
+from agvctl.params import SIDES
+from agvctl.plant.codegen import c_templates
+from agvctl.scenario.experiment import Experiment
+
+__all__ = ["CASCADE_FILES", "ExperimentCascade", "experiment_cascade"]
+
+CASCADE_FILES = ("agv_cascade.h", "agv_cascade.c", "agv_reference.h", "agv_reference.c")
+"""The files of the cascade's step and the reference, besides the pose controller's own."""
+
+
+@dataclass(frozen=True)
+class ExperimentCascade:
+    """An experiment's controller cascade as C, or why there is none.
+
+    Parameters
+    ----------
+    files : dict of str to str
+        The pose controller's, the reference's and the cascade's files by name (empty: not generated).
+    pose_prefix : str
+        The pose controller's files' stem ("" when not generated).
+    note : str
+        What the cascade is, or why it was not generated.
+    """
+
+    files: dict[str, str]
+    pose_prefix: str
+    note: str
+
+    @property
+    def generated(self) -> bool:
+        """Whether the cascade's step is generated."""
+        return bool(self.files)
+
+
+def experiment_cascade(experiment: Experiment, *, generator: str) -> ExperimentCascade:
+    """The controller cascade of ``experiment`` as C99, where its pose controller is generated.
+
+    Parameters
+    ----------
+    experiment : Experiment
+        The loaded experiment.
+    generator : str
+        What writes the files (``"agvctl 0.2.0"``).
+
+    Returns
+    -------
+    ExperimentCascade
+        The files, or why there are none.
+    """
+    spec, vehicle = experiment.spec, experiment.controller_vehicle
+    c = spec.controller
+    kind = pose_controllers.resolve(c.pose, key="controller.pose", source=spec.source, base_dir=spec.base_dir)
+    controller = kind.make(vehicle, c.pose_settings)
+    if not isinstance(controller, RamseteController):
+        note = f"the pose controller {c.pose!r} has no generated step yet: it runs in agvctl"
+        return ExperimentCascade({}, "", note)
+    controller.reset(experiment.reference)
+    origin = f"The Ramsete law of experiment {spec.name!r}."
+    pose = render_ramsete_c(controller, origin=origin, generator=generator)
+    values = {
+        "experiment": spec.name,
+        "generator": generator,
+        "sample_period_s": f"{controller.sample_period_s:g}",
+        "pose_prefix": pose.prefix,
+        "loops_prefix": LOOPS_PREFIX,
+        "rim_per_motor": [vehicle.rim_per_motor_rad(side) for side in SIDES],
+        "rows": controller.reference_rows.tolist(),
+    }
+    env = c_templates("agvctl.codegen")
+    files = dict(pose.files)
+    files.update({name: env.get_template(f"{name}.j2").render(values) for name in CASCADE_FILES})
+    rows = len(controller.reference_rows)
+    note = f"the Ramsete law; the reference: {rows} samples, {8 * 7 * rows} bytes of constant data"
+    return ExperimentCascade(files, pose.prefix, note)

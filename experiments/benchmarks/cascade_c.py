@@ -1,0 +1,126 @@
+"""Benchmark of a whole controller cascade's step: the Ramsete law and the PI loops in Python against the generated
+C cascade (``agvctl codegen``'s ``agv_cascade_step``), in the same run.
+
+The figure-8 path is run in closed loop with the Ramsete law; the estimated poses and measured motor speeds it gave
+the controllers are recorded. Then the cascade steps through them: in Python (the law, the setpoints as motor speeds,
+the loops), and as the C that ``agvctl codegen`` writes for the experiment, timed in C around each call
+(``clock_gettime``, no ctypes in the measure). Prints the median and p99 step of each in µs and their ratio, and the
+figure-8 closed loop's wall time and real-time factor with the cascade in Python and in C (``pose = "ramsete_c"``,
+``wheel_loops = "pi_c"``).
+
+Run:  python experiments/benchmarks/cascade_c.py [--repeat 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from agvctl.codegen import generate_code
+from agvctl.controllers.baselines import RamseteController
+from agvctl.controllers.baselines.c_ramsete import CompiledRamseteController
+from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS, CompiledPIWheelController
+from agvctl.controllers.pi.wheel_loop import PIWheelController
+from agvctl.params import SIDES
+from agvctl.plant.codegen import compiled_library
+from agvctl.scenario.experiment import load_experiment, run_experiment
+
+EXPERIMENT = Path(__file__).parents[1] / "figure8.toml"
+
+TIMER_C = """#define _POSIX_C_SOURCE 199309L
+#include <time.h>
+#include "agv_cascade.h"
+/* Each step of the cascade over n recorded samples, timed around the call, ns. */
+void bench_steps(long n, const double *poses, const double *motors, double *ns)
+{
+    agv_cascade_state state;
+    struct timespec a, b;
+    double da[2];
+    long k;
+    agv_cascade_init(&state);
+    for (k = 0; k < n; ++k) {
+        clock_gettime(CLOCK_MONOTONIC, &a);
+        agv_cascade_step(&state, k, poses + 3 * k, motors + 2 * k, da);
+        clock_gettime(CLOCK_MONOTONIC, &b);
+        ns[k] = (double)(b.tv_sec - a.tv_sec) * 1e9 + (double)(b.tv_nsec - a.tv_nsec);
+    }
+}
+"""
+
+
+def ramsete_figure8(folder: Path) -> Path:
+    """The figure-8 experiment with the Ramsete law as its pose controller, written into ``folder``."""
+    trajectory = (EXPERIMENT.parent / "../trajectories/figure8.toml").resolve()
+    text = f'name = "figure8_ramsete"\ntrajectory = "{trajectory}"\nsettle_s = 2.0\n\n[controller]\npose = "ramsete"\n'
+    (folder / "figure8_ramsete.toml").write_text(text, encoding="utf-8")
+    return folder / "figure8_ramsete.toml"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=5, help="passes over the recorded inputs")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory(prefix="agvctl-bench-") as folder:
+        path = ramsete_figure8(Path(folder))
+        experiment, code = load_experiment(path), generate_code(path, measure_memory=False)
+    vehicle = experiment.controller_vehicle
+    gains, options = experiment.wheel_loops.design.gains, experiment.wheel_loops.options
+    log = run_experiment(experiment).log
+    n = len(log)
+    poses = np.ascontiguousarray(np.column_stack([log["est_x_m"], log["est_y_m"], log["est_theta_rad"]]))
+    motors = np.ascontiguousarray(
+        np.column_stack([log["measured_omega_motor_left_rad_s"], log["measured_omega_motor_right_rad_s"]])
+    )
+    rim = np.array([vehicle.rim_per_motor_rad(side) for side in SIDES])
+    ts = vehicle.control.sample_period_s
+
+    sources = {name: text for name, text in code.files.items() if name.endswith((".c", ".h"))}
+    sources.pop("example_main.c")
+    lib = compiled_library(
+        {**sources, "bench.c": TIMER_C}, "agv_cascade_bench", flags=(*STRICT_C_FLAGS, "-fPIC", "-shared")
+    )
+    ns_c = np.zeros(n)
+    python_ns: list[int] = []
+    c_ns: list[float] = []
+    law, loops = RamseteController(vehicle), PIWheelController(vehicle, gains, options)
+    law.reset(experiment.reference)
+    clock = time.perf_counter_ns
+    for _ in range(args.repeat):
+        loops.reset()
+        for k in range(n):
+            t0 = clock()
+            command = law.update(k * ts, poses[k], motors[k] * rim)
+            loops.update(np.array([command.wheel_speed_left_m_s, command.wheel_speed_right_m_s]) / rim, motors[k])
+            python_ns.append(clock() - t0)
+        lib.bench_steps(
+            ctypes.c_long(n),
+            ctypes.c_void_p(poses.ctypes.data),
+            ctypes.c_void_p(motors.ctypes.data),
+            ctypes.c_void_p(ns_c.ctypes.data),
+        )
+        c_ns.extend(ns_c.tolist())
+    median = {"python": float(np.median(python_ns)) / 1e3, "c": float(np.median(c_ns)) / 1e3}
+    p99 = {"python": float(np.percentile(python_ns, 99)) / 1e3, "c": float(np.percentile(c_ns, 99)) / 1e3}
+    print(f"cascade step (Ramsete law + PI loops) over {n} samples of {EXPERIMENT.name} x {args.repeat} passes:")
+    print(f"  python  median {median['python']:8.3f} µs   p99 {p99['python']:8.3f} µs")
+    print(f"  c       median {median['c']:8.3f} µs   p99 {p99['c']:8.3f} µs   (timed in C)")
+    print(f"  ratio   Python / C median {median['python'] / median['c']:.0f}x")
+    duration = experiment.reference.duration_s + experiment.spec.settle_s
+    for name, pose, wheels in (
+        ("python", RamseteController(vehicle), PIWheelController(vehicle, gains, options)),
+        ("c", CompiledRamseteController(vehicle), CompiledPIWheelController(vehicle, gains, options)),
+    ):
+        walls = [
+            run_experiment(experiment, pose_controller=pose, wheel_controller=wheels).wall_time_s for _ in range(3)
+        ]
+        best = min(walls)
+        print(f"  figure-8 closed loop, cascade in {name}: {best:.3f} s (best of 3), {duration / best:.0f}x real time")
+
+
+if __name__ == "__main__":
+    main()

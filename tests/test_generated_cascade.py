@@ -1,0 +1,136 @@
+"""A whole controller cascade as generated C (the Ramsete law, the reference as data and the PI loops): the law
+commands what the Python law commands, the cascade builds with warnings as errors and holds no heap and no I/O, and
+its one step function replays the closed loop's DA commands from the closed loop's pose and motor speeds."""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_runs import line_experiment
+
+from agvctl.cli import main
+from agvctl.codegen import cascade_back_to_back, generate_code
+from agvctl.controllers.baselines import RamseteConfig, RamseteController
+from agvctl.controllers.baselines.c_ramsete import CompiledRamseteController
+from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS
+from agvctl.errors import ConfigError
+from agvctl.fuzz.run import fuzz_tasks
+from agvctl.fuzz.spec import load_fuzz_config
+from agvctl.planning import plan_file
+from agvctl.plant.codegen import c_compiler, compiled_library
+from agvctl.scenario.experiment import load_experiment, run_experiment
+
+needs_cc = pytest.mark.skipif(c_compiler() is None, reason="no C compiler (cc/gcc) on this machine")
+
+
+def _ramsete_line(folder: Path, name: str = "line_ramsete.toml") -> Path:
+    return line_experiment(folder, name, 'pose = "mpc"\nhorizon = 20\n', 'pose = "ramsete"\nb_rad2_m2 = 3.0\n')
+
+
+@needs_cc
+def test_the_ramsete_law_in_c_commands_what_the_python_law_commands(vehicle):
+    reference = plan_file("trajectories/figure8.toml", vehicle)
+    config = RamseteConfig(b_rad2_m2=5.0, zeta=0.9, max_wheel_speed_m_s=0.4)
+    c_law, py_law = CompiledRamseteController(vehicle, config), RamseteController(vehicle, config)
+    c_law.reset(reference)
+    py_law.reset(reference)
+    rng = np.random.default_rng(7)
+    rows = len(c_law.reference_rows)
+    for k in rng.integers(-3, rows + 20, 400):  # before the start and past the end too
+        t_s = float(k) * vehicle.control.sample_period_s
+        ref = c_law.reference_rows[min(max(int(k), 0), rows - 1)]
+        # around the reference, and headings many turns away (the error wraps to [-pi, pi))
+        pose = ref[:3] + rng.normal(0.0, [0.1, 0.1, 1.0]) + [0.0, 0.0, 2.0 * math.pi * rng.integers(-3, 4)]
+        c, p = c_law.update(t_s, pose, np.zeros(2)), py_law.update(t_s, pose, np.zeros(2))
+        assert (c.wheel_speed_left_m_s, c.wheel_speed_right_m_s, c.status) == (
+            p.wheel_speed_left_m_s,
+            p.wheel_speed_right_m_s,
+            p.status,
+        )
+        assert max(abs(c.wheel_speed_left_m_s), abs(c.wheel_speed_right_m_s)) <= 0.4 + 1e-12  # scaled, rounded
+    nan_pose = np.array([math.nan, 0.0, 0.0])  # a pose that is not finite: the reference's own wheel speeds
+    lost, py_lost = c_law.update(0.4, nan_pose, np.zeros(2)), py_law.update(0.4, nan_pose, np.zeros(2))
+    assert lost.status == py_lost.status == "fallback_feedforward" and c_law.failures == py_law.failures == 1
+    assert (lost.wheel_speed_left_m_s, lost.wheel_speed_right_m_s) == (
+        py_lost.wheel_speed_left_m_s,
+        py_lost.wheel_speed_right_m_s,
+    )
+    with pytest.raises(ValueError, match="control grid"):
+        c_law.update(0.41, np.zeros(3), np.zeros(2))
+
+
+@needs_cc
+@pytest.mark.filterwarnings("ignore::agvctl.feasibility.HeadroomWarning")  # a fuzz run notes them, as here
+@pytest.mark.parametrize("index", [3, 11])
+def test_in_the_closed_loop_of_fuzz_scenarios_the_c_cascade_commands_what_the_python_cascade_commands(index, tmp_path):
+    spec = load_fuzz_config("experiments/fuzz/acceptance.toml")
+    task = next(t for t in fuzz_tasks(spec, [index]).tasks if t.controller == "ramsete")
+    for name, text in task.files:
+        (tmp_path / name).write_text(text, encoding="utf-8")
+    result = cascade_back_to_back(tmp_path / task.files[-1][0])
+    assert result.samples > 100 and result.samples_c == result.samples
+    assert result.max_da_difference_v == 0.0
+    assert result.same_verdicts
+
+
+def test_the_cascades_back_to_back_refuses_another_pose_controller(tmp_path):
+    with pytest.raises(ConfigError, match="controller.pose"):
+        cascade_back_to_back("experiments/line.toml")
+
+
+@needs_cc
+def test_an_experiment_runs_and_checks_with_the_ramsete_law_as_c(tmp_path, capsys):
+    path = line_experiment(
+        tmp_path, "line_c.toml", 'pose = "mpc"\nhorizon = 20\n', 'pose = "ramsete_c"\nb_rad2_m2 = 3.0\n'
+    )
+    assert main(["check", str(path), "--jobs", "1"]) in (0, 1)
+    assert "of 1 experiments passed" in capsys.readouterr().out
+    python, c = (run_experiment(load_experiment(p)).log for p in (_ramsete_line(tmp_path), path))
+    for column in ("setpoint_wheel_speed_left_m_s", "setpoint_wheel_speed_right_m_s", "da_command_left_v", "x_m"):
+        np.testing.assert_array_equal(c[column], python[column])
+
+
+@needs_cc
+@pytest.mark.skipif(shutil.which("make") is None or shutil.which("nm") is None, reason="no make or nm")
+def test_the_generated_cascade_builds_strictly_holds_no_heap_or_io_and_replays_the_closed_loop(tmp_path, capsys):
+    experiment = _ramsete_line(tmp_path)
+    code = generate_code(experiment)
+    assert code.cascade.generated and {"agv_cascade.h", "agv_ramsete.c", "agv_reference.c"} <= set(code.files)
+    out = tmp_path / "c"
+    assert main(["codegen", str(experiment), "--out", str(out)]) == 0
+    assert "agv_cascade_step" in capsys.readouterr().out
+    built = subprocess.run(["make", "-C", str(out)], capture_output=True, text=True)
+    assert built.returncode == 0, built.stderr
+    assert "-Werror" in built.stdout
+    example = subprocess.run([str(out / "example")], capture_output=True, text=True, check=True).stdout
+    assert example.count("sample ") == 3
+    objects = []
+    for source in ("agv_cascade.c", "agv_ramsete.c", "agv_reference.c", "agv_wheel_loops.c"):
+        obj = tmp_path / source.replace(".c", ".o")
+        subprocess.run([c_compiler(), *STRICT_C_FLAGS, "-c", str(out / source), "-o", str(obj)], check=True)
+        objects.append(str(obj))
+    undefined = subprocess.run(["nm", "-u", *objects], capture_output=True, text=True, check=True).stdout.split()
+    assert not {"malloc", "calloc", "realloc", "free", "printf", "fopen", "fwrite"} & set(undefined), undefined
+
+    # the step function, fed the closed loop's estimated pose and measured motor speeds, commands its DA voltages
+    sources = {name: text for name, text in code.files.items() if name.endswith((".c", ".h"))}
+    sources.pop("example_main.c")
+    lib = compiled_library(sources, "agv_cascade_replay", flags=(*STRICT_C_FLAGS, "-fPIC", "-shared"))
+    lib.agv_cascade_state_size.restype = ctypes.c_size_t
+    state = (ctypes.c_double * -(-int(lib.agv_cascade_state_size()) // 8))()
+    lib.agv_cascade_step.restype = ctypes.c_uint
+    lib.agv_cascade_step.argtypes = [ctypes.c_void_p, ctypes.c_long, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
+    log = run_experiment(load_experiment(experiment)).log
+    lib.agv_cascade_init(state)
+    pose, motors, da = (ctypes.c_double * 3)(), (ctypes.c_double * 2)(), (ctypes.c_double * 2)()
+    for k in range(len(log)):
+        pose[:] = [float(log[f"est_{c}"][k]) for c in ("x_m", "y_m", "theta_rad")]
+        motors[:] = [float(log[f"measured_omega_motor_{s}_rad_s"][k]) for s in ("left", "right")]
+        lib.agv_cascade_step(state, k, pose, motors, da)
+        assert (da[0], da[1]) == (log["da_command_left_v"][k], log["da_command_right_v"][k]), k
