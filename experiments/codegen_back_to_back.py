@@ -1,5 +1,5 @@
 """Back-to-back of the generated C against the Python over the acceptance fuzz's scenarios: the wheel loops, the
-MPC's QP solver, or the whole Ramsete cascade.
+MPC's QP solver, or the whole cascade of a unicycle law.
 
 For each of the first N scenarios of ``experiments/fuzz/acceptance.toml`` and each of its pose controllers, the
 closed loop runs with the Python PI wheel loops driving the plant and the generated C loops (``wheel_loops =
@@ -12,9 +12,9 @@ With ``--part qp``, each scenario's LTV MPC (the ``mpc`` runs only) runs with OS
 for its QP (``qp_solver = "osqp_c"``), each in its own closed loop (:func:`agvctl.codegen.qp_back_to_back`): the
 largest difference of the commanded DA voltages, sample by sample, and the verdicts. ``--part qp_float`` does the
 same with the C in single precision (``qp_solver = "osqp_c_float"``), and prints the largest difference of the
-tracking errors' RMS too. ``--part cascade`` runs each scenario's Ramsete cascade (the ``ramsete`` runs) in Python
-and as generated C, the law (``pose = "ramsete_c"``) and the loops (``wheel_loops = "pi_c"``), each in its own
-closed loop (:func:`agvctl.codegen.cascade_back_to_back`).
+tracking errors' RMS too. ``--part cascade`` runs each scenario with the Ramsete law and with the LTV unicycle LQR,
+each cascade in Python and as generated C (the law, ``pose = "ramsete_c"`` or ``"ltv_lqr_c"``, and the loops,
+``wheel_loops = "pi_c"``), each in its own closed loop (:func:`agvctl.codegen.cascade_back_to_back`).
 
 Run:  python experiments/codegen_back_to_back.py [--part loops|qp|qp_float|cascade] [--scenarios 100] [--jobs 2]
 """
@@ -96,7 +96,7 @@ def main() -> None:
     args = parser.parse_args()
     spec = load_fuzz_config(FUZZ_FILE)
     if args.part != "loops":
-        spec = dataclasses.replace(spec, controllers=("ramsete",) if args.part == "cascade" else ("mpc",))
+        spec = dataclasses.replace(spec, controllers=("ramsete", "ltv_lqr") if args.part == "cascade" else ("mpc",))
     tasks = fuzz_tasks(spec, list(range(args.scenarios))).tasks
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.jobs) as pool:

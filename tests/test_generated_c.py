@@ -223,9 +223,9 @@ def test_with_float_the_qp_solver_is_single_precision_builds_strictly_and_takes_
 
 
 def test_a_pose_controller_neither_generated_nor_solving_a_qp_gets_the_loops_only_and_the_readme_says_why(tmp_path):
-    line_experiment(tmp_path, "lqr.toml", 'pose = "mpc"\nhorizon = 20\n', 'pose = "ltv_lqr"\n')
-    code = generate_code(tmp_path / "lqr.toml", measure_memory=False)
-    assert code.experiment.spec.controller.pose == "ltv_lqr" and not code.cascade.generated
+    line_experiment(tmp_path, "ff.toml", 'pose = "mpc"\nhorizon = 20\n', 'pose = "none"\n')
+    code = generate_code(tmp_path / "ff.toml", measure_memory=False)
+    assert code.experiment.spec.controller.pose == "none" and not code.cascade.generated
     assert "has no generated step yet" in code.files["README.md"] and "agv_cascade.h" not in code.files
     assert not any(name.startswith("mpc_qp/") for name in code.files) and "mpc_qp" not in code.files["Makefile"]
     assert code.qp.code is None and "solves no QP" in code.files["README.md"]

@@ -5,6 +5,7 @@ its one step function replays the closed loop's DA commands from the closed loop
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import math
 import shutil
 import subprocess
@@ -16,8 +17,8 @@ from cli_runs import line_experiment
 
 from agvctl.cli import main
 from agvctl.codegen import cascade_back_to_back, generate_code
-from agvctl.controllers.baselines import RamseteConfig, RamseteController
-from agvctl.controllers.baselines.c_ramsete import CompiledRamseteController
+from agvctl.controllers.baselines import LtvLqrConfig, LtvLqrController, RamseteConfig, RamseteController
+from agvctl.controllers.baselines.c_unicycle import CompiledLtvLqrController, CompiledRamseteController
 from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS
 from agvctl.errors import ConfigError
 from agvctl.fuzz.run import fuzz_tasks
@@ -29,15 +30,27 @@ from agvctl.scenario.experiment import load_experiment, run_experiment
 needs_cc = pytest.mark.skipif(c_compiler() is None, reason="no C compiler (cc/gcc) on this machine")
 
 
-def _ramsete_line(folder: Path, name: str = "line_ramsete.toml") -> Path:
-    return line_experiment(folder, name, 'pose = "mpc"\nhorizon = 20\n', 'pose = "ramsete"\nb_rad2_m2 = 3.0\n')
+def _law_line(folder: Path, law: str = "ramsete") -> Path:
+    settings = {"ramsete": "b_rad2_m2 = 3.0\n", "ltv_lqr": "tolerance_y_m = 0.05\n"}[law]
+    return line_experiment(folder, f"line_{law}.toml", 'pose = "mpc"\nhorizon = 20\n', f'pose = "{law}"\n{settings}')
+
+
+LAWS = {
+    "ramsete": (
+        RamseteController,
+        CompiledRamseteController,
+        RamseteConfig(b_rad2_m2=5.0, zeta=0.9, max_wheel_speed_m_s=0.4),
+    ),
+    "ltv_lqr": (LtvLqrController, CompiledLtvLqrController, LtvLqrConfig(tolerance_y_m=0.05, max_wheel_speed_m_s=0.4)),
+}
 
 
 @needs_cc
-def test_the_ramsete_law_in_c_commands_what_the_python_law_commands(vehicle):
+@pytest.mark.parametrize("law", sorted(LAWS))
+def test_a_unicycle_law_in_c_commands_what_the_python_law_commands(vehicle, law):
+    python_class, c_class, config = LAWS[law]
     reference = plan_file("trajectories/figure8.toml", vehicle)
-    config = RamseteConfig(b_rad2_m2=5.0, zeta=0.9, max_wheel_speed_m_s=0.4)
-    c_law, py_law = CompiledRamseteController(vehicle, config), RamseteController(vehicle, config)
+    c_law, py_law = c_class(vehicle, config), python_class(vehicle, config)
     c_law.reset(reference)
     py_law.reset(reference)
     rng = np.random.default_rng(7)
@@ -67,10 +80,12 @@ def test_the_ramsete_law_in_c_commands_what_the_python_law_commands(vehicle):
 
 @needs_cc
 @pytest.mark.filterwarnings("ignore::agvctl.feasibility.HeadroomWarning")  # a fuzz run notes them, as here
-@pytest.mark.parametrize("index", [3, 11])
-def test_in_the_closed_loop_of_fuzz_scenarios_the_c_cascade_commands_what_the_python_cascade_commands(index, tmp_path):
-    spec = load_fuzz_config("experiments/fuzz/acceptance.toml")
-    task = next(t for t in fuzz_tasks(spec, [index]).tasks if t.controller == "ramsete")
+@pytest.mark.parametrize(("law", "index"), [("ramsete", 3), ("ramsete", 11), ("ltv_lqr", 5)])
+def test_in_the_closed_loop_of_fuzz_scenarios_the_c_cascade_commands_what_the_python_cascade_commands(
+    law, index, tmp_path
+):
+    spec = dataclasses.replace(load_fuzz_config("experiments/fuzz/acceptance.toml"), controllers=(law,))
+    task = fuzz_tasks(spec, [index]).tasks[0]
     for name, text in task.files:
         (tmp_path / name).write_text(text, encoding="utf-8")
     result = cascade_back_to_back(tmp_path / task.files[-1][0])
@@ -91,17 +106,18 @@ def test_an_experiment_runs_and_checks_with_the_ramsete_law_as_c(tmp_path, capsy
     )
     assert main(["check", str(path), "--jobs", "1"]) in (0, 1)
     assert "of 1 experiments passed" in capsys.readouterr().out
-    python, c = (run_experiment(load_experiment(p)).log for p in (_ramsete_line(tmp_path), path))
+    python, c = (run_experiment(load_experiment(p)).log for p in (_law_line(tmp_path), path))
     for column in ("setpoint_wheel_speed_left_m_s", "setpoint_wheel_speed_right_m_s", "da_command_left_v", "x_m"):
         np.testing.assert_array_equal(c[column], python[column])
 
 
 @needs_cc
 @pytest.mark.skipif(shutil.which("make") is None or shutil.which("nm") is None, reason="no make or nm")
-def test_the_generated_cascade_builds_strictly_holds_no_heap_or_io_and_replays_the_closed_loop(tmp_path, capsys):
-    experiment = _ramsete_line(tmp_path)
+@pytest.mark.parametrize("law", ["ramsete", "ltv_lqr"])
+def test_the_generated_cascade_builds_strictly_holds_no_heap_or_io_and_replays_the_closed_loop(law, tmp_path, capsys):
+    experiment = _law_line(tmp_path, law)
     code = generate_code(experiment)
-    assert code.cascade.generated and {"agv_cascade.h", "agv_ramsete.c", "agv_reference.c"} <= set(code.files)
+    assert code.cascade.generated and {"agv_cascade.h", f"agv_{law}.c", "agv_reference.c"} <= set(code.files)
     out = tmp_path / "c"
     assert main(["codegen", str(experiment), "--out", str(out)]) == 0
     assert "agv_cascade_step" in capsys.readouterr().out
@@ -111,7 +127,7 @@ def test_the_generated_cascade_builds_strictly_holds_no_heap_or_io_and_replays_t
     example = subprocess.run([str(out / "example")], capture_output=True, text=True, check=True).stdout
     assert example.count("sample ") == 3
     objects = []
-    for source in ("agv_cascade.c", "agv_ramsete.c", "agv_reference.c", "agv_wheel_loops.c"):
+    for source in ("agv_cascade.c", f"agv_{law}.c", "agv_reference.c", "agv_wheel_loops.c"):
         obj = tmp_path / source.replace(".c", ".o")
         subprocess.run([c_compiler(), *STRICT_C_FLAGS, "-c", str(out / source), "-o", str(obj)], check=True)
         objects.append(str(obj))
@@ -121,7 +137,7 @@ def test_the_generated_cascade_builds_strictly_holds_no_heap_or_io_and_replays_t
     # the step function, fed the closed loop's estimated pose and measured motor speeds, commands its DA voltages
     sources = {name: text for name, text in code.files.items() if name.endswith((".c", ".h"))}
     sources.pop("example_main.c")
-    lib = compiled_library(sources, "agv_cascade_replay", flags=(*STRICT_C_FLAGS, "-fPIC", "-shared"))
+    lib = compiled_library(sources, f"agv_cascade_replay_{law}", flags=(*STRICT_C_FLAGS, "-fPIC", "-shared"))
     lib.agv_cascade_state_size.restype = ctypes.c_size_t
     state = (ctypes.c_double * -(-int(lib.agv_cascade_state_size()) // 8))()
     lib.agv_cascade_step.restype = ctypes.c_uint

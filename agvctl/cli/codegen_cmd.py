@@ -1,4 +1,5 @@
-"""``agvctl codegen``: an experiment's PI wheel loops and its MPC's QP solver as a folder of dependency-free C99."""
+"""``agvctl codegen``: an experiment's PI wheel loops, its MPC's QP solver, or the whole cascade of a unicycle law, as a
+folder of dependency-free C99."""
 
 from __future__ import annotations
 
@@ -22,9 +23,10 @@ def register(sub: Any) -> None:
         help=command_summary("codegen"),
         description="Write the experiment's PI wheel loops (gains, options and vehicle constants baked in) as "
         "dependency-free C99 into DIR: a header with an init/step API, the source, an example caller, a Makefile "
-        "and a README naming the experiment and the agvctl version; for the LTV MPC, the QP it solves each step as "
-        "OSQP's generated solver in DIR/mpc_qp. The code is compiled once to measure its static memory. The pose "
-        "controller's step around its QP is not generated yet.",
+        "and a README naming the experiment and the agvctl version; for the Ramsete law and the LTV unicycle LQR, "
+        "the whole cascade (the law, the reference as data and agv_cascade_step: pose and motor speeds in, DA "
+        "voltages out); for the LTV MPC, the QP it solves each step as OSQP's generated solver in DIR/mpc_qp (the "
+        "MPC's step around its QP is not generated yet). The code is compiled once to measure its static memory.",
     )
     p.add_argument("experiment", metavar="EXPERIMENT.toml")
     add_vehicle_options(p, "the experiment's vehicle")

@@ -37,7 +37,8 @@ COMMANDS: dict[str, Command] = {
         "design the PI wheel-speed loops (or, with --pose, search a pose controller's settings)",
     ),
     "codegen": Command(
-        "agvctl.cli.codegen_cmd", "write an experiment's PI wheel loops as dependency-free C99 (header, source, README)"
+        "agvctl.cli.codegen_cmd",
+        "write an experiment's controllers as dependency-free C99: the PI loops, the MPC's QP solver, a law's cascade",
     ),
     "identify": Command(
         "agvctl.cli.identify_cmd", "identify vehicle constants: mass, friction, wheel geometry (appendix A.1)"

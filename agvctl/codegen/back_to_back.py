@@ -10,7 +10,7 @@ experiment's gate, limit by limit.
 :func:`qp_back_to_back` runs the experiment's LTV MPC twice, with OSQP in Python and with its generated C
 (``qp_solver = "osqp_c"``), each in its own closed loop: the largest difference of the commanded DA voltages, sample
 by sample, and the two verdicts. :func:`cascade_back_to_back` does the same for a whole cascade that is generated:
-the Ramsete law and the PI loops in Python, then both as C.
+a unicycle law (Ramsete, LTV-LQR) and the PI loops in Python, then both as C.
 """
 
 from __future__ import annotations
@@ -23,7 +23,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.base import PoseController, WheelSpeedController
-from agvctl.controllers.baselines.c_ramsete import CompiledRamseteController
+from agvctl.controllers.baselines.c_unicycle import CompiledLtvLqrController, CompiledRamseteController
+from agvctl.controllers.baselines.ltv_lqr import LtvLqrConfig, LtvLqrController
 from agvctl.controllers.baselines.ramsete import RamseteConfig, RamseteController
 from agvctl.controllers.mpc.config import MpcConfig, QpSolver
 from agvctl.controllers.mpc.ltv import LtvMpcController
@@ -269,15 +270,22 @@ def _two_runs(
     return RunsBackToBack(spec.name, first.n_samples, second.n_samples, difference, first_verdict, second_verdict)
 
 
+_CASCADES: dict[str, tuple[type, type, type]] = {
+    "ramsete": (RamseteConfig, RamseteController, CompiledRamseteController),
+    "ltv_lqr": (LtvLqrConfig, LtvLqrController, CompiledLtvLqrController),
+}
+"""The pose controllers whose cascade is generated: their settings, their Python law and its C (``<name>_c``)."""
+
+
 def cascade_back_to_back(experiment: str | Path | Experiment) -> RunsBackToBack:
-    """Run an experiment's Ramsete cascade in Python, then as generated C: the law (``pose = "ramsete_c"``) and the
-    PI loops (``wheel_loops = "pi_c"``), the C that ``agvctl codegen`` writes.
+    """Run an experiment's cascade in Python, then as generated C: the law (``pose = "ramsete_c"`` or
+    ``"ltv_lqr_c"``) and the PI loops (``wheel_loops = "pi_c"``), the C that ``agvctl codegen`` writes.
 
     Parameters
     ----------
     experiment : str, Path or Experiment
-        The experiment file, or one loaded; its pose controller is the Ramsete law (``"ramsete"`` or
-        ``"ramsete_c"``) and its wheel loops the built-in PI loops.
+        The experiment file, or one loaded; its pose controller is a unicycle law (``"ramsete"``, ``"ltv_lqr"`` or
+        their ``_c`` twins) and its wheel loops the built-in PI loops.
 
     Returns
     -------
@@ -287,19 +295,20 @@ def cascade_back_to_back(experiment: str | Path | Experiment) -> RunsBackToBack:
     Raises
     ------
     ConfigError
-        The pose controller is not the Ramsete law, or the wheel loops are not the built-in PI loops.
+        The pose controller has no generated C, or the wheel loops are not the built-in PI loops.
     AgvctlError
         No C compiler, or the generated code does not compile.
     """
     loaded = experiment if isinstance(experiment, Experiment) else load_experiment(experiment)
     spec, vehicle = loaded.spec, loaded.controller_vehicle
-    settings = spec.controller.pose_settings
-    if spec.controller.pose not in ("ramsete", "ramsete_c") or not isinstance(settings, RamseteConfig):
-        problem = f"the cascade's back-to-back runs the Ramsete law ('ramsete'), not {spec.controller.pose!r}"
+    settings, name = spec.controller.pose_settings, spec.controller.pose.removesuffix("_c")
+    if name not in _CASCADES or not isinstance(settings, _CASCADES[name][0]):
+        problem = f"the cascade's back-to-back runs 'ramsete' or 'ltv_lqr', not {spec.controller.pose!r}"
         raise ConfigError(str(spec.source), "controller.pose", problem)
     if spec.controller.wheel_loops not in ("pi", "pi_c"):
         problem = f"the cascade's back-to-back runs the PI loops ('pi'), not {spec.controller.wheel_loops!r}"
         raise ConfigError(str(spec.source), "controller.wheel_loops", problem)
+    _, python_law, c_law = _CASCADES[name]
     gains, options = loaded.wheel_loops.design.gains, loaded.wheel_loops.options
     loops = (PIWheelController(vehicle, gains, options), CompiledPIWheelController(vehicle, gains, options))
-    return _two_runs(loaded, RamseteController(vehicle, settings), CompiledRamseteController(vehicle, settings), loops)
+    return _two_runs(loaded, python_law(vehicle, settings), c_law(vehicle, settings), loops)

@@ -1,9 +1,9 @@
 """An experiment's whole controller cascade as C99, where its pose controller is generated: the pose controller,
 the reference it tracks as data, and one step function over it and the wheel loops.
 
-:func:`experiment_cascade` builds the experiment's pose controller as a run builds it; where it is the Ramsete law
-(``pose = "ramsete"`` or ``"ramsete_c"``) it renders the law's C
-(:func:`~agvctl.controllers.baselines.c_ramsete.render_ramsete_c`), the reference's rows on the control grid
+:func:`experiment_cascade` builds the experiment's pose controller as a run builds it; where it is a unicycle law
+(``pose = "ramsete"``, ``"ltv_lqr"`` or their ``_c`` twins) it renders the law's C
+(:func:`~agvctl.controllers.baselines.c_unicycle.render_unicycle_c`), the reference's rows on the control grid
 (``agv_reference.c``) and ``agv_cascade.{h,c}``: time (as the sample k), pose and measured motor speeds in, DA
 voltages out, through the generated wheel loops. Other pose controllers have no generated step yet, and it says so.
 """
@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from agvctl.controllers.baselines.c_ramsete import render_ramsete_c
-from agvctl.controllers.baselines.ramsete import RamseteController
+from agvctl.controllers.baselines.c_unicycle import generated_prefix, render_unicycle_c
+from agvctl.controllers.baselines.unicycle import UnicycleTracker
 from agvctl.controllers.pi.c_loops import PREFIX as LOOPS_PREFIX
 from agvctl.controllers.registry import pose_controllers
 from agvctl.params import SIDES
@@ -69,12 +69,12 @@ def experiment_cascade(experiment: Experiment, *, generator: str) -> ExperimentC
     c = spec.controller
     kind = pose_controllers.resolve(c.pose, key="controller.pose", source=spec.source, base_dir=spec.base_dir)
     controller = kind.make(vehicle, c.pose_settings)
-    if not isinstance(controller, RamseteController):
+    if generated_prefix(controller) is None or not isinstance(controller, UnicycleTracker):
         note = f"the pose controller {c.pose!r} has no generated step yet: it runs in agvctl"
         return ExperimentCascade({}, "", note)
     controller.reset(experiment.reference)
-    origin = f"The Ramsete law of experiment {spec.name!r}."
-    pose = render_ramsete_c(controller, origin=origin, generator=generator)
+    origin = f"The pose controller of experiment {spec.name!r}."
+    pose = render_unicycle_c(controller, origin=origin, generator=generator)
     values = {
         "experiment": spec.name,
         "generator": generator,
@@ -88,5 +88,6 @@ def experiment_cascade(experiment: Experiment, *, generator: str) -> ExperimentC
     files = dict(pose.files)
     files.update({name: env.get_template(f"{name}.j2").render(values) for name in CASCADE_FILES})
     rows = len(controller.reference_rows)
-    note = f"the Ramsete law; the reference: {rows} samples, {8 * 7 * rows} bytes of constant data"
+    law = "the Ramsete law" if pose.prefix == "agv_ramsete" else "the LTV unicycle LQR and its gain schedule"
+    note = f"{law}; the reference: {rows} samples, {8 * 7 * rows} bytes of constant data"
     return ExperimentCascade(files, pose.prefix, note)

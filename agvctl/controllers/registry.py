@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from agvctl.config import document_fields
 from agvctl.config.references import Registry, checked_vector, describe_plugin, made_by, plugin_settings
 from agvctl.controllers.base import PoseCommand, PoseController, WheelSpeedController
-from agvctl.controllers.baselines.c_ramsete import CompiledRamseteController
+from agvctl.controllers.baselines.c_unicycle import CompiledLtvLqrController, CompiledRamseteController
 from agvctl.controllers.baselines.feedforward import FeedForwardPoseController
 from agvctl.controllers.baselines.ltv_lqr import LtvLqrConfig, LtvLqrController
 from agvctl.controllers.baselines.ramsete import RamseteConfig, RamseteController
@@ -101,6 +101,11 @@ POSE_CONTROLLERS: dict[str, PoseControllerKind] = {
         "the same Ramsete law as generated C99, compiled and called through ctypes (software-in-the-loop)",
     ),
     "ltv_lqr": PoseControllerKind(LtvLqrController, LtvLqrConfig, "WPILib's LTV unicycle LQR (yardstick)"),
+    "ltv_lqr_c": PoseControllerKind(
+        CompiledLtvLqrController,
+        LtvLqrConfig,
+        "the same LTV unicycle LQR as generated C99, compiled and called through ctypes (software-in-the-loop)",
+    ),
     "none": PoseControllerKind(
         lambda vehicle, settings: FeedForwardPoseController(), None, "the reference's feed-forward only"
     ),

@@ -10,7 +10,7 @@ set = { "wheels.right.radius_m" = 0.1005, "motor.coulomb_friction_n_m" = 0.08, "
 initial_pose = { x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }
 sensor_seed = 0                                 # the true sensors' noise seed (agvctl.sensing)
 [controller]
-pose = "mpc"            # "mpc" | "nmpc" | "ramsete" | "ramsete_c" | "ltv_lqr" | "none", or "package.module:Name"
+pose = "mpc"            # "mpc" | "nmpc" | "ramsete" | "ltv_lqr" | "none" (a law's C: "ramsete_c"), or yours
 compute_delay = "none"  # or "one_sample"
 localization = "truth"  # or "odometry" (encoder counts), "ekf" (+ fixes), or yours
 wheel_speed = "exact"   # or "count_difference", "kalman" (from the encoder counts), or yours

@@ -110,9 +110,10 @@ DEFAULT_SPACES: dict[str, dict[str, Any]] = {
 """The space searched when a fuzz file has no ``[search.<controller>]`` table: the settings that shape the tracking
 (weights, horizon, reach lead, governor band; Ramsete's b and ζ; the LQR's tolerances and efforts), each over the
 range in which it stays a sensible design. ``nmpc`` shares the mpc's settings and space but the reversal weight,
-which only the LTV MPC has; ``ramsete_c``, the same law as generated C, shares Ramsete's."""
+which only the LTV MPC has; ``ramsete_c`` and ``ltv_lqr_c``, the same laws as generated C, share their spaces."""
 DEFAULT_SPACES["nmpc"] = {key: value for key, value in DEFAULT_SPACES["mpc"].items() if key != "weight_reversal"}
 DEFAULT_SPACES["ramsete_c"] = DEFAULT_SPACES["ramsete"]
+DEFAULT_SPACES["ltv_lqr_c"] = DEFAULT_SPACES["ltv_lqr"]
 
 
 def _field(settings: type, dotted: str, source: str, key: str) -> dataclasses.Field[Any]:

@@ -23,7 +23,7 @@ import numpy as np
 
 from agvctl.codegen import generate_code
 from agvctl.controllers.baselines import RamseteController
-from agvctl.controllers.baselines.c_ramsete import CompiledRamseteController
+from agvctl.controllers.baselines.c_unicycle import CompiledRamseteController
 from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS, CompiledPIWheelController
 from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.params import SIDES

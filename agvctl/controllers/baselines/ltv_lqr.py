@@ -186,5 +186,8 @@ class LtvLqrController(UnicycleTracker):
         return k
 
     def _law(self, error: tuple[float, float, float], speed_m_s: float, yaw_rate_rad_s: float) -> tuple[float, float]:
-        du = self.gain(speed_m_s) @ np.asarray(error)
-        return speed_m_s + float(du[0]), yaw_rate_rad_s + float(du[1])
+        k = self.gain(speed_m_s)  # K e, each row's sum written out (as the generated C computes it)
+        e_x, e_y, e_theta = error
+        du_speed = float(k[0, 0]) * e_x + float(k[0, 1]) * e_y + float(k[0, 2]) * e_theta
+        du_yaw_rate = float(k[1, 0]) * e_x + float(k[1, 1]) * e_y + float(k[1, 2]) * e_theta
+        return speed_m_s + du_speed, yaw_rate_rad_s + du_yaw_rate
