@@ -126,19 +126,13 @@ def render_unicycle_c(controller: UnicycleTracker, *, origin: str, generator: st
     return GeneratedC(env.get_template("unicycle.h.j2").render(values), source, prefix)
 
 
-class _CompiledLaw:
-    """The C of a unicycle law, compiled and loaded, stepped on the control grid (mixed into a law's class)."""
-
-    separation_m: float
-    sample_period_s: float
-    max_wheel_speed_m_s: float
-    reference_rows: NDArray[np.float64]
-    _failures: int
+class _CompiledLaw(UnicycleTracker):
+    """The C of a unicycle law, compiled and loaded, stepped on the control grid: the base of the compiled laws,
+    before the Python law in their bases (whose constants the C takes)."""
 
     def _load(self, vehicle: VehicleParams) -> None:
-        controller: Any = self
         self.code = render_unicycle_c(
-            controller, origin=f"For vehicle {vehicle.name}.", generator="agvctl (software-in-the-loop)"
+            self, origin=f"For vehicle {vehicle.name}.", generator="agvctl (software-in-the-loop)"
         )
         """The generated header and source."""
         lib = compile_generated_c(self.code, f"{type(self).__name__} C")
@@ -155,12 +149,35 @@ class _CompiledLaw:
         self._pose = (ctypes.c_double * 3)()
         self._setpoint = (ctypes.c_double * 2)()
 
-    def _hand_over(self) -> None:
-        """The reference's rows on the control grid become the C's table."""
+    def reset(self, reference: Reference) -> None:
+        """Start tracking ``reference`` from its time 0: its rows on the control grid become the C's table."""
+        super().reset(reference)
         self._table = np.ascontiguousarray(self.reference_rows, dtype=np.float64)
         self._init(self._state, ctypes.c_void_p(self._table.ctypes.data), ctypes.c_long(len(self._table)))
 
-    def _c_update(self, t_s: float, pose: NDArray[np.float64]) -> PoseCommand:
+    def update(self, t_s: float, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]) -> PoseCommand:
+        """Wheel rim-speed setpoints (left, right) in m/s for the sample starting at ``t_s``, from the C step.
+
+        Parameters
+        ----------
+        t_s : float
+            The sample's time, on the control grid, s.
+        pose : ndarray
+            The pose: x (m), y (m), heading (rad).
+        wheel_speed_m_s : ndarray
+            The measured wheel speeds (unused by the laws).
+
+        Returns
+        -------
+        PoseCommand
+            The setpoints, the C step's time and ``"solved"`` or ``"fallback_feedforward"``.
+
+        Raises
+        ------
+        ValueError
+            ``t_s`` is off the control grid (the C indexes its table by sample).
+        """
+        del wheel_speed_m_s
         start = time.perf_counter()
         k = round(t_s / self.sample_period_s)
         if abs(t_s - k * self.sample_period_s) > 1e-9:
@@ -212,35 +229,6 @@ class CompiledRamseteController(_CompiledLaw, RamseteController):
         RamseteController.__init__(self, vehicle, config)
         self._load(vehicle)
 
-    def reset(self, reference: Reference) -> None:
-        """Start tracking ``reference`` from its time 0: its rows on the control grid become the C's table."""
-        RamseteController.reset(self, reference)
-        self._hand_over()
-
-    def update(self, t_s: float, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]) -> PoseCommand:
-        """Wheel rim-speed setpoints (left, right) in m/s for the sample starting at ``t_s``, from the C step.
-
-        Parameters
-        ----------
-        t_s : float
-            The sample's time, on the control grid, s.
-        pose : ndarray
-            The pose: x (m), y (m), heading (rad).
-        wheel_speed_m_s : ndarray
-            The measured wheel speeds (unused by the law).
-
-        Returns
-        -------
-        PoseCommand
-            The setpoints, the C step's time and ``"solved"`` or ``"fallback_feedforward"``.
-
-        Raises
-        ------
-        ValueError
-            ``t_s`` is off the control grid (the C indexes its table by sample).
-        """
-        return self._c_update(t_s, pose)
-
 
 class CompiledLtvLqrController(_CompiledLaw, LtvLqrController):
     """The LTV unicycle LQR as generated C, its gain schedule as data, compiled and called through ctypes: a
@@ -263,32 +251,3 @@ class CompiledLtvLqrController(_CompiledLaw, LtvLqrController):
     def __init__(self, vehicle: VehicleParams, config: LtvLqrConfig | None = None) -> None:
         LtvLqrController.__init__(self, vehicle, config)
         self._load(vehicle)
-
-    def reset(self, reference: Reference) -> None:
-        """Start tracking ``reference`` from its time 0: its rows on the control grid become the C's table."""
-        LtvLqrController.reset(self, reference)
-        self._hand_over()
-
-    def update(self, t_s: float, pose: NDArray[np.float64], wheel_speed_m_s: NDArray[np.float64]) -> PoseCommand:
-        """Wheel rim-speed setpoints (left, right) in m/s for the sample starting at ``t_s``, from the C step.
-
-        Parameters
-        ----------
-        t_s : float
-            The sample's time, on the control grid, s.
-        pose : ndarray
-            The pose: x (m), y (m), heading (rad).
-        wheel_speed_m_s : ndarray
-            The measured wheel speeds (unused by the law).
-
-        Returns
-        -------
-        PoseCommand
-            The setpoints, the C step's time and ``"solved"`` or ``"fallback_feedforward"``.
-
-        Raises
-        ------
-        ValueError
-            ``t_s`` is off the control grid (the C indexes its table by sample).
-        """
-        return self._c_update(t_s, pose)
