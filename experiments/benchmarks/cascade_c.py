@@ -1,14 +1,14 @@
-"""Benchmark of a whole controller cascade's step: the Ramsete law and the PI loops in Python against the generated
-C cascade (``agvctl codegen``'s ``agv_cascade_step``), in the same run.
+"""Benchmark of a whole controller cascade's step: a unicycle law (Ramsete, or the LTV unicycle LQR) and the PI loops
+in Python against the generated C cascade (``agvctl codegen``'s ``agv_cascade_step``), in the same run.
 
-The figure-8 path is run in closed loop with the Ramsete law; the estimated poses and measured motor speeds it gave
+The figure-8 path is run in closed loop with the law; the estimated poses and measured motor speeds it gave
 the controllers are recorded. Then the cascade steps through them: in Python (the law, the setpoints as motor speeds,
 the loops), and as the C that ``agvctl codegen`` writes for the experiment, timed in C around each call
 (``clock_gettime``, no ctypes in the measure). Prints the median and p99 step of each in µs and their ratio, and the
-figure-8 closed loop's wall time and real-time factor with the cascade in Python and in C (``pose = "ramsete_c"``,
-``wheel_loops = "pi_c"``).
+figure-8 closed loop's wall time and real-time factor with the cascade in Python and in C (``pose = "ramsete_c"``
+or ``"ltv_lqr_c"``, ``wheel_loops = "pi_c"``).
 
-Run:  python experiments/benchmarks/cascade_c.py [--repeat 5]
+Run:  python experiments/benchmarks/cascade_c.py [--law ramsete|ltv_lqr] [--repeat 5]
 """
 
 from __future__ import annotations
@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from agvctl.codegen import generate_code
-from agvctl.controllers.baselines import RamseteController
-from agvctl.controllers.baselines.c_unicycle import CompiledRamseteController
+from agvctl.controllers.baselines import LtvLqrController, RamseteController
+from agvctl.controllers.baselines.c_unicycle import CompiledLtvLqrController, CompiledRamseteController
 from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS, CompiledPIWheelController
 from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.params import SIDES
@@ -53,20 +53,28 @@ void bench_steps(long n, const double *poses, const double *motors, double *ns)
 """
 
 
-def ramsete_figure8(folder: Path) -> Path:
-    """The figure-8 experiment with the Ramsete law as its pose controller, written into ``folder``."""
+LAWS = {
+    "ramsete": (RamseteController, CompiledRamseteController),
+    "ltv_lqr": (LtvLqrController, CompiledLtvLqrController),
+}
+"""The laws whose cascade is generated: the Python law and its C, by ``pose`` name."""
+
+
+def law_figure8(folder: Path, law: str) -> Path:
+    """The figure-8 experiment with ``law`` as its pose controller, written into ``folder``."""
     trajectory = (EXPERIMENT.parent / "../trajectories/figure8.toml").resolve()
-    text = f'name = "figure8_ramsete"\ntrajectory = "{trajectory}"\nsettle_s = 2.0\n\n[controller]\npose = "ramsete"\n'
-    (folder / "figure8_ramsete.toml").write_text(text, encoding="utf-8")
-    return folder / "figure8_ramsete.toml"
+    text = f'name = "figure8_{law}"\ntrajectory = "{trajectory}"\nsettle_s = 2.0\n\n[controller]\npose = "{law}"\n'
+    (folder / f"figure8_{law}.toml").write_text(text, encoding="utf-8")
+    return folder / f"figure8_{law}.toml"
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--law", choices=sorted(LAWS), default="ramsete")
     parser.add_argument("--repeat", type=int, default=5, help="passes over the recorded inputs")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="agvctl-bench-") as folder:
-        path = ramsete_figure8(Path(folder))
+        path = law_figure8(Path(folder), args.law)
         experiment, code = load_experiment(path), generate_code(path, measure_memory=False)
     vehicle = experiment.controller_vehicle
     gains, options = experiment.wheel_loops.design.gains, experiment.wheel_loops.options
@@ -87,7 +95,8 @@ def main() -> None:
     ns_c = np.zeros(n)
     python_ns: list[int] = []
     c_ns: list[float] = []
-    law, loops = RamseteController(vehicle), PIWheelController(vehicle, gains, options)
+    python_law, c_law = LAWS[args.law]
+    law, loops = python_law(vehicle), PIWheelController(vehicle, gains, options)
     law.reset(experiment.reference)
     clock = time.perf_counter_ns
     for _ in range(args.repeat):
@@ -106,14 +115,14 @@ def main() -> None:
         c_ns.extend(ns_c.tolist())
     median = {"python": float(np.median(python_ns)) / 1e3, "c": float(np.median(c_ns)) / 1e3}
     p99 = {"python": float(np.percentile(python_ns, 99)) / 1e3, "c": float(np.percentile(c_ns, 99)) / 1e3}
-    print(f"cascade step (Ramsete law + PI loops) over {n} samples of {EXPERIMENT.name} x {args.repeat} passes:")
+    print(f"cascade step ({args.law} + PI loops) over {n} samples of {EXPERIMENT.name} x {args.repeat} passes:")
     print(f"  python  median {median['python']:8.3f} µs   p99 {p99['python']:8.3f} µs")
     print(f"  c       median {median['c']:8.3f} µs   p99 {p99['c']:8.3f} µs   (timed in C)")
     print(f"  ratio   Python / C median {median['python'] / median['c']:.0f}x")
     duration = experiment.reference.duration_s + experiment.spec.settle_s
     for name, pose, wheels in (
-        ("python", RamseteController(vehicle), PIWheelController(vehicle, gains, options)),
-        ("c", CompiledRamseteController(vehicle), CompiledPIWheelController(vehicle, gains, options)),
+        ("python", python_law(vehicle), PIWheelController(vehicle, gains, options)),
+        ("c", c_law(vehicle), CompiledPIWheelController(vehicle, gains, options)),
     ):
         walls = [
             run_experiment(experiment, pose_controller=pose, wheel_controller=wheels).wall_time_s for _ in range(3)
