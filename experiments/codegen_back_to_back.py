@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from agvctl.codegen import back_to_back, cascade_back_to_back, qp_back_to_back
+from agvctl.controllers.baselines.c_unicycle import COMPILED_LAWS
 from agvctl.controllers.mpc.config import QpSolver
 from agvctl.fuzz.report import FuzzTask
 from agvctl.fuzz.run import fuzz_tasks
@@ -96,7 +97,7 @@ def main() -> None:
     args = parser.parse_args()
     spec = load_fuzz_config(FUZZ_FILE)
     if args.part != "loops":
-        spec = dataclasses.replace(spec, controllers=("ramsete", "ltv_lqr") if args.part == "cascade" else ("mpc",))
+        spec = dataclasses.replace(spec, controllers=tuple(COMPILED_LAWS) if args.part == "cascade" else ("mpc",))
     tasks = fuzz_tasks(spec, list(range(args.scenarios))).tasks
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.jobs) as pool:

@@ -23,9 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.base import PoseController, WheelSpeedController
-from agvctl.controllers.baselines.c_unicycle import CompiledLtvLqrController, CompiledRamseteController
-from agvctl.controllers.baselines.ltv_lqr import LtvLqrConfig, LtvLqrController
-from agvctl.controllers.baselines.ramsete import RamseteConfig, RamseteController
+from agvctl.controllers.baselines.c_unicycle import COMPILED_LAWS
 from agvctl.controllers.mpc.config import MpcConfig, QpSolver
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.pi.c_loops import CompiledPIWheelController
@@ -270,13 +268,6 @@ def _two_runs(
     return RunsBackToBack(spec.name, first.n_samples, second.n_samples, difference, first_verdict, second_verdict)
 
 
-_CASCADES: dict[str, tuple[type, type, type]] = {
-    "ramsete": (RamseteConfig, RamseteController, CompiledRamseteController),
-    "ltv_lqr": (LtvLqrConfig, LtvLqrController, CompiledLtvLqrController),
-}
-"""The pose controllers whose cascade is generated: their settings, their Python law and its C (``<name>_c``)."""
-
-
 def cascade_back_to_back(experiment: str | Path | Experiment) -> RunsBackToBack:
     """Run an experiment's cascade in Python, then as generated C: the law (``pose = "ramsete_c"`` or
     ``"ltv_lqr_c"``) and the PI loops (``wheel_loops = "pi_c"``), the C that ``agvctl codegen`` writes.
@@ -302,13 +293,13 @@ def cascade_back_to_back(experiment: str | Path | Experiment) -> RunsBackToBack:
     loaded = experiment if isinstance(experiment, Experiment) else load_experiment(experiment)
     spec, vehicle = loaded.spec, loaded.controller_vehicle
     settings, name = spec.controller.pose_settings, spec.controller.pose.removesuffix("_c")
-    if name not in _CASCADES or not isinstance(settings, _CASCADES[name][0]):
+    if name not in COMPILED_LAWS or not isinstance(settings, COMPILED_LAWS[name].settings):
         problem = f"the cascade's back-to-back runs 'ramsete' or 'ltv_lqr', not {spec.controller.pose!r}"
         raise ConfigError(str(spec.source), "controller.pose", problem)
     if spec.controller.wheel_loops not in ("pi", "pi_c"):
         problem = f"the cascade's back-to-back runs the PI loops ('pi'), not {spec.controller.wheel_loops!r}"
         raise ConfigError(str(spec.source), "controller.wheel_loops", problem)
-    _, python_law, c_law = _CASCADES[name]
+    law = COMPILED_LAWS[name]
     gains, options = loaded.wheel_loops.design.gains, loaded.wheel_loops.options
     loops = (PIWheelController(vehicle, gains, options), CompiledPIWheelController(vehicle, gains, options))
-    return _two_runs(loaded, python_law(vehicle, settings), c_law(vehicle, settings), loops)
+    return _two_runs(loaded, law.python(vehicle, settings), law.compiled(vehicle, settings), loops)

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from agvctl.config import document_fields
 from agvctl.config.references import Registry, checked_vector, describe_plugin, made_by, plugin_settings
 from agvctl.controllers.base import PoseCommand, PoseController, WheelSpeedController
-from agvctl.controllers.baselines.c_unicycle import CompiledLtvLqrController, CompiledRamseteController
+from agvctl.controllers.baselines.c_unicycle import COMPILED_LAWS
 from agvctl.controllers.baselines.feedforward import FeedForwardPoseController
 from agvctl.controllers.baselines.ltv_lqr import LtvLqrConfig, LtvLqrController
 from agvctl.controllers.baselines.ramsete import RamseteConfig, RamseteController
@@ -95,23 +95,25 @@ POSE_CONTROLLERS: dict[str, PoseControllerKind] = {
         NonlinearMpcController, MpcConfig, "nonlinear MPC on CasADi/IPOPT", _mpc_wheel_loop, check_nmpc_settings
     ),
     "ramsete": PoseControllerKind(RamseteController, RamseteConfig, "WPILib's Ramsete unicycle law (yardstick)"),
-    "ramsete_c": PoseControllerKind(
-        CompiledRamseteController,
-        RamseteConfig,
-        "the same Ramsete law as generated C99, compiled and called through ctypes (software-in-the-loop)",
-    ),
     "ltv_lqr": PoseControllerKind(LtvLqrController, LtvLqrConfig, "WPILib's LTV unicycle LQR (yardstick)"),
-    "ltv_lqr_c": PoseControllerKind(
-        CompiledLtvLqrController,
-        LtvLqrConfig,
-        "the same LTV unicycle LQR as generated C99, compiled and called through ctypes (software-in-the-loop)",
-    ),
     "none": PoseControllerKind(
         lambda vehicle, settings: FeedForwardPoseController(), None, "the reference's feed-forward only"
     ),
 }
+POSE_CONTROLLERS.update(
+    {
+        f"{name}_c": PoseControllerKind(
+            law.compiled,
+            law.settings,
+            f"{POSE_CONTROLLERS[name].description.removesuffix(' (yardstick)')} as generated C99, called through "
+            "ctypes (software-in-the-loop)",
+        )
+        for name, law in COMPILED_LAWS.items()
+    }
+)
 """The built-in pose controllers by the name an experiment's ``[controller] pose`` gives (entries of
-:data:`pose_controllers`)."""
+:data:`pose_controllers`); a unicycle law's C is ``"<name>_c"``
+(:data:`~agvctl.controllers.baselines.c_unicycle.COMPILED_LAWS`)."""
 
 
 class CheckedPoseController:

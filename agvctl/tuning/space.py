@@ -26,6 +26,7 @@ from typing import Any
 
 from agvctl.config import did_you_mean, join_key
 from agvctl.config.references import is_reference
+from agvctl.controllers.baselines.c_unicycle import COMPILED_LAWS
 from agvctl.controllers.registry import pose_controllers
 from agvctl.errors import ConfigError
 
@@ -110,10 +111,9 @@ DEFAULT_SPACES: dict[str, dict[str, Any]] = {
 """The space searched when a fuzz file has no ``[search.<controller>]`` table: the settings that shape the tracking
 (weights, horizon, reach lead, governor band; Ramsete's b and ζ; the LQR's tolerances and efforts), each over the
 range in which it stays a sensible design. ``nmpc`` shares the mpc's settings and space but the reversal weight,
-which only the LTV MPC has; ``ramsete_c`` and ``ltv_lqr_c``, the same laws as generated C, share their spaces."""
+which only the LTV MPC has; a law's generated C (``ramsete_c``, ``ltv_lqr_c``) shares the law's space."""
 DEFAULT_SPACES["nmpc"] = {key: value for key, value in DEFAULT_SPACES["mpc"].items() if key != "weight_reversal"}
-DEFAULT_SPACES["ramsete_c"] = DEFAULT_SPACES["ramsete"]
-DEFAULT_SPACES["ltv_lqr_c"] = DEFAULT_SPACES["ltv_lqr"]
+DEFAULT_SPACES.update({f"{name}_c": DEFAULT_SPACES[name] for name in COMPILED_LAWS})
 
 
 def _field(settings: type, dotted: str, source: str, key: str) -> dataclasses.Field[Any]:

@@ -22,8 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from agvctl.codegen import generate_code
-from agvctl.controllers.baselines import LtvLqrController, RamseteController
-from agvctl.controllers.baselines.c_unicycle import CompiledLtvLqrController, CompiledRamseteController
+from agvctl.controllers.baselines.c_unicycle import COMPILED_LAWS
 from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS, CompiledPIWheelController
 from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.params import SIDES
@@ -53,13 +52,6 @@ void bench_steps(long n, const double *poses, const double *motors, double *ns)
 """
 
 
-LAWS = {
-    "ramsete": (RamseteController, CompiledRamseteController),
-    "ltv_lqr": (LtvLqrController, CompiledLtvLqrController),
-}
-"""The laws whose cascade is generated: the Python law and its C, by ``pose`` name."""
-
-
 def law_figure8(folder: Path, law: str) -> Path:
     """The figure-8 experiment with ``law`` as its pose controller, written into ``folder``."""
     trajectory = (EXPERIMENT.parent / "../trajectories/figure8.toml").resolve()
@@ -70,7 +62,7 @@ def law_figure8(folder: Path, law: str) -> Path:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--law", choices=sorted(LAWS), default="ramsete")
+    parser.add_argument("--law", choices=sorted(COMPILED_LAWS), default="ramsete")
     parser.add_argument("--repeat", type=int, default=5, help="passes over the recorded inputs")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="agvctl-bench-") as folder:
@@ -95,7 +87,7 @@ def main() -> None:
     ns_c = np.zeros(n)
     python_ns: list[int] = []
     c_ns: list[float] = []
-    python_law, c_law = LAWS[args.law]
+    python_law, c_law = COMPILED_LAWS[args.law].python, COMPILED_LAWS[args.law].compiled
     law, loops = python_law(vehicle), PIWheelController(vehicle, gains, options)
     law.reset(experiment.reference)
     clock = time.perf_counter_ns

@@ -22,6 +22,8 @@ from __future__ import annotations
 import ctypes
 import math
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -37,6 +39,8 @@ from agvctl.planning.reference import Reference
 from agvctl.plant.codegen import c_double, c_templates
 
 __all__ = [
+    "COMPILED_LAWS",
+    "CompiledLaw",
     "CompiledLtvLqrController",
     "CompiledRamseteController",
     "generated_prefix",
@@ -78,7 +82,7 @@ def generated_prefix(controller: object) -> str | None:
     str or None
         ``"agv_ramsete"`` or ``"agv_ltv_lqr"``, or None.
     """
-    if isinstance(controller, (RamseteController, LtvLqrController)):
+    if isinstance(controller, (RamseteController, LtvLqrController)):  # the laws with a template
         return _law_values(controller)[0]
     return None
 
@@ -251,3 +255,30 @@ class CompiledLtvLqrController(_CompiledLaw, LtvLqrController):
     def __init__(self, vehicle: VehicleParams, config: LtvLqrConfig | None = None) -> None:
         LtvLqrController.__init__(self, vehicle, config)
         self._load(vehicle)
+
+
+@dataclass(frozen=True)
+class CompiledLaw:
+    """A unicycle law whose C is generated.
+
+    Parameters
+    ----------
+    settings : type
+        Its settings' dataclass (the ``[controller]`` table's other keys).
+    python : callable
+        The law in Python: its class, ``(vehicle, settings) -> controller``.
+    compiled : callable
+        The same law as generated C, behind the same protocol: its class.
+    """
+
+    settings: type
+    python: Callable[[VehicleParams, Any], UnicycleTracker]
+    compiled: Callable[[VehicleParams, Any], UnicycleTracker]
+
+
+COMPILED_LAWS: dict[str, CompiledLaw] = {
+    "ramsete": CompiledLaw(RamseteConfig, RamseteController, CompiledRamseteController),
+    "ltv_lqr": CompiledLaw(LtvLqrConfig, LtvLqrController, CompiledLtvLqrController),
+}
+"""The unicycle laws whose C is generated, by their ``pose`` name: ``"<name>_c"`` runs the C in the closed loop,
+``agvctl codegen`` writes it as the whole cascade, and the back-to-back compares the two."""
