@@ -20,7 +20,7 @@ from agvctl.codegen import cascade_back_to_back, generate_code
 from agvctl.controllers.baselines import LtvLqrConfig, LtvLqrController, RamseteConfig, RamseteController
 from agvctl.controllers.baselines.c_unicycle import CompiledLtvLqrController, CompiledRamseteController
 from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS
-from agvctl.errors import ConfigError
+from agvctl.errors import AgvctlError, ConfigError
 from agvctl.fuzz.run import fuzz_tasks
 from agvctl.fuzz.spec import load_fuzz_config
 from agvctl.planning import plan_file
@@ -150,3 +150,11 @@ def test_the_generated_cascade_builds_strictly_holds_no_heap_or_io_and_replays_t
         motors[:] = [float(log[f"measured_omega_motor_{s}_rad_s"][k]) for s in ("left", "right")]
         lib.agv_cascade_step(state, k, pose, motors, da)
         assert (da[0], da[1]) == (log["da_command_left_v"][k], log["da_command_right_v"][k]), k
+
+
+def test_without_a_compiler_the_c_law_says_so_in_one_line(vehicle, tmp_path, monkeypatch):
+    monkeypatch.setenv("AGVCTL_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("CC", str(tmp_path / "no-such-cc"))
+    with pytest.raises(AgvctlError, match="the generated C of the LTV unicycle LQR cannot be compiled") as caught:
+        CompiledLtvLqrController(vehicle)
+    assert "\n" not in str(caught.value)

@@ -139,7 +139,7 @@ class _CompiledLaw(UnicycleTracker):
             self, origin=f"For vehicle {vehicle.name}.", generator="agvctl (software-in-the-loop)"
         )
         """The generated header and source."""
-        lib = compile_generated_c(self.code, f"{type(self).__name__} C")
+        lib = compile_generated_c(self.code, _law_values(self)[1].removeprefix("the "))
         prefix = self.code.prefix
         self._init = getattr(lib, f"{prefix}_init")
         self._init.restype = None

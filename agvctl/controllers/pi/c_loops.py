@@ -165,7 +165,7 @@ def compile_generated_c(code: GeneratedC, what: str) -> ctypes.CDLL:
     code : GeneratedC
         The generated C.
     what : str
-        What it is, for the error message (``"wheel loops"``).
+        What it is, for the error message (``"wheel loops"``, ``"Ramsete law"``).
 
     Returns
     -------
@@ -181,9 +181,9 @@ def compile_generated_c(code: GeneratedC, what: str) -> ctypes.CDLL:
         return compiled_library(code.single_unit(), code.prefix, flags=(*STRICT_C_FLAGS, "-fPIC", "-shared"))
     except subprocess.CalledProcessError as exc:
         message = (exc.stderr or b"").decode(errors="replace").strip().splitlines()
-        raise AgvctlError(f"the generated {what} do not compile: {message[0] if message else exc}") from None
+        raise AgvctlError(f"the generated C of the {what} does not compile: {message[0] if message else exc}") from None
     except OSError as exc:
-        raise AgvctlError(f"the generated {what} cannot be compiled or loaded: {exc}") from None
+        raise AgvctlError(f"the generated C of the {what} cannot be compiled or loaded: {exc}") from None
 
 
 def compile_wheel_loops(code: WheelLoopsC) -> ctypes.CDLL:
