@@ -52,7 +52,8 @@ def _law_values(controller: UnicycleTracker) -> tuple[str, str, dict[str, Any]]:
     """(prefix, title, the law's own template values) of a law that has a template."""
     if isinstance(controller, RamseteController):
         c = controller.config
-        values = {"b_rad2_m2": c.b_rad2_m2, "zeta": c.zeta, "comment": f"b = {c.b_rad2_m2:.6g}, zeta = {c.zeta:.6g}"}
+        comment = f"b = {c.b_rad2_m2:.6g}, zeta = {c.zeta:.6g}"
+        values = {"b_rad2_m2": c.b_rad2_m2, "zeta": c.zeta, "comment": comment, "python_class": "RamseteController"}
         return "agv_ramsete", "the Ramsete law", values
     if isinstance(controller, LtvLqrController):
         q = controller.config
@@ -64,6 +65,7 @@ def _law_values(controller: UnicycleTracker) -> tuple[str, str, dict[str, Any]]:
             "schedule_speeds": controller.schedule_speeds_m_s.tolist(),
             "schedule_gains": controller.schedule_gains.tolist(),
             "comment": comment,
+            "python_class": "LtvLqrController",
         }
         return "agv_ltv_lqr", "the LTV unicycle LQR", values
     raise TypeError(f"no C template for {type(controller).__name__}")
@@ -116,7 +118,6 @@ def render_unicycle_c(controller: UnicycleTracker, *, origin: str, generator: st
         "guard": f"{prefix.upper()}_H",
         "macro": prefix.upper(),
         "law_title": title,
-        "python_class": type(controller).__name__,
         "origin": origin,
         "generator": generator,
         "sample_period_s": c_double(controller.sample_period_s),
