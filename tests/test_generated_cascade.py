@@ -15,13 +15,14 @@ import numpy as np
 import pytest
 from cli_runs import line_experiment
 
+from agvctl.checks.report import TIMING_METRICS
 from agvctl.cli import main
 from agvctl.codegen import cascade_back_to_back, generate_code
 from agvctl.controllers.baselines import LtvLqrConfig, LtvLqrController, RamseteConfig, RamseteController
 from agvctl.controllers.baselines.c_unicycle import CompiledLtvLqrController, CompiledRamseteController
 from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS
 from agvctl.errors import AgvctlError, ConfigError
-from agvctl.fuzz.run import fuzz_tasks
+from agvctl.fuzz.run import fuzz, fuzz_tasks
 from agvctl.fuzz.spec import load_fuzz_config
 from agvctl.planning import plan_file
 from agvctl.plant.codegen import c_compiler, compiled_library
@@ -92,6 +93,23 @@ def test_in_the_closed_loop_of_fuzz_scenarios_the_c_cascade_commands_what_the_py
     assert result.samples > 100 and result.samples_c == result.samples
     assert result.max_da_difference_v == 0.0
     assert result.same_verdicts
+
+
+@needs_cc
+@pytest.mark.filterwarnings("ignore::agvctl.feasibility.HeadroomWarning")  # a fuzz run notes them, as here
+def test_the_fuzzer_runs_a_generated_law_in_its_workers_with_the_python_laws_results():
+    laws = ("ltv_lqr", "ramsete")
+    spec = load_fuzz_config("experiments/fuzz/acceptance.toml")
+    spec = dataclasses.replace(spec, controllers=tuple(name for law in laws for name in (law, f"{law}_c")))
+    report = fuzz(spec, jobs=2, scenarios=[0, 1])
+    outcomes = {
+        (o.scenario, o.controller): (o.passed, o.error, {k: v for k, v in o.metrics.items() if k not in TIMING_METRICS})
+        for o in report.outcomes
+    }
+    assert len(outcomes) == 8
+    for scenario in (0, 1):
+        for law in laws:
+            assert outcomes[(scenario, law)] == outcomes[(scenario, f"{law}_c")]
 
 
 def test_the_cascades_back_to_back_refuses_another_pose_controller(tmp_path):
