@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from agvctl.controllers.base import PoseController
 from agvctl.controllers.baselines.c_unicycle import generated_prefix, render_unicycle_c
 from agvctl.controllers.baselines.unicycle import UnicycleTracker
 from agvctl.controllers.pi.c_loops import PREFIX as LOOPS_PREFIX
@@ -20,7 +21,7 @@ from agvctl.params import SIDES
 from agvctl.plant.codegen import c_templates
 from agvctl.scenario.experiment import Experiment
 
-__all__ = ["CASCADE_FILES", "ExperimentCascade", "experiment_cascade"]
+__all__ = ["CASCADE_FILES", "ExperimentCascade", "experiment_cascade", "pose_controller_of"]
 
 CASCADE_FILES = ("agv_cascade.h", "agv_cascade.c", "agv_reference.h", "agv_reference.c")
 """The files of the cascade's step and the reference, besides the pose controller's own."""
@@ -50,13 +51,35 @@ class ExperimentCascade:
         return bool(self.files)
 
 
-def experiment_cascade(experiment: Experiment, *, generator: str) -> ExperimentCascade:
+def pose_controller_of(experiment: Experiment) -> PoseController:
+    """``experiment``'s pose controller, built as a run builds it (its registry entry, its settings, the controller's
+    vehicle), for the generators to read.
+
+    Parameters
+    ----------
+    experiment : Experiment
+        The loaded experiment.
+
+    Returns
+    -------
+    PoseController
+        The controller, not yet reset.
+    """
+    spec = experiment.spec
+    c = spec.controller
+    kind = pose_controllers.resolve(c.pose, key="controller.pose", source=spec.source, base_dir=spec.base_dir)
+    return kind.make(experiment.controller_vehicle, c.pose_settings)
+
+
+def experiment_cascade(experiment: Experiment, controller: PoseController, *, generator: str) -> ExperimentCascade:
     """The controller cascade of ``experiment`` as C99, where its pose controller is generated.
 
     Parameters
     ----------
     experiment : Experiment
         The loaded experiment.
+    controller : PoseController
+        Its pose controller (:func:`pose_controller_of`).
     generator : str
         What writes the files (``"agvctl 0.2.0"``).
 
@@ -66,11 +89,8 @@ def experiment_cascade(experiment: Experiment, *, generator: str) -> ExperimentC
         The files, or why there are none.
     """
     spec, vehicle = experiment.spec, experiment.controller_vehicle
-    c = spec.controller
-    kind = pose_controllers.resolve(c.pose, key="controller.pose", source=spec.source, base_dir=spec.base_dir)
-    controller = kind.make(vehicle, c.pose_settings)
     if generated_prefix(controller) is None or not isinstance(controller, UnicycleTracker):
-        note = f"the pose controller {c.pose!r} has no generated step yet: it runs in agvctl"
+        note = f"the pose controller {spec.controller.pose!r} has no generated step yet: it runs in agvctl"
         return ExperimentCascade({}, "", note)
     controller.reset(experiment.reference)
     origin = f"The pose controller of experiment {spec.name!r}."

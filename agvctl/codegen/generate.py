@@ -22,7 +22,7 @@ from typing import Any
 
 from agvctl import __version__
 from agvctl.actuator import Actuator
-from agvctl.codegen.cascade import ExperimentCascade, experiment_cascade
+from agvctl.codegen.cascade import ExperimentCascade, experiment_cascade, pose_controller_of
 from agvctl.codegen.qp import QP_FOLDER, ExperimentQp, experiment_qp
 from agvctl.controllers.pi.c_loops import (
     STRICT_C_FLAGS,
@@ -190,8 +190,9 @@ def generate_code(
     origin = f"The PI wheel loops of experiment {spec.name!r} ({os.path.basename(spec.source)})."
     code = render_wheel_loops_c(python_loops, origin=origin, generator=generator)
     memory = static_memory(code) if measure_memory and c_compiler() is not None else None
-    qp = experiment_qp(loaded, generator=generator, measure_memory=measure_memory, single=single)
-    cascade = experiment_cascade(loaded, generator=generator)
+    pose = pose_controller_of(loaded)
+    qp = experiment_qp(loaded, pose, generator=generator, measure_memory=measure_memory, single=single)
+    cascade = experiment_cascade(loaded, pose, generator=generator)
     values = {
         **_readme_values(loaded, code, memory, generator),
         **_qp_values(qp),

@@ -10,10 +10,10 @@ from dataclasses import dataclass
 
 import osqp
 
+from agvctl.controllers.base import PoseController
 from agvctl.controllers.mpc.c_qp import QpC, compile_qp_c, generate_qp_c
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.osqp_fixes import OSQP_VERSION
-from agvctl.controllers.registry import pose_controllers
 from agvctl.plant.codegen import c_compiler
 from agvctl.scenario.experiment import Experiment
 
@@ -61,7 +61,12 @@ def _static_bytes(code: QpC) -> int | None:
 
 
 def experiment_qp(
-    experiment: Experiment, *, generator: str, measure_memory: bool = True, single: bool = False
+    experiment: Experiment,
+    controller: PoseController,
+    *,
+    generator: str,
+    measure_memory: bool = True,
+    single: bool = False,
 ) -> ExperimentQp:
     """The QP solver of ``experiment``'s LTV MPC as C99.
 
@@ -69,6 +74,8 @@ def experiment_qp(
     ----------
     experiment : Experiment
         The loaded experiment.
+    controller : PoseController
+        Its pose controller, built as a run builds it (:func:`~agvctl.codegen.cascade.pose_controller_of`).
     generator : str
         What writes the files (``"agvctl 0.2.0"``).
     measure_memory : bool
@@ -83,8 +90,6 @@ def experiment_qp(
         the one the generator's fixes are written for.
     """
     c, spec = experiment.spec.controller, experiment.spec
-    kind = pose_controllers.resolve(c.pose, key="controller.pose", source=spec.source, base_dir=spec.base_dir)
-    controller = kind.make(experiment.controller_vehicle, c.pose_settings)
     if not isinstance(controller, LtvMpcController):
         return ExperimentQp(None, f"the pose controller {c.pose!r} solves no QP of its own to generate", None)
     if osqp.__version__ != OSQP_VERSION:
