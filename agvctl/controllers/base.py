@@ -11,6 +11,7 @@ They command DA voltages; the actuator chain does the rest.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal, Protocol, runtime_checkable
 
@@ -21,6 +22,8 @@ from agvctl.config import document_fields
 from agvctl.planning.reference import Reference
 
 __all__ = [
+    "CStep",
+    "CompiledStep",
     "LimitReporting",
     "PoseCommand",
     "PoseController",
@@ -116,4 +119,39 @@ class LimitReporting(Protocol):
     @property
     def limited(self) -> tuple[bool, bool]:
         """Whether each wheel's (left, right) last output was clamped."""
+        ...
+
+
+@document_fields
+@dataclass(frozen=True)
+class CStep:
+    """A controller's step as compiled C, for a closed loop that runs in C: the addresses of its step function and
+    of the state it steps (which the controller owns and keeps alive).
+
+    A pose controller's step is ``int step(void *state, long k, const double pose[3], double setpoint_m_s[2])``:
+    sample k of the loop's clock, the pose (x in m, y in m, heading in rad) in, the wheel rim-speed setpoints (left,
+    right) in m/s out, and 0 when it solved, 1 when it fell back to the reference's wheel speeds. A wheel
+    controller's is ``unsigned step(void *state, const double setpoint_rad_s[2], const double measured_rad_s[2],
+    double da_v[2])``: motor-speed setpoints and measurements in rad/s in, DA voltages in V out, and a mask of the
+    sides whose output was clamped (1 left, 2 right)."""
+
+    function: int
+    """The address of the step function."""
+    state: int
+    """The address of its state."""
+    stepped: Callable[[int], None] | None = None
+    """Called after a compiled run with the number of samples it stepped that fell back (a pose controller's
+    failure count), or None."""
+
+
+@runtime_checkable
+class CompiledStep(Protocol):
+    """A controller whose step is compiled C (optional; the closed loop checks it once, at set-up). Where the
+    pose controller and the wheel controller both are, and the pose and the motor speeds are the truth
+    (``localization = "truth"``, ``wheel_speed = "exact"``), the whole loop runs in C
+    (:mod:`agvctl.sim.compiled_loop`), with the log the loop in Python would write. A compiled pose controller runs
+    on the loop's clock (its commands' ``reference_done`` None)."""
+
+    def compiled_step(self) -> CStep:
+        """Its step function and state, after :meth:`PoseController.reset` or :meth:`WheelSpeedController.reset`."""
         ...

@@ -21,6 +21,7 @@ import tempfile
 import threading
 import warnings
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +29,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["NumericFunction", "c_compiler", "cache_dir", "compiled_library", "native_functions"]
+__all__ = ["CFunctionAddress", "NumericFunction", "c_compiler", "cache_dir", "compiled_library", "native_functions"]
 
 NumericFunction = Callable[..., tuple[NDArray[np.float64], ...]]
 """A CasADi function evaluated on numpy arrays: inputs in its order, outputs as 2-D arrays (rows × columns)."""
@@ -56,6 +57,11 @@ class _VmCall:
 
     def __init__(self, fn: ca.Function) -> None:
         self.fn = fn
+
+    @property
+    def address(self) -> None:
+        """None: a function in the virtual machine has no address for C to call."""
+        return None
 
     def __call__(self, *inputs: Any) -> tuple[NDArray[np.float64], ...]:
         return tuple(np.asarray(o, dtype=float) for o in self.fn.call(list(inputs)))
@@ -86,6 +92,23 @@ class _Buffers:
         self.w_ptr = self.w.ctypes.data_as(ctypes.c_void_p)
 
 
+@dataclass(frozen=True)
+class CFunctionAddress:
+    """A compiled CasADi function, for C that calls it: ``int f(const double **arg, double **res, long long *iw,
+    double *w, int mem)``.
+
+    Parameters
+    ----------
+    address : int
+        The function's address.
+    sizes : tuple of int
+        The lengths its ``arg``, ``res``, ``iw`` and ``w`` arrays must have.
+    """
+
+    address: int
+    sizes: tuple[int, int, int, int]
+
+
 class _CCall:
     """Call a function of CasADi-generated C code through ctypes, on numpy buffers.
 
@@ -110,6 +133,13 @@ class _CCall:
         self._out_shapes = [(fn.size1_out(i), fn.size2_out(i)) for i in range(fn.n_out())]
         self._local = threading.local()
         self.name = name
+
+    @property
+    def address(self) -> CFunctionAddress:
+        """The function's address and work sizes, for C that calls it directly."""
+        address = ctypes.cast(self._fn, ctypes.c_void_p).value
+        assert address is not None
+        return CFunctionAddress(address, (self._n_arg, self._n_res, self._n_iw, self._n_w))
 
     def _buffers(self) -> _Buffers:
         buffers: _Buffers | None = getattr(self._local, "buffers", None)

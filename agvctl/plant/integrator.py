@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from agvctl.errors import ConfigError
 from agvctl.params import VehicleParams
 from agvctl.params.schema import MAX_PLANT_SUBSTEPS, PLANT_STIFFNESS_STEP
-from agvctl.plant.codegen import NumericFunction, cache_dir, native_functions
+from agvctl.plant.codegen import CFunctionAddress, NumericFunction, cache_dir, native_functions
 from agvctl.plant.full import AUX_NAMES, INPUT_NAMES, PARAMETER_NAMES, STATE_NAMES, FullModel, PlantOptions
 
 __all__ = [
@@ -38,6 +38,7 @@ __all__ = [
     "cache_dir",
     "choose_substeps",
     "compiled_plant",
+    "merge_stats",
     "sample_splits",
 ]
 
@@ -117,9 +118,22 @@ def sample_splits(vehicles: VehicleParams | Iterable[VehicleParams]) -> int:
     return max(1, max(choose_substeps(v) for v in vs) // KERNEL_SUBSTEPS)
 
 
-def _merge_stats(stats: NDArray[np.float64], splits: int) -> NDArray[np.float64]:
-    """Combine per-sub-sample STATS (…, n·splits, 8) into per-sample ones: fractions averaged, peaks maxed,
-    angle increments summed."""
+def merge_stats(stats: NDArray[np.float64], splits: int) -> NDArray[np.float64]:
+    """Combine the statistics of sub-samples into the samples': fractions averaged, peaks maxed, angle increments
+    summed.
+
+    Parameters
+    ----------
+    stats : ndarray
+        :data:`STATS_NAMES` over each sub-sample, … × (n·splits) × 8.
+    splits : int
+        Sub-samples per sample.
+
+    Returns
+    -------
+    ndarray
+        The statistics over each sample, … × n × 8.
+    """
     if splits == 1:
         return stats
     s = stats.reshape(*stats.shape[:-2], -1, splits, stats.shape[-1])
@@ -226,7 +240,13 @@ class CompiledPlant:
         for _ in range(splits - 1):
             x_next, _aux, stats = self._fns.step(x_next, u, p, dt / splits)
             all_stats.append(stats.ravel())
-        return x_next.ravel(), aux0, _merge_stats(np.array(all_stats), splits)[0]
+        return x_next.ravel(), aux0, merge_stats(np.array(all_stats), splits)[0]
+
+    def step_address(self) -> CFunctionAddress | None:
+        """The compiled sample step (``x, u, p, dt -> x_next, aux at the start, stats``), for C that calls it
+        directly; None where the model runs in CasADi's virtual machine."""
+        address: CFunctionAddress | None = getattr(self._fns.step, "address", None)
+        return address
 
     def aux(self, x: NDArray[np.float64], u: NDArray[np.float64], p: NDArray[np.float64]) -> NDArray[np.float64]:
         """The instantaneous outputs (:data:`AUX_NAMES`) at state ``x`` with input ``u``."""
@@ -257,7 +277,7 @@ class CompiledPlant:
             x = X[:, -1].copy()
         X_all = np.vstack([np.asarray(x0, dtype=float)[None, :], *xs])[: m + 1 : splits]
         A_all = np.vstack(auxs)[:m:splits]
-        S_all = _merge_stats(np.vstack(stats)[:m], splits)
+        S_all = merge_stats(np.vstack(stats)[:m], splits)
         assert X_all.shape[0] == n + 1
         return X_all, A_all, S_all
 
@@ -302,7 +322,7 @@ class CompiledPlant:
                 x = X[:, :, -1]
         X_all = X_out[:n_vehicles, : m + 1 : splits]
         A_all = A_out[:n_vehicles, :m:splits]
-        S_all = _merge_stats(S_out[:n_vehicles, :m], splits)
+        S_all = merge_stats(S_out[:n_vehicles, :m], splits)
         return X_all, A_all, S_all
 
 

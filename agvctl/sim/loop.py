@@ -43,6 +43,7 @@ from agvctl.params.schema import check_sample_count
 from agvctl.planning.reference import Reference
 from agvctl.plant.full import PlantOptions
 from agvctl.sensing import Measurements, Sensors
+from agvctl.sim.compiled_loop import compiled_parts, run_compiled
 from agvctl.sim.records import (
     CONTROL_LOG_COLUMNS,
     SENSOR_NAN_COLUMNS,
@@ -261,11 +262,12 @@ def run_closed_loop(
     plant_options: PlantOptions | None = None,
     payload: PayloadAccelerometer | None = None,
     progress: Callable[[float], None] | None = None,
+    compiled: bool = True,
 ) -> ClosedLoopResult:
     """Run the cascade on the full plant for the reference's duration plus ``settle_s``.
 
-    A controller that keeps its own clock (its commands' :attr:`~agvctl.controllers.base.PoseCommand.reference_done`
-    set) sets the run's length instead. :func:`~agvctl.scenario.experiment.run_experiment` runs an experiment file.
+    A controller that keeps its own clock (:attr:`~agvctl.controllers.base.PoseCommand.reference_done` set) sets the
+    run's length instead. :func:`~agvctl.scenario.experiment.run_experiment` runs an experiment file.
 
     Parameters
     ----------
@@ -297,6 +299,8 @@ def run_closed_loop(
         The payload's accelerometer: its point and bandwidth (None: the axle's midpoint, the default bandwidth).
     progress : callable or None
         Called with the fraction done (0 … 1) about every second of simulated time.
+    compiled : bool
+        Run in C where every part has a compiled step (:mod:`agvctl.sim.compiled_loop`, the same log); or never.
 
     Returns
     -------
@@ -308,23 +312,50 @@ def run_closed_loop(
     ConfigError
         ``run_closed_loop: <argument>: <problem>`` for an argument no experiment file can hold.
     """
-    t_setup = time.perf_counter()
-    ts = controller_vehicle.control.sample_period_s
-    initial_pose = _check_run(plant_vehicle, ts, initial_pose, settle_s, compute_delay, sensor_seed, payload)
-    length = _RunLength(reference.duration_s, settle_s, ts)
-    if initial_pose is None:
-        ref0 = reference.sample(np.zeros(1))
-        initial_pose = (float(ref0.x_m[0]), float(ref0.y_m[0]), float(ref0.theta_rad[0]))
+    t_setup, ts = time.perf_counter(), controller_vehicle.control.sample_period_s
+    given = _check_run(plant_vehicle, ts, initial_pose, settle_s, compute_delay, sensor_seed, payload)
+    length, initial_pose = _RunLength(reference.duration_s, settle_s, ts), _start_pose(reference, given)
     plant = PlantStepper(plant_vehicle, initial_state=[0.0, 0.0, *initial_pose], options=plant_options)
     estimator, speeds = _estimators(controller_vehicle, localization, wheel_speed, initial_pose)
     pose_controller.reset(reference)
     wheel_controller.reset()
     parts = (plant, Sensors(plant_vehicle, seed=sensor_seed), estimator, speeds, pose_controller, wheel_controller)
     setup = time.perf_counter() - t_setup
-    rows, failures, n, wall = _run(*parts, _Delay(compute_delay), _rim_per_motor(controller_vehicle), length, progress)
+    delay, rims = _Delay(compute_delay), _rim_per_motor(controller_vehicle)
+    rows, failures, n, wall = _run_in_c_or_python(parts, delay, rims, length, progress, compiled)
     ref, payload = reference.sample(np.arange(n + 1) * ts), payload or PayloadAccelerometer()
     log = _closed_loop_log(plant.log(), rows, ref, _rim_per_motor(plant_vehicle), reference, payload, ts)
     return ClosedLoopResult(log, reference, wall, setup, failures, n, ts)
+
+
+def _start_pose(reference: Reference, pose: tuple[float, float, float] | None) -> tuple[float, float, float]:
+    """The run's initial pose: the one given, or the reference's start."""
+    if pose is not None:
+        return pose
+    ref0 = reference.sample(np.zeros(1))
+    return (float(ref0.x_m[0]), float(ref0.y_m[0]), float(ref0.theta_rad[0]))
+
+
+_Parts = tuple[PlantStepper, Sensors, PoseEstimator, WheelSpeedEstimator, PoseController, WheelSpeedController]
+
+
+def _run_in_c_or_python(
+    parts: _Parts,
+    delay: _Delay,
+    rim_per_motor: NDArray[np.float64],
+    length: _RunLength,
+    progress: Callable[[float], None] | None,
+    compiled: bool,
+) -> tuple[list[_ControlRow] | NDArray[np.float64], int, int, float]:
+    """The loop in C where every part has a compiled step (and ``compiled``), else in Python: (the control rows
+    recorded, the solver failures, the run's length in samples, the wall time of the loop in s)."""
+    plant, sensors, estimator, speeds, pose_controller, wheel_controller = parts
+    in_c = compiled_parts(plant, estimator, speeds, pose_controller, wheel_controller) if compiled else None
+    if in_c is None:
+        return _run(*parts, delay, rim_per_motor, length, progress)
+    n = length.samples
+    columns, failures, wall = run_compiled(in_c, plant, sensors, rim_per_motor, n, delay.kind == "one_sample", progress)
+    return columns, failures, n, wall
 
 
 def _run(

@@ -195,14 +195,15 @@ def _control_row(
 
 def _closed_loop_log(
     plant_log: SimLog,
-    rows: list[_ControlRow],
+    rows: list[_ControlRow] | NDArray[np.float64],
     ref: ReferenceSamples,
     true_rim_per_motor: NDArray[np.float64],
     reference: Reference,
     payload: PayloadAccelerometer,
     sample_period_s: float,
 ) -> SimLog:
-    """The plant's columns, the control columns recorded per sample, those derived from the reference, the
+    """The plant's columns, the control columns recorded per sample (rows of :class:`_ControlRow`, or their
+    array), those derived from the reference, the
     errors against the reference's path (:data:`~agvctl.evaluation.path_metrics.PATH_LOG_COLUMNS`, computed once for
     the whole run from its poses: one k-d tree on the path, none of it in the per-sample loop) and what the
     payload's accelerometer reads (:data:`~agvctl.evaluation.payload.PAYLOAD_LOG_COLUMNS`, from the true motion)."""

@@ -247,14 +247,70 @@ class PlantStepper:
         out = self._actuator.apply(da_commands_v)
         u = np.asarray(out.motor_voltage_v, dtype=float)
         X, A, S = self.plant.run(self.state, u, self._p, self.sample_period_s, self._splits)
-        n = u.shape[0]
+        self._append(da_commands_v, out, X, A, S)
+
+    def append(self, da_commands_v: ArrayLike, states: FloatArray, aux: FloatArray, stats: FloatArray) -> FloatArray:
+        """Record n samples that C integrated from the current state with this stepper's plant and parameters (a
+        closed loop run in C, :mod:`agvctl.sim.compiled_loop`), as :meth:`step` would have recorded them.
+
+        Parameters
+        ----------
+        da_commands_v : array_like
+            The DA voltage commands (left, right), n × 2, V.
+        states : ndarray
+            The states at the n + 1 sample times, from the current one, (n + 1) × 5.
+        aux : ndarray
+            The auxiliaries at each sample's start, n × 10.
+        stats : ndarray
+            The statistics over each sample (its sub-samples' merged), n × 8.
+
+        Returns
+        -------
+        ndarray
+            The motor angles (left, right) turned since the start at the n + 1 sample times, rad, (n + 1) × 2:
+            what :attr:`motor_angle_rad` was at each.
+        """
+        return self._append(da_commands_v, self._actuator.apply(da_commands_v), states, aux, stats)
+
+    @property
+    def parameters(self) -> FloatArray:
+        """The plant's parameter vector (:data:`~agvctl.plant.full.PARAMETER_NAMES`)."""
+        return self._p
+
+    @property
+    def splits(self) -> int:
+        """Sub-samples per sample (:func:`~agvctl.plant.integrator.sample_splits`)."""
+        return self._splits
+
+    @property
+    def actuator(self) -> Actuator:
+        """The true vehicle's DA converter and amplifier."""
+        return self._actuator
+
+    @property
+    def dead_zone_rad_s(self) -> tuple[float, float] | None:
+        """The half-width τ_s/P of each motor's speed dead zone (eq 2) that :meth:`measure` applies; None
+        without friction."""
+        if not self._friction:
+            return None
+        (tau_l, tau_r), (p_l, p_r) = self._stiction_n_m, self._friction_gain_p
+        return tau_l / p_l, tau_r / p_r
+
+    def _append(
+        self, da_commands_v: ArrayLike, out: ActuatorOutput, X: FloatArray, A: FloatArray, S: FloatArray
+    ) -> FloatArray:
+        """Record n samples integrated as a block; the motor angles at the n + 1 sample times, summed one sample
+        after the other as :meth:`step` sums them."""
+        n = len(S)
         t = (self.k + np.arange(n)) * self.sample_period_s
         self._flush()
         self._rows.append(plant_log_rows(t, out, A, S, X[:-1]))
         self._last = self._actuator.apply(np.asarray(da_commands_v, dtype=float)[-1])
         self.state = X[-1]
-        self.motor_angle_rad = self.motor_angle_rad + S[:, _ANGLE].sum(axis=0)
+        angles: FloatArray = np.cumsum(np.vstack([self.motor_angle_rad, S[:, _ANGLE]]), axis=0)
+        self.motor_angle_rad = angles[-1]
         self.k += n
+        return angles
 
     def _record(self, out: ActuatorOutput, aux: FloatArray, stats: FloatArray) -> None:
         self._sample_rows.append(_plant_log_row(self.k * self.sample_period_s, out, aux, stats, self.state))

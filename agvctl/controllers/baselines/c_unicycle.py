@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.controllers.base import PoseCommand, SolveStatus
+from agvctl.controllers.base import CStep, PoseCommand, SolveStatus
 from agvctl.controllers.baselines.ltv_lqr import LtvLqrConfig, LtvLqrController
 from agvctl.controllers.baselines.ramsete import RamseteConfig, RamseteController
 from agvctl.controllers.baselines.unicycle import UnicycleTracker
@@ -193,6 +193,22 @@ class _CompiledLaw(UnicycleTracker):
         self._failures += fallback
         status: SolveStatus = "fallback_feedforward" if fallback else "solved"
         return PoseCommand(self._setpoint[0], self._setpoint[1], time.perf_counter() - start, status)
+
+    def compiled_step(self) -> CStep:
+        """The C step and its state, for a closed loop run in C (:class:`~agvctl.controllers.base.CompiledStep`).
+
+        Returns
+        -------
+        CStep
+            The addresses of ``<prefix>_step`` and of the state (its table the reference of the last reset); the
+            fallbacks of a compiled run are added to :attr:`failures`.
+        """
+        address = ctypes.cast(self._step, ctypes.c_void_p).value
+        assert address is not None
+        return CStep(address, ctypes.addressof(self._state), self._count_failures)
+
+    def _count_failures(self, fallbacks: int) -> None:
+        self._failures += fallbacks
 
 
 class CompiledRamseteController(_CompiledLaw, RamseteController):

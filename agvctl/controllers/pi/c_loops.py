@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agvctl.controllers.base import CStep
 from agvctl.controllers.pi.options import FEEDFORWARD_RAMP_RAD_S, PIGains, WheelLoopOptions
 from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.errors import AgvctlError
@@ -341,3 +342,15 @@ class CompiledPIWheelController:
         mask = self._step(self._state, sp, meas, da)
         self._limited = (bool(mask & 1), bool(mask & 2))
         return np.array([da[0], da[1]])
+
+    def compiled_step(self) -> CStep:
+        """The C step and its state, for a closed loop run in C (:class:`~agvctl.controllers.base.CompiledStep`).
+
+        Returns
+        -------
+        CStep
+            The addresses of ``agv_wheel_loops_step`` and of the state.
+        """
+        address = ctypes.cast(self._step, ctypes.c_void_p).value
+        assert address is not None
+        return CStep(address, ctypes.addressof(self._state))
