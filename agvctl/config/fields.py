@@ -10,6 +10,7 @@ from __future__ import annotations
 import ast
 import contextlib
 import dataclasses
+import functools
 import inspect
 import math
 import numbers
@@ -22,7 +23,7 @@ from typing import Any, Literal, TypeVar, Union, get_args, get_origin, get_type_
 
 from agvctl.errors import ConfigError
 
-__all__ = ["check_fields", "document_fields", "number"]
+__all__ = ["check_fields", "class_type_hints", "document_fields", "number"]
 
 T = TypeVar("T")
 
@@ -223,13 +224,31 @@ def _check_bounds(value: float, meta: Mapping[str, Any] | None, source: str, key
         raise ConfigError(source, key, f"must be <= {le:g} (got {value:g})")
 
 
+@functools.cache
+def class_type_hints(cls: type) -> Mapping[str, Any]:
+    """A dataclass's fields' types, their annotations evaluated (``typing.get_type_hints``), once per class: a file's
+    every table is built through them, and evaluating them costs more than the building.
+
+    Parameters
+    ----------
+    cls : type
+        The class.
+
+    Returns
+    -------
+    Mapping
+        ``{attribute: type}``, read-only.
+    """
+    return types.MappingProxyType(get_type_hints(cls))
+
+
 _INIT_FIELDS: dict[type, tuple[tuple[str, Any, Mapping[str, Any]], ...]] = {}
 
 
 def _init_fields(cls: type) -> tuple[tuple[str, Any, Mapping[str, Any]], ...]:
     """``(name, type, metadata)`` of each field a dataclass's constructor takes (worked out once per class)."""
     if cls not in _INIT_FIELDS:
-        hints = get_type_hints(cls)
+        hints = class_type_hints(cls)
         _INIT_FIELDS[cls] = tuple((f.name, hints[f.name], f.metadata) for f in dataclasses.fields(cls) if f.init)
     return _INIT_FIELDS[cls]
 

@@ -9,9 +9,9 @@ import math
 import types
 import typing
 from collections.abc import Iterable, Iterator, Mapping
-from typing import Any, Literal, TypeVar, Union, get_args, get_origin, get_type_hints
+from typing import Any, Literal, TypeVar, Union, get_args, get_origin
 
-from agvctl.config.fields import _check_bounds
+from agvctl.config.fields import _check_bounds, class_type_hints
 from agvctl.errors import ConfigError
 
 __all__ = [
@@ -285,7 +285,7 @@ def build_fields(cls: type, data: Mapping[str, Any], *, source: str, prefix: str
     ConfigError
         An unknown or missing key, or a value the field or the class refuses.
     """
-    hints = get_type_hints(cls)
+    hints = class_type_hints(cls)
     fields = {f.metadata.get("file_key", f.name): f for f in dataclasses.fields(cls) if not f.metadata.get("derived")}
     for k in data:
         if k not in fields:

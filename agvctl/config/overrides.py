@@ -6,8 +6,9 @@ import dataclasses
 import numbers
 import tomllib
 from collections.abc import Iterable, Mapping
-from typing import Any, get_type_hints
+from typing import Any
 
+from agvctl.config.fields import class_type_hints
 from agvctl.config.loading import did_you_mean, renamed
 from agvctl.errors import ConfigError
 
@@ -189,7 +190,7 @@ def _check_path(schema: type, parts: list[str], source: str, key: str) -> None:
 
 def _file_keys(cls: type) -> dict[str, Any]:
     """Map of the keys a dataclass accepts in a file to their types (``file_key`` metadata renames a field)."""
-    hints = get_type_hints(cls)
+    hints = class_type_hints(cls)
     keys: dict[str, Any] = {}
     for f in dataclasses.fields(cls):
         if f.metadata.get("derived"):

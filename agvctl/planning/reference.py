@@ -345,8 +345,15 @@ class Reference:
         every ``dense_period_s`` and at every phase switch (where the accelerations peak).
 
         The samples are taken :data:`PEAK_CHUNK` at a time and only the curvature is evaluated (not the pose), so the
-        memory stays bounded whatever the duration and the work grows linearly with it.
+        memory stays bounded whatever the duration and the work grows linearly with it. The reference is immutable:
+        the peaks are worked out once per ``dense_period_s``.
         """
+        known: dict[float, dict[str, float]] = self.__dict__.setdefault("_peaks_by_period", {})
+        if dense_period_s not in known:
+            known[dense_period_s] = self._dense_peaks(dense_period_s)
+        return dict(known[dense_period_s])
+
+    def _dense_peaks(self, dense_period_s: float) -> dict[str, float]:
         n_dense = math.ceil(self.duration_s / dense_period_s)
         out = np.zeros(3)
         for lo in range(0, n_dense, PEAK_CHUNK):

@@ -8,8 +8,12 @@ time goes (the per-run wall time spent in the workers). Goal: the 500 scenarios 
 (``[controller] qp_solver``) in a second fuzz run of the same scenarios, and the ratio of the two wall times is
 printed (the first, with OSQP in Python, the peer).
 
+With ``--controllers ramsete_c --wheel-loops pi_c`` (or ``ltv_lqr_c``) every part of each run has a compiled step
+and the closed loop runs in C (:mod:`agvctl.sim.compiled_loop`).
+
 Run:  python experiments/benchmarks/fuzz.py [--jobs 2] [--scenarios 500] [--controllers mpc,ramsete]
                                             [--qp-solver osqp_c]  (with the LTV MPC, ``mpc``, alone)
+                                            [--wheel-loops pi_c]
 """
 
 from __future__ import annotations
@@ -34,11 +38,14 @@ def main() -> int:
     ap.add_argument("--scenarios", type=int, default=None, help="default: the configuration's 500")
     ap.add_argument("--controllers", default=None, help="comma-separated (default: the configuration's first)")
     ap.add_argument("--qp-solver", default=None, choices=("osqp_c", "osqp_c_float"), help="also with this solver")
+    ap.add_argument("--wheel-loops", default=None, help='[controller] wheel_loops of every run (e.g. "pi_c")')
     args = ap.parse_args()
 
     spec = load_fuzz_config(CONFIG)
     controllers = args.controllers.split(",") if args.controllers else [spec.controllers[0]]
     spec = override_fuzz_config(spec, scenarios=args.scenarios, controllers=controllers)
+    if args.wheel_loops:
+        spec = dataclasses.replace(spec, controller={**spec.controller, "wheel_loops": args.wheel_loops})
     t0 = time.perf_counter()
     report = fuzz(spec, jobs=args.jobs)
     wall = time.perf_counter() - t0
