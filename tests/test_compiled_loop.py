@@ -3,9 +3,13 @@ writes the same log to the last bit; where a part has none, the loop stays in Py
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from agvctl.cli import main
 from agvctl.controllers.baselines.c_unicycle import CompiledLtvLqrController, CompiledRamseteController
 from agvctl.controllers.pi import default_pi_gains
 from agvctl.controllers.pi.c_loops import CompiledPIWheelController
@@ -55,6 +59,7 @@ def test_the_loop_in_c_writes_the_python_loops_log_to_the_last_bit(vehicle, law,
     python = _run(vehicle, plant_vehicle, law, compiled=False, delay=delay)
     in_c = _run(vehicle, plant_vehicle, law, compiled=True, delay=delay)
     assert used == [1]  # the second run went through the C loop, the first did not
+    assert (python.loop, in_c.loop) == ("python", "c")
     assert python.n_samples == in_c.n_samples and python.solver_failures == in_c.solver_failures
     assert list(python.log) == list(in_c.log)
     for name in python.log:
@@ -95,4 +100,20 @@ def test_a_part_without_a_compiled_step_keeps_the_loop_in_python(vehicle, monkey
         },
     ]
     for part in parts:
-        assert run_closed_loop(**common, **part).n_samples > 0
+        assert run_closed_loop(**common, **part).loop == "python"
+
+
+@needs_cc
+def test_agvctl_run_says_where_the_loop_ran(tmp_path, capsys):
+    trajectory = Path("trajectories/line.toml").resolve()
+    for wheel_loops, where in (("pi_c", "the loop in C"), ("pi", "the loop in Python")):
+        experiment = tmp_path / f"{wheel_loops}.toml"
+        experiment.write_text(
+            f'name = "{wheel_loops}"\ntrajectory = "{trajectory}"\n\n[controller]\npose = "ramsete_c"\n'
+            f'wheel_loops = "{wheel_loops}"\n',
+            encoding="utf-8",
+        )
+        assert main(["run", str(experiment), "--no-plot", "--out", str(tmp_path / wheel_loops)]) == 0
+        assert where in capsys.readouterr().out
+        summary = json.loads((tmp_path / wheel_loops / "summary.json").read_text(encoding="utf-8"))
+        assert summary["loop"] == where.removeprefix("the loop in ").lower()

@@ -65,6 +65,7 @@ def run_summary(experiment: Experiment, result: ClosedLoopResult) -> dict[str, A
         "metrics": json_safe(ordered),
         "wall_time_s": result.wall_time_s,
         "setup_time_s": result.setup_time_s,
+        "loop": result.loop,
         "simulated_s": result.n_samples * result.sample_period_s,
         "limits": [r.as_dict() for r in verdict.limits],
         **({"calibration": {k: json_safe(v) for k, v in calibration.items()}} if calibration is not None else {}),

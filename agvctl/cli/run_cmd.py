@@ -95,7 +95,11 @@ def format_summary(summary: dict[str, Any]) -> str:
             f"{c['sigma'] * 1e3:.3f} mm   truth {c['truth'] * 1e3:.3f} mm{err}"
         )
     wall, sim = summary["wall_time_s"], summary["simulated_s"]
-    lines.append(f"  wall time         {wall:.2f} s for {sim:.1f} s simulated ({sim / max(wall, 1e-9):.0f}x real time)")
+    where = " in C" if summary.get("loop") == "c" else ""
+    lines.append(
+        f"  wall time         {wall:.2f} s for {sim:.1f} s simulated ({sim / max(wall, 1e-9):.0f}x real time, "
+        f"the loop{where or ' in Python'})"
+    )
     for r in summary["limits"]:
         lines.append(f"  {r['kind']:<5}  {r['message']}")
     return "\n".join(lines)

@@ -91,6 +91,9 @@ class ClosedLoopResult:
     """The run's length in samples: the log has one row more, the final state."""
     sample_period_s: float
     """The control sample period T_s, s."""
+    loop: Literal["c", "python"] = "python"
+    """Where the loop ran: ``"c"`` where every part had a compiled step (:mod:`agvctl.sim.compiled_loop`), else
+    ``"python"``; the log is the same either way."""
 
 
 def _rim_per_motor(vehicle: VehicleParams) -> NDArray[np.float64]:
@@ -323,9 +326,10 @@ def run_closed_loop(
     setup = time.perf_counter() - t_setup
     delay, rims = _Delay(compute_delay), _rim_per_motor(controller_vehicle)
     rows, failures, n, wall = _run_in_c_or_python(parts, delay, rims, length, progress, compiled)
+    loop: Literal["c", "python"] = "python" if isinstance(rows, list) else "c"
     ref, payload = reference.sample(np.arange(n + 1) * ts), payload or PayloadAccelerometer()
     log = _closed_loop_log(plant.log(), rows, ref, _rim_per_motor(plant_vehicle), reference, payload, ts)
-    return ClosedLoopResult(log, reference, wall, setup, failures, n, ts)
+    return ClosedLoopResult(log, reference, wall, setup, failures, n, ts, loop)
 
 
 def _start_pose(reference: Reference, pose: tuple[float, float, float] | None) -> tuple[float, float, float]:
