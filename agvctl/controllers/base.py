@@ -146,11 +146,12 @@ class CStep:
 
 @runtime_checkable
 class CompiledStep(Protocol):
-    """A controller whose step is compiled C (optional; the closed loop checks it once, at set-up). Where the
-    pose controller and the wheel controller both are, and the pose and the motor speeds are the truth
-    (``localization = "truth"``, ``wheel_speed = "exact"``), the whole loop runs in C
-    (:mod:`agvctl.sim.compiled_loop`), with the log the loop in Python would write. A compiled pose controller runs
-    on the loop's clock (its commands' ``reference_done`` None)."""
+    """A controller whose step is compiled C (optional; the closed loop checks it once, at set-up). Where the pose
+    and the motor speeds are the truth (``localization = "truth"``, ``wheel_speed = "exact"``), the loop runs in C
+    (:mod:`agvctl.sim.compiled_loop`), with the log the loop in Python would write; it calls such a controller's
+    step directly, and one in Python through a call back into Python. With both controllers compiled, a run never
+    comes back to Python until it ends. A compiled pose controller runs on the loop's clock (its commands'
+    ``reference_done`` None)."""
 
     def compiled_step(self) -> CStep:
         """Its step function and state, after :meth:`PoseController.reset` or :meth:`WheelSpeedController.reset`."""

@@ -1,18 +1,21 @@
-"""The closed loop run in C, where every part of it has a compiled step: the same samples, the same log.
+"""The closed loop run in C where the pose and the motor speeds are the truth: the same samples, the same log.
 
-Where the pose controller and the wheel controller are :class:`~agvctl.controllers.base.CompiledStep` ones (the
-generated laws ``ramsete_c`` and ``ltv_lqr_c``, the generated loops ``pi_c``, or a user's own C behind the same
-protocol), the pose and the motor speeds are the truth (``localization = "truth"``, ``wheel_speed = "exact"``) and
-the plant is compiled, :func:`agvctl.sim.loop.run_closed_loop` hands the run to :func:`run_compiled`. A small C loop
-(``templates/closed_loop.c.j2``) then calls the controllers' steps, the DA converter and the amplifier, and the
-plant's compiled sample step, sample after sample, without coming back to Python; Python makes the log once at
-the end from what the C recorded: the plant's columns through :meth:`~agvctl.sim.stepper.PlantStepper.append`, the
-shaft angles and the encoder counts, and the sensors' readings (the gyro, the fixes), which nothing in such a loop
-reads and which are drawn from the same seeded streams in the same order.
+Where the pose and the motor speeds are the truth (``localization = "truth"``, ``wheel_speed = "exact"``, the
+defaults) and the plant is compiled, :func:`agvctl.sim.loop.run_closed_loop` hands the run to :func:`run_compiled`.
+A small C loop (``templates/closed_loop.c.j2``) then runs the samples: it computes the motor speeds from the plant's
+state, calls the pose controller and the wheel loops, applies the DA converter and the amplifier, and calls the
+plant's compiled sample step. A controller with a compiled step (:class:`~agvctl.controllers.base.CompiledStep`:
+the generated laws ``ramsete_c`` and ``ltv_lqr_c``, the generated loops ``pi_c``, or a user's own C) is called
+there directly; one in Python (the MPC, ``pi``, a user's class) is called back from the C with what the loop in
+Python would hand it, and what it raises is raised again as the loop in Python raises it. With both controllers
+compiled, a run never comes back to Python until it ends. Python makes the log once at the end from what the C
+recorded: the plant's columns through :meth:`~agvctl.sim.stepper.PlantStepper.append`, the shaft angles and the
+encoder counts, and the sensors' readings (the gyro, the fixes), which nothing in such a loop reads and which are
+drawn from the same seeded streams in the same order.
 
 The C mirrors the Python loop's arithmetic operation by operation, so the two logs agree to the last bit, the
-pose controller's measured computing time (``solve_time_s``, here the C step alone) excepted; the tests hold it
-to that. The Python loop is the specification; this is the same loop, compiled.
+pose controller's measured computing time (``solve_time_s``; a compiled step's is the C step's alone) excepted; the
+tests hold it to that. The Python loop is the specification; this is the same loop, compiled.
 """
 
 from __future__ import annotations
@@ -21,14 +24,17 @@ import ctypes
 import functools
 import math
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.controllers.base import CompiledStep, CStep, PoseController, WheelSpeedController
+from agvctl.controllers.base import CompiledStep, CStep, LimitReporting, PoseController, WheelSpeedController
 from agvctl.controllers.pi.c_loops import GeneratedC, compile_generated_c
+from agvctl.errors import AgvctlError
 from agvctl.estimation.base import PoseEstimator, WheelSpeedEstimator
 from agvctl.estimation.odometry import TruthEstimator
 from agvctl.estimation.wheel_speed import ExactSpeed
@@ -37,10 +43,10 @@ from agvctl.plant.codegen import CFunctionAddress, c_templates
 from agvctl.plant.full import AUX_NAMES, STATE_NAMES
 from agvctl.plant.integrator import STATS_NAMES, merge_stats
 from agvctl.sensing import Sensors
-from agvctl.sim.records import _NO_CALIBRATION, _NO_CONSISTENCY, _ControlRow
+from agvctl.sim.records import _NO_CALIBRATION, _NO_CONSISTENCY, _checked_command, _ControlRow
 from agvctl.sim.stepper import PlantStepper
 
-__all__ = ["CompiledParts", "compiled_parts", "run_compiled"]
+__all__ = ["CompiledParts", "LoopPlan", "compiled_parts", "run_compiled"]
 
 _CONTROL = (
     "setpoint_wheel_speed_left_m_s",
@@ -83,11 +89,24 @@ class _Loop(ctypes.Structure):
         ("voltage_limit_v", ctypes.c_double),
         ("pose", ctypes.c_void_p),
         ("pose_state", ctypes.c_void_p),
+        ("pose_call", ctypes.c_void_p),
         ("wheels", ctypes.c_void_p),
         ("wheels_state", ctypes.c_void_p),
+        ("wheels_report_limits", ctypes.c_long),
         ("rim_per_motor_m", ctypes.c_double * 2),
         ("one_sample_delay", ctypes.c_long),
     ]
+
+
+_Doubles = ctypes.POINTER(ctypes.c_double)
+_POSE_CALL = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_long, _Doubles, _Doubles, _Doubles)
+"""A pose controller in Python, called from the C loop: k, the pose, the wheel speeds in; out[0..4] (the checked
+setpoints, the status, the step's time, the run's length); nonzero when it raised."""
+_WHEEL_STEP = ctypes.CFUNCTYPE(ctypes.c_uint, ctypes.c_void_p, _Doubles, _Doubles, _Doubles)
+"""A wheel controller's step (:class:`~agvctl.controllers.base.CStep`'s signature), here one in Python."""
+_WHEELS_RAISED = 0xFFFFFFFF
+"""The mask a wheel step in Python returns when the controller raised: the C loop stops."""
+_STOPPED_BY_PYTHON, _STOPPED_BY_PLANT = -1, -2
 
 
 @functools.cache
@@ -104,29 +123,30 @@ def _loop_function() -> ctypes._CFuncPtr:  # type: ignore[name-defined]
     source = c_templates("agvctl.sim").get_template("closed_loop.c.j2").render(values)
     lib = compile_generated_c(GeneratedC("", source, "agv_closed_loop"), "closed loop")
     run = lib.agv_loop_run
-    run.restype = ctypes.c_int
+    run.restype = ctypes.c_long
     pointer = ctypes.c_void_p
-    run.argtypes = [pointer, ctypes.c_long, ctypes.c_long, ctypes.c_long, *[pointer] * 5]
+    run.argtypes = [pointer, ctypes.c_long, ctypes.c_long, *[pointer] * 6]
     return run
 
 
 @dataclass(frozen=True)
 class CompiledParts:
-    """The compiled steps of a closed loop that runs in C.
+    """What the closed loop in C calls: the plant's compiled step, and each controller's compiled step or None
+    (called in Python from the C loop).
 
     Parameters
     ----------
     plant : CFunctionAddress
         The plant's compiled sample step.
-    pose : CStep
-        The pose controller's step (after its reset).
-    wheels : CStep
-        The wheel loops' step (after their reset).
+    pose : CStep or None
+        The pose controller's compiled step (after its reset), or None for one in Python.
+    wheels : CStep or None
+        The wheel loops' compiled step (after their reset), or None for ones in Python.
     """
 
     plant: CFunctionAddress
-    pose: CStep
-    wheels: CStep
+    pose: CStep | None
+    wheels: CStep | None
 
 
 def compiled_parts(
@@ -136,7 +156,7 @@ def compiled_parts(
     pose_controller: PoseController,
     wheel_controller: WheelSpeedController,
 ) -> CompiledParts | None:
-    """The compiled steps of the loop, where every part has one; None where the loop runs in Python.
+    """What the loop in C calls, where it can run in C; None where it runs in Python.
 
     Parameters
     ----------
@@ -147,33 +167,112 @@ def compiled_parts(
     speeds : WheelSpeedEstimator
         The motor-speed estimator: only the truth (``"exact"``) has nothing to compute.
     pose_controller : PoseController
-        The pose controller, reset to the reference.
+        The pose controller, reset to the reference: its compiled step, or called in Python.
     wheel_controller : WheelSpeedController
-        The wheel loops, reset.
+        The wheel loops, reset: their compiled step, or called in Python.
 
     Returns
     -------
     CompiledParts or None
-        The steps, or None: a part without a compiled step, or a plant in CasADi's virtual machine.
+        What the C calls, or None: an estimator that computes, a plant in CasADi's virtual machine, or a loop
+        that does not compile (with a warning).
     """
     address = plant.plant.step_address()
-    truth = type(estimator) is TruthEstimator and type(speeds) is ExactSpeed
-    compiled = isinstance(pose_controller, CompiledStep) and isinstance(wheel_controller, CompiledStep)
-    if address is None or not truth or not compiled:
+    if address is None or not (type(estimator) is TruthEstimator and type(speeds) is ExactSpeed):
         return None
-    assert isinstance(pose_controller, CompiledStep) and isinstance(wheel_controller, CompiledStep)
-    return CompiledParts(address, pose_controller.compiled_step(), wheel_controller.compiled_step())
+    try:
+        _loop_function()
+    except AgvctlError as exc:  # the plant compiled, so this is unlikely; the loop in Python gives the same log
+        warnings.warn(f"agvctl: {exc}; the closed loop runs in Python", RuntimeWarning, stacklevel=2)
+        return None
+    pose = pose_controller.compiled_step() if isinstance(pose_controller, CompiledStep) else None
+    wheels = wheel_controller.compiled_step() if isinstance(wheel_controller, CompiledStep) else None
+    return CompiledParts(address, pose, wheels)
 
 
 def _address(array: NDArray[np.float64] | NDArray[np.int64]) -> int:
     return int(array.ctypes.data)
 
 
-def _loop(parts: CompiledParts, plant: PlantStepper, rim_per_motor: NDArray[np.float64], delay: bool) -> _Loop:
-    """The C's description of the loop; the arrays it points to are kept alive by the caller (``keep``)."""
+@dataclass(frozen=True)
+class LoopPlan:
+    """The run the C loop runs: its controllers, its length and its options.
+
+    Parameters
+    ----------
+    pose_controller : PoseController
+        The pose controller (called in Python where :attr:`CompiledParts.pose` is None).
+    wheel_controller : WheelSpeedController
+        The wheel loops (called in Python where :attr:`CompiledParts.wheels` is None).
+    rim_per_motor : ndarray
+        The controllers' r/N per side, m/rad.
+    samples : int
+        The run's length in samples, as planned.
+    longest : int
+        The most samples it may take (a pose controller that keeps its own clock).
+    length_after : callable
+        ``(k, reference_done) -> samples``: the run's length after the pose controller's command at sample k.
+    one_sample_delay : bool
+        Whether the setpoints computed at t_k act from t_k+1.
+    """
+
+    pose_controller: PoseController
+    wheel_controller: WheelSpeedController
+    rim_per_motor: NDArray[np.float64]
+    samples: int
+    longest: int
+    length_after: Callable[[int, bool | None], int]
+    one_sample_delay: bool
+
+
+def _python_calls(plan: LoopPlan, sample_period_s: float, raised: list[BaseException]) -> tuple[Any, Any, bool]:
+    """The calls into Python for the controllers in Python (the pose controller's, the wheel loops'), each doing
+    what the loop in Python does at its place, an exception kept in ``raised``; and whether the wheel loops report
+    their clamping."""
+    pose_controller, wheel_controller = plan.pose_controller, plan.wheel_controller
+
+    def pose_call(k: int, pose: Any, wheel_speed_m_s: Any, out: Any) -> int:
+        try:
+            est, wheels = np.array([pose[0], pose[1], pose[2]]), np.array([wheel_speed_m_s[0], wheel_speed_m_s[1]])
+            start = time.perf_counter()
+            cmd = pose_controller.update(k * sample_period_s, est, wheels)
+            out[3] = time.perf_counter() - start
+            out[4] = plan.length_after(k, cmd.reference_done)
+            status, commanded = _checked_command(cmd)
+            out[0], out[1] = commanded.tolist()
+            out[2] = status
+            return 0
+        except BaseException as exc:  # a controller's error (or an interrupt) is raised again outside the C
+            raised.append(exc)
+            return 1
+
+    reports = isinstance(wheel_controller, LimitReporting)
+
+    def wheel_step(state: Any, setpoint_rad_s: Any, measured_rad_s: Any, da_v: Any) -> int:
+        del state
+        try:
+            setpoint = np.array([setpoint_rad_s[0], setpoint_rad_s[1]])
+            da = wheel_controller.update(setpoint, np.array([measured_rad_s[0], measured_rad_s[1]]))
+            left, right = da.tolist()
+            da_v[0], da_v[1] = float(left), float(right)
+            if not isinstance(wheel_controller, LimitReporting):
+                return 0
+            limited = wheel_controller.limited
+            return int(bool(limited[0])) | 2 * int(bool(limited[1]))
+        except BaseException as exc:
+            raised.append(exc)
+            return _WHEELS_RAISED
+
+    return _POSE_CALL(pose_call), _WHEEL_STEP(wheel_step), reports
+
+
+def _loop(parts: CompiledParts, plant: PlantStepper, plan: LoopPlan, raised: list[BaseException]) -> _Loop:
+    """The C's description of the loop; what it points to lives as long as it does (``_keep``)."""
     n_arg, n_res, n_iw, n_w = parts.plant.sizes
     actuator = plant.actuator
     dead_zone = plant.dead_zone_rad_s
+    pose_call, wheel_step, reports = _python_calls(plan, plant.sample_period_s, raised)
+    wheels = parts.wheels or CStep(ctypes.cast(wheel_step, ctypes.c_void_p).value or 0, 0)
     loop = _Loop(
         plant=parts.plant.address,
         substep_s=plant.sample_period_s / plant.splits,
@@ -186,12 +285,14 @@ def _loop(parts: CompiledParts, plant: PlantStepper, rim_per_motor: NDArray[np.f
         code_max=float(actuator.code_max),
         amplifier_gain=actuator.gain,
         voltage_limit_v=actuator.voltage_limit_v,
-        pose=parts.pose.function,
-        pose_state=parts.pose.state,
-        wheels=parts.wheels.function,
-        wheels_state=parts.wheels.state,
-        rim_per_motor_m=(ctypes.c_double * 2)(*rim_per_motor.tolist()),
-        one_sample_delay=int(delay),
+        pose=parts.pose.function if parts.pose else None,
+        pose_state=parts.pose.state if parts.pose else None,
+        pose_call=ctypes.cast(pose_call, ctypes.c_void_p).value,
+        wheels=wheels.function,
+        wheels_state=wheels.state,
+        wheels_report_limits=int(parts.wheels is not None or reports),
+        rim_per_motor_m=(ctypes.c_double * 2)(*plan.rim_per_motor.tolist()),
+        one_sample_delay=int(plan.one_sample_delay),
     )
     work = (
         (ctypes.c_void_p * max(1, n_arg))(),
@@ -202,7 +303,7 @@ def _loop(parts: CompiledParts, plant: PlantStepper, rim_per_motor: NDArray[np.f
     )
     loop.arg, loop.res = ctypes.addressof(work[0]), ctypes.addressof(work[1])
     loop.iw, loop.w, loop.parameters = _address(work[2]), _address(work[3]), _address(work[4])
-    loop._keep = work  # the work arrays live as long as the loop
+    loop._keep = (work, pose_call, wheel_step)  # the work arrays and the calls live as long as the loop
     return loop
 
 
@@ -210,70 +311,70 @@ def run_compiled(
     parts: CompiledParts,
     plant: PlantStepper,
     sensors: Sensors,
-    rim_per_motor: NDArray[np.float64],
-    n: int,
-    one_sample_delay: bool,
+    plan: LoopPlan,
     progress: Callable[[float], None] | None,
-) -> tuple[NDArray[np.float64], int, float]:
-    """Run the loop's n + 1 samples in C and record the plant's rows in ``plant``.
+) -> tuple[NDArray[np.float64], int, int, float]:
+    """Run the loop in C and record the plant's rows in ``plant``.
 
     Parameters
     ----------
     parts : CompiledParts
-        The compiled steps (:func:`compiled_parts`).
+        What the C calls (:func:`compiled_parts`).
     plant : PlantStepper
         The true vehicle, at its initial state: it records the plant's rows, as if it had been stepped.
     sensors : Sensors
         The true vehicle's sensors, fresh: they read the run's recorded motion, for the log.
-    rim_per_motor : ndarray
-        The controllers' r/N per side, m/rad.
-    n : int
-        The run's length in samples.
-    one_sample_delay : bool
-        Whether the setpoints computed at t_k act from t_k+1.
+    plan : LoopPlan
+        The controllers, the run's length and its options.
     progress : callable or None
         Called with the fraction done (0 … 1) about every second of simulated time.
 
     Returns
     -------
     tuple
-        The control columns (:class:`~agvctl.sim.records._ControlRow`'s, (n + 1) × its fields), the pose
-        controller's fallbacks and the loop's wall time in s.
+        The control columns (:class:`~agvctl.sim.records._ControlRow`'s, (n + 1) × its fields), the samples at
+        which the pose controller fell back or commanded a non-finite setpoint, the run's length n in samples, and
+        the loop's wall time in s.
 
     Raises
     ------
     RuntimeError
         The plant's compiled step failed.
+    Exception
+        Whatever a controller in Python raised, as the loop in Python raises it.
     """
-    splits = plant.splits
-    states = np.zeros((n + 1, len(STATE_NAMES)))
+    splits, rows = plant.splits, plan.longest + 1
+    states = np.zeros((rows, len(STATE_NAMES)))
     states[0] = plant.state
-    aux = np.zeros((max(n, 1), len(AUX_NAMES)))
-    stats = np.zeros((max(n, 1) * splits, len(STATS_NAMES)))
-    control = np.zeros((n + 1, len(_CONTROL)))
-    pending = np.zeros(2)
-    loop = _loop(parts, plant, rim_per_motor, one_sample_delay)
-    run = _loop_function()
-    every = n + 1 if progress is None else max(1, int(round(1.0 / plant.sample_period_s)))
-    arrays = [ctypes.addressof(loop), *(_address(a) for a in (states, aux, stats, control, pending))]
+    aux, stats = np.zeros((rows, len(AUX_NAMES))), np.zeros((rows * splits, len(STATS_NAMES)))
+    control, pending, n = np.zeros((rows, len(_CONTROL))), np.zeros(2), ctypes.c_long(plan.samples)
+    raised: list[BaseException] = []
+    loop = _loop(parts, plant, plan, raised)
+    every = rows if progress is None else max(1, int(round(1.0 / plant.sample_period_s)))
+    arrays = [ctypes.addressof(n), *(_address(a) for a in (states, aux, stats, control, pending))]
+    run, k = _loop_function(), 0
     t0 = time.perf_counter()
-    for k_from in range(0, n + 1, every):
-        status = run(arrays[0], k_from, min(n + 1, k_from + every), n, *arrays[1:])
-        if status != 0:
-            raise RuntimeError(f"the plant's compiled step returned {status} in the compiled closed loop")
+    while k <= n.value:
+        k = run(ctypes.addressof(loop), k, k + every, *arrays)
+        if k == _STOPPED_BY_PYTHON:
+            raise raised[0]
+        if k == _STOPPED_BY_PLANT:
+            raise RuntimeError("the plant's compiled step failed in the compiled closed loop")
         if progress is not None:
-            progress(k_from / max(n, 1))
+            progress(min(k, n.value) / max(n.value, 1))
     wall = time.perf_counter() - t0
-    if progress is not None:
-        progress(1.0)
+    n_samples = n.value
     da = control[:, 4:6]
-    angles = plant.append(da[:n], states, aux[:n], merge_stats(stats[: n * splits], splits))
-    plant.finish(da[n])
-    fallbacks = int(np.count_nonzero(control[:, 7] == _FALLBACK_STATUS))
-    if parts.pose.stepped is not None:
-        parts.pose.stepped(fallbacks)
+    angles = plant.append(
+        da[:n_samples], states[: n_samples + 1], aux[:n_samples], merge_stats(stats[: n_samples * splits], splits)
+    )
+    plant.finish(da[n_samples])
+    control = control[: n_samples + 1]
+    if parts.pose is not None and parts.pose.stepped is not None:
+        parts.pose.stepped(int(np.count_nonzero(control[:, 7] == _FALLBACK_STATUS)))
     failures = int(np.count_nonzero(control[:, 7] > 0))
-    return _control_columns(control, states, angles, sensors, rim_per_motor), failures, wall
+    columns = _control_columns(control, states[: n_samples + 1], angles, sensors, plan.rim_per_motor)
+    return columns, failures, n_samples, wall
 
 
 def _control_columns(

@@ -43,7 +43,7 @@ from agvctl.params.schema import check_sample_count
 from agvctl.planning.reference import Reference
 from agvctl.plant.full import PlantOptions
 from agvctl.sensing import Measurements, Sensors
-from agvctl.sim.compiled_loop import compiled_parts, run_compiled
+from agvctl.sim.compiled_loop import LoopPlan, compiled_parts, run_compiled
 from agvctl.sim.records import (
     CONTROL_LOG_COLUMNS,
     SENSOR_NAN_COLUMNS,
@@ -326,10 +326,9 @@ def run_closed_loop(
     setup = time.perf_counter() - t_setup
     delay, rims = _Delay(compute_delay), _rim_per_motor(controller_vehicle)
     rows, failures, n, wall = _run_in_c_or_python(parts, delay, rims, length, progress, compiled)
-    loop: Literal["c", "python"] = "python" if isinstance(rows, list) else "c"
     ref, payload = reference.sample(np.arange(n + 1) * ts), payload or PayloadAccelerometer()
     log = _closed_loop_log(plant.log(), rows, ref, _rim_per_motor(plant_vehicle), reference, payload, ts)
-    return ClosedLoopResult(log, reference, wall, setup, failures, n, ts, loop)
+    return ClosedLoopResult(log, reference, wall, setup, failures, n, ts, "python" if isinstance(rows, list) else "c")
 
 
 def _start_pose(reference: Reference, pose: tuple[float, float, float] | None) -> tuple[float, float, float]:
@@ -351,15 +350,18 @@ def _run_in_c_or_python(
     progress: Callable[[float], None] | None,
     compiled: bool,
 ) -> tuple[list[_ControlRow] | NDArray[np.float64], int, int, float]:
-    """The loop in C where every part has a compiled step (and ``compiled``), else in Python: (the control rows
-    recorded, the solver failures, the run's length in samples, the wall time of the loop in s)."""
+    """The loop in C where it can run there (and ``compiled``: the pose and the motor speeds the truth, the plant
+    compiled; each controller's compiled step, or a call into Python), else in Python: (the control rows recorded,
+    the solver failures, the run's length in samples, the wall time of the loop in s)."""
     plant, sensors, estimator, speeds, pose_controller, wheel_controller = parts
     in_c = compiled_parts(plant, estimator, speeds, pose_controller, wheel_controller) if compiled else None
     if in_c is None:
         return _run(*parts, delay, rim_per_motor, length, progress)
-    n = length.samples
-    columns, failures, wall = run_compiled(in_c, plant, sensors, rim_per_motor, n, delay.kind == "one_sample", progress)
-    return columns, failures, n, wall
+    one_sample = delay.kind == "one_sample"
+    plan = LoopPlan(
+        pose_controller, wheel_controller, rim_per_motor, length.samples, length.longest, length.after, one_sample
+    )
+    return run_compiled(in_c, plant, sensors, plan, progress)
 
 
 def _run(
