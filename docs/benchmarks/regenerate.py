@@ -43,6 +43,12 @@ BENCHMARKS: dict[str, tuple[str, list[str], list[str], str]] = {
     "estimation": ("estimation.py", ["--repeat", "2"], [], "EKF, Kalman wheel speeds, sensors, loop on estimates."),
     "shipped": ("shipped.py", [], [], "The shipped experiments, each run once as `agvctl run` runs it."),
     "fuzz": ("fuzz.py", ["--scenarios", "40"], [], "The scenario fuzzer on local worker processes."),
+    "cascade_c": (
+        "cascade_c.py",
+        ["--repeat", "2"],
+        [],
+        "A unicycle cascade's step in Python and as generated C; the figure-8 loop with it, in Python and in C.",
+    ),
     "cli_startup": (
         "cli_startup.py",
         ["--commands"],

@@ -5,9 +5,10 @@ The figure-8 path is run in closed loop with the law; the estimated poses and me
 the controllers are recorded. Then the cascade steps through them: in Python (the law, the setpoints as motor speeds,
 the loops), and as the C that ``agvctl codegen`` writes for the experiment, timed in C around each call
 (``clock_gettime``, no ctypes in the measure). Prints the median and p99 step of each in µs and their ratio, and the
-figure-8 closed loop's wall time and real-time factor with the cascade in Python, in C with the loop in Python, and
-in C with the loop in C (:mod:`agvctl.sim.compiled_loop`): the loop's own time (``wall_time_s``) and the whole run's,
-its log (errors against the path, the payload's readings) made.
+figure-8 closed loop's wall time and real-time factor with the cascade in Python or in C, and the loop in Python
+(``run_closed_loop(compiled=False)``) or in C (:mod:`agvctl.sim.compiled_loop`, the controllers in Python called
+back from it): the loop's own time (``wall_time_s``) and the whole run's, its log (errors against the path, the
+payload's readings) made.
 
 Run:  python experiments/benchmarks/cascade_c.py [--law ramsete|ltv_lqr] [--repeat 5]
 """
@@ -115,7 +116,8 @@ def main() -> None:
     print(f"  ratio   Python / C median {median['python'] / median['c']:.0f}x")
     duration = experiment.reference.duration_s + experiment.spec.settle_s
     for name, pose, wheels, compiled in (
-        ("cascade in Python", python_law(vehicle), PIWheelController(vehicle, gains, options), True),
+        ("cascade in Python, loop in Python", python_law(vehicle), PIWheelController(vehicle, gains, options), False),
+        ("cascade in Python, loop in C", python_law(vehicle), PIWheelController(vehicle, gains, options), True),
         ("cascade in C, loop in Python", c_law(vehicle), CompiledPIWheelController(vehicle, gains, options), False),
         ("cascade in C, loop in C", c_law(vehicle), CompiledPIWheelController(vehicle, gains, options), True),
     ):
