@@ -246,7 +246,7 @@ def _python_calls(plan: LoopPlan, sample_period_s: float, raised: list[BaseExcep
             raised.append(exc)
             return 1
 
-    reports = isinstance(wheel_controller, LimitReporting)
+    reporting = wheel_controller if isinstance(wheel_controller, LimitReporting) else None  # checked once
 
     def wheel_step(state: Any, setpoint_rad_s: Any, measured_rad_s: Any, da_v: Any) -> int:
         del state
@@ -255,15 +255,15 @@ def _python_calls(plan: LoopPlan, sample_period_s: float, raised: list[BaseExcep
             da = wheel_controller.update(setpoint, np.array([measured_rad_s[0], measured_rad_s[1]]))
             left, right = da.tolist()
             da_v[0], da_v[1] = float(left), float(right)
-            if not isinstance(wheel_controller, LimitReporting):
+            if reporting is None:
                 return 0
-            limited = wheel_controller.limited
+            limited = reporting.limited
             return int(bool(limited[0])) | 2 * int(bool(limited[1]))
         except BaseException as exc:
             raised.append(exc)
             return _WHEELS_RAISED
 
-    return _POSE_CALL(pose_call), _WHEEL_STEP(wheel_step), reports
+    return _POSE_CALL(pose_call), _WHEEL_STEP(wheel_step), reporting is not None
 
 
 def _loop(parts: CompiledParts, plant: PlantStepper, plan: LoopPlan, raised: list[BaseException]) -> _Loop:
