@@ -4,6 +4,7 @@ a controller's error surfaces as in Python; where an estimator computes, the loo
 
 from __future__ import annotations
 
+import ctypes
 import json
 import math
 from pathlib import Path
@@ -12,14 +13,15 @@ import numpy as np
 import pytest
 
 from agvctl.cli import main
+from agvctl.controllers.base import CStep, PoseCommand
 from agvctl.controllers.baselines import RamseteController
 from agvctl.controllers.baselines.c_unicycle import CompiledLtvLqrController, CompiledRamseteController
 from agvctl.controllers.mpc import LtvMpcController
 from agvctl.controllers.pi import default_pi_gains
-from agvctl.controllers.pi.c_loops import CompiledPIWheelController
+from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS, CompiledPIWheelController
 from agvctl.controllers.pi.wheel_loop import PIWheelController
 from agvctl.planning import plan_file
-from agvctl.plant.codegen import c_compiler
+from agvctl.plant.codegen import c_compiler, compiled_library
 from agvctl.plant.integrator import sample_splits
 from agvctl.sim import compiled_loop
 from agvctl.sim.loop import run_closed_loop
@@ -180,3 +182,48 @@ def test_agvctl_run_says_where_the_loop_ran(tmp_path, capsys):
         assert where in capsys.readouterr().out
         summary = json.loads((tmp_path / localization / "summary.json").read_text(encoding="utf-8"))
         assert summary["loop"] == where.removeprefix("the loop in ").lower()
+
+
+USER_C = """
+typedef struct { double speed_m_s; } user_state;
+/* A user's pose controller in C: both wheels at one speed, whatever the pose. */
+int user_pose_step(void *state, long k, const double *pose, double *setpoint_m_s)
+{
+    const user_state *s = (const user_state *)state;
+    (void)k;
+    (void)pose;
+    setpoint_m_s[0] = s->speed_m_s;
+    setpoint_m_s[1] = s->speed_m_s;
+    return 0;
+}
+"""
+
+
+class _UsersCController:
+    """A user's controller with a compiled step (its state a struct it owns), and the same law in Python."""
+
+    def __init__(self, speed_m_s):
+        lib = compiled_library(USER_C, "user_pose_step", flags=(*STRICT_C_FLAGS, "-fPIC", "-shared"))
+        self._step, self._state, self.speed_m_s = lib.user_pose_step, (ctypes.c_double * 1)(speed_m_s), speed_m_s
+
+    def reset(self, reference):
+        del reference
+
+    def update(self, t_s, pose, wheel_speed_m_s):
+        return PoseCommand(self.speed_m_s, self.speed_m_s)
+
+    def compiled_step(self):
+        return CStep(ctypes.cast(self._step, ctypes.c_void_p).value, ctypes.addressof(self._state))
+
+
+@needs_cc
+def test_a_users_own_c_controller_is_called_by_the_loop_in_c(vehicle, monkeypatch):
+    called = []
+    monkeypatch.setattr(_UsersCController, "update", lambda *a: called.append(1) or PoseCommand(0.1, 0.1))
+    in_c = _run(vehicle, vehicle, _UsersCController(0.1), "pi_c", compiled=True, path="line")
+    assert in_c.loop == "c" and not called  # the C step ran, the Python update never did
+    np.testing.assert_array_equal(in_c.log["setpoint_wheel_speed_left_m_s"], 0.1)
+    python = _run(vehicle, vehicle, _UsersCController(0.1), "pi_c", compiled=False, path="line")
+    assert called and all(
+        np.array_equal(python.log[k], in_c.log[k], equal_nan=True) for k in python.log if k != "solve_time_s"
+    )
