@@ -64,7 +64,9 @@ def _wheels(vehicle, kind):
     }[kind]()
 
 
-def _run(vehicle, plant_vehicle, pose, wheels, *, compiled, delay="none", start=(0.03, -0.02, 0.05), path="figure8"):
+def _run(
+    vehicle, plant_vehicle, pose, wheels, *, compiled, delay="none", start=(0.03, -0.02, 0.05), path="figure8", **more
+):
     reference = plan_file(f"trajectories/{path}.toml", vehicle)
     return run_closed_loop(
         plant_vehicle=plant_vehicle,
@@ -77,6 +79,7 @@ def _run(vehicle, plant_vehicle, pose, wheels, *, compiled, delay="none", start=
         compute_delay=delay,
         sensor_seed=5,
         compiled=compiled,
+        **more,
     )
 
 
@@ -114,6 +117,20 @@ def test_the_loop_in_c_writes_the_python_loops_log_to_the_last_bit(
         assert np.isfinite(in_c.log["gyro_rate_rad_s"][1:]).all()
     if wheels == "quiet":
         assert np.isnan(in_c.log["wheel_loop_limited_left"]).all()
+
+
+@needs_cc
+def test_the_loop_in_c_reports_progress_each_simulated_second_and_writes_the_same_log(vehicle):
+    # with a progress report the C runs a second at a time, its sub-samples' statistics merged after each call
+    stiff = vehicle.with_overrides(PLANTS["stiff"])
+    reports = {False: [], True: []}
+    runs = {c: _run(vehicle, stiff, "ltv_lqr_c", "pi_c", compiled=c, progress=reports[c].append) for c in reports}
+    assert runs[True].loop == "c" and sample_splits(stiff) > 1
+    for name in runs[False].log:
+        if name != "solve_time_s":
+            np.testing.assert_array_equal(runs[False].log[name], runs[True].log[name], err_msg=name)
+    done = reports[True]
+    assert done[-1] == 1.0 and done == sorted(done) and len(done) >= runs[True].n_samples * 0.04 - 1
 
 
 @needs_cc

@@ -107,6 +107,8 @@ _WHEEL_STEP = ctypes.CFUNCTYPE(ctypes.c_uint, ctypes.c_void_p, _Doubles, _Double
 _WHEELS_RAISED = 0xFFFFFFFF
 """The mask a wheel step in Python returns when the controller raised: the C loop stops."""
 _STOPPED_BY_PYTHON, _STOPPED_BY_PLANT = -1, -2
+_CHUNK_SUBSAMPLES = 1 << 16
+"""Sub-samples per call of the C loop at most (their statistics, 4 MiB, are merged after each call)."""
 
 
 @functools.cache
@@ -346,28 +348,33 @@ def run_compiled(
     splits, rows = plant.splits, plan.longest + 1
     states = np.zeros((rows, len(STATE_NAMES)))
     states[0] = plant.state
-    aux, stats = np.zeros((rows, len(AUX_NAMES))), np.zeros((rows * splits, len(STATS_NAMES)))
+    aux, merged = np.zeros((rows, len(AUX_NAMES))), np.zeros((rows, len(STATS_NAMES)))
     control, pending, n = np.zeros((rows, len(_CONTROL))), np.zeros(2), ctypes.c_long(plan.samples)
     raised: list[BaseException] = []
     loop = _loop(parts, plant, plan, raised)
-    every = rows if progress is None else max(1, int(round(1.0 / plant.sample_period_s)))
+    # the sub-samples' statistics of one call at a time, merged after it: memory bounded whatever the splits
+    every = min(rows, max(1, _CHUNK_SUBSAMPLES // splits))
+    if progress is not None:
+        every = min(every, max(1, int(round(1.0 / plant.sample_period_s))))
+    stats = np.zeros((every * splits, len(STATS_NAMES)))
     arrays = [ctypes.addressof(n), *(_address(a) for a in (states, aux, stats, control, pending))]
     run, k = _loop_function(), 0
     t0 = time.perf_counter()
     while k <= n.value:
+        k_from = k
         k = run(ctypes.addressof(loop), k, k + every, *arrays)
         if k == _STOPPED_BY_PYTHON:
             raise raised[0]
         if k == _STOPPED_BY_PLANT:
             raise RuntimeError("the plant's compiled step failed in the compiled closed loop")
+        integrated = min(k, n.value) - k_from  # the last sample, n, is not integrated
+        merged[k_from : k_from + integrated] = merge_stats(stats[: integrated * splits], splits)
         if progress is not None:
             progress(min(k, n.value) / max(n.value, 1))
     wall = time.perf_counter() - t0
     n_samples = n.value
     da = control[:, 4:6]
-    angles = plant.append(
-        da[:n_samples], states[: n_samples + 1], aux[:n_samples], merge_stats(stats[: n_samples * splits], splits)
-    )
+    angles = plant.append(da[:n_samples], states[: n_samples + 1], aux[:n_samples], merged[:n_samples])
     plant.finish(da[n_samples])
     control = control[: n_samples + 1]
     if parts.pose is not None and parts.pose.stepped is not None:
