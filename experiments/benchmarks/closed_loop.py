@@ -10,7 +10,9 @@ The MPC talks to OSQP through its public interface (``OSQP.update``, ``OSQP.solv
 runs with the MPC's solver calls sent straight to osqp's compiled solver object (``OSQP._solver``, a private
 attribute of osqp 1.x), which skips the public wrapper's argument handling and result namespace; the ratio says
 what the public interface costs. A third runs the MPC on OSQP's C generated for its QP (``qp_solver = "osqp_c"``,
-through ctypes): the same commands, and the ratio of its loop's wall time to the first's.
+through ctypes): the same commands, and the ratio of its loop's wall time to the first's. A fourth runs the first's
+loop in Python (``run_closed_loop(compiled=False)``) where the others run in C (:mod:`agvctl.sim.compiled_loop`, the
+MPC and the PI loops called back from it): the same log, and the ratio of the two wall times.
 
 Run:  python experiments/benchmarks/closed_loop.py [--repeat 5]
 """
@@ -75,7 +77,7 @@ def main() -> int:
     settle = 60.0 - reference.duration_s
     gains, tau = default_pi_gains(vehicle)
 
-    def once(pose: PoseController) -> tuple[float, dict[str, float]]:
+    def once(pose: PoseController, compiled: bool = True) -> tuple[float, dict[str, float]]:
         result = run_closed_loop(
             plant_vehicle=vehicle,
             controller_vehicle=vehicle,
@@ -83,6 +85,7 @@ def main() -> int:
             pose_controller=pose,
             wheel_controller=PIWheelController(vehicle, gains),
             settle_s=settle,
+            compiled=compiled,
         )
         return result.wall_time_s, closed_loop_metrics(result)
 
@@ -93,11 +96,12 @@ def main() -> int:
     once(mpc)  # warm-up: the compiled plant and OSQP set up once
     once(peer)
     once(generated)
-    runs, peer_runs, generated_runs = [], [], []
+    runs, peer_runs, generated_runs, python_runs = [], [], [], []
     for _ in range(args.repeat):  # interleaved, so that all see the same machine
         runs.append(once(mpc))
         peer_runs.append(once(peer))
         generated_runs.append(once(generated))
+        python_runs.append(once(mpc, compiled=False))
     peer_p50 = statistics.median(m["solve_time_p50_ms"] for _, m in peer_runs)
     walls = [w for w, _ in runs]
     p50 = statistics.median(m["solve_time_p50_ms"] for _, m in runs)
@@ -124,6 +128,11 @@ def main() -> int:
     print(
         f"  the same, its QP solved by generated C     wall {generated_wall:.3f} s, MPC step median "
         f"{generated_p50:.3f} ms (wall ratio to OSQP in Python {generated_wall / wall:.2f})"
+    )
+    python_wall = statistics.median(w for w, _ in python_runs)
+    print(
+        f"  the same, the loop in Python               wall {python_wall:.3f} s (the loop in C, the MPC and the PI "
+        f"loops called back from it, takes {wall / python_wall:.2f} of it)"
     )
     print(
         f"  tracking                                   rms {m0['tracking_error_rms_m'] * 1e3:.2f} mm   "
