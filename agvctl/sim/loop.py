@@ -325,10 +325,10 @@ def run_closed_loop(
     parts = (plant, Sensors(plant_vehicle, seed=sensor_seed), estimator, speeds, pose_controller, wheel_controller)
     setup = time.perf_counter() - t_setup
     delay, rims = _Delay(compute_delay), _rim_per_motor(controller_vehicle)
-    rows, failures, n, wall = _run_in_c_or_python(parts, delay, rims, length, progress, compiled)
+    rows, failures, n, wall, where = _run_in_c_or_python(parts, delay, rims, length, progress, compiled)
     ref, payload = reference.sample(np.arange(n + 1) * ts), payload or PayloadAccelerometer()
     log = _closed_loop_log(plant.log(), rows, ref, _rim_per_motor(plant_vehicle), reference, payload, ts)
-    return ClosedLoopResult(log, reference, wall, setup, failures, n, ts, "python" if isinstance(rows, list) else "c")
+    return ClosedLoopResult(log, reference, wall, setup, failures, n, ts, where)
 
 
 def _start_pose(reference: Reference, pose: tuple[float, float, float] | None) -> tuple[float, float, float]:
@@ -349,19 +349,19 @@ def _run_in_c_or_python(
     length: _RunLength,
     progress: Callable[[float], None] | None,
     compiled: bool,
-) -> tuple[list[_ControlRow] | NDArray[np.float64], int, int, float]:
+) -> tuple[list[_ControlRow] | NDArray[np.float64], int, int, float, Literal["c", "python"]]:
     """The loop in C where it can run there (and ``compiled``: the pose and the motor speeds the truth, the plant
     compiled; each controller's compiled step, or a call into Python), else in Python: (the control rows recorded,
-    the solver failures, the run's length in samples, the wall time of the loop in s)."""
+    the solver failures, the run's length in samples, the wall time of the loop in s, where it ran)."""
     plant, sensors, estimator, speeds, pose_controller, wheel_controller = parts
     in_c = compiled_parts(plant, estimator, speeds, pose_controller, wheel_controller) if compiled else None
     if in_c is None:
-        return _run(*parts, delay, rim_per_motor, length, progress)
+        return (*_run(*parts, delay, rim_per_motor, length, progress), "python")
     one_sample = delay.kind == "one_sample"
     plan = LoopPlan(
         pose_controller, wheel_controller, rim_per_motor, length.samples, length.longest, length.after, one_sample
     )
-    return run_compiled(in_c, plant, sensors, plan, progress)
+    return (*run_compiled(in_c, plant, sensors, plan, progress), "c")
 
 
 def _run(

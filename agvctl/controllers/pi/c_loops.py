@@ -249,10 +249,13 @@ def static_memory(code: WheelLoopsC) -> StaticMemory:
     AgvctlError
         No C compiler, or the generated code does not compile.
     """
-    lib = compile_wheel_loops(code)
+    return _memory_of(compile_wheel_loops(code), code.prefix)
+
+
+def _memory_of(lib: ctypes.CDLL, prefix: str) -> StaticMemory:
+    """The sizes a loaded library of the loops reports."""
     return StaticMemory(
-        int(_size_function(lib, f"{code.prefix}_state_size")()),
-        int(_size_function(lib, f"{code.prefix}_constant_size")()),
+        int(_size_function(lib, f"{prefix}_state_size")()), int(_size_function(lib, f"{prefix}_constant_size")())
     )
 
 
@@ -300,7 +303,7 @@ class CompiledPIWheelController:
         self._init.restype = None
         self._step = getattr(lib, f"{prefix}_step")
         self._step.restype = ctypes.c_uint
-        self.memory = static_memory(self.code)
+        self.memory = _memory_of(lib, prefix)
         """The C state's and constants' sizes."""
         self._state = (ctypes.c_double * -(-self.memory.state_bytes // 8))()  # caller-owned, double-aligned
         self._setpoint = (ctypes.c_double * 2)()
