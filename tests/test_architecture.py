@@ -118,3 +118,17 @@ def test_only_the_mpc_strategies_ask_which_prediction_model_or_error_frame_is_in
                 if "prediction_model" in names or "error_frame" in names:
                     asks.append(f"{path.name}:{node.lineno}")
     assert not asks, asks
+
+
+def test_a_worker_of_the_gate_imports_neither_python_control_nor_matplotlib() -> None:
+    """Every worker of ``check``, ``fuzz`` and ``tune`` imports the run's code as it starts; python-control (which
+    imports matplotlib's pyplot) is for design and analysis only, so a worker starts without them."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, agvctl.fuzz.run, agvctl.checks.runner, agvctl.cli; "
+        "print(sorted(m for m in ('control', 'matplotlib', 'optuna', 'dask') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=PACKAGE.parent)
+    assert out.stdout.strip() == "[]", out.stdout + out.stderr

@@ -10,6 +10,7 @@ oversubscribe the machine.
 from __future__ import annotations
 
 import contextlib
+import importlib
 import multiprocessing
 import numbers
 import os
@@ -101,16 +102,22 @@ def _sigint_blocked() -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def _process_pool(jobs: int) -> Iterator[Executor]:
+def _process_pool(jobs: int, prepare: str | None) -> Iterator[Executor]:
     """``jobs`` spawned worker processes that never see SIGINT, terminated at once when the block is left by an
-    exception or an interrupt (a run in progress is abandoned) and shut down otherwise."""
+    exception or an interrupt (a run in progress is abandoned) and shut down otherwise. With ``prepare``, they
+    start at once and import that module, rather than at the first submission."""
     # one thread per worker for the numerical libraries (as Dask does for its workers): with N workers on N cores
     # their own thread pools would oversubscribe the machine several times over
     saved = {k: os.environ.get(k) for k in _THREAD_VARS}
     os.environ.update({k: "1" for k, v in saved.items() if v is None})
     try:
         with _sigint_blocked():
-            pool = ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"))
+            spawn = multiprocessing.get_context("spawn")
+            if prepare is None:
+                pool = ProcessPoolExecutor(max_workers=jobs, mp_context=spawn)
+            else:
+                pool = ProcessPoolExecutor(jobs, spawn, initializer=importlib.import_module, initargs=(prepare,))
+                pool.submit(int)  # the first submission starts every worker
         try:
             yield pool
         except BaseException:
@@ -126,7 +133,9 @@ def _process_pool(jobs: int) -> Iterator[Executor]:
 
 
 @contextlib.contextmanager
-def open_executor(kind: ExecutorKind, jobs: int, scheduler: str | None, n_tasks: int) -> Iterator[Executor]:
+def open_executor(
+    kind: ExecutorKind, jobs: int, scheduler: str | None, n_tasks: int, *, prepare: str | None = None
+) -> Iterator[Executor]:
     """The executor the runs go to, shut down (its workers and any cluster of ours stopped) on leaving.
 
     An interrupt (SIGINT) reaches only this process; local workers are stopped with it.
@@ -143,6 +152,10 @@ def open_executor(kind: ExecutorKind, jobs: int, scheduler: str | None, n_tasks:
         The Dask scheduler's address; None with ``"dask"``: a local cluster of ``jobs`` worker processes.
     n_tasks : int
         How many runs will be submitted (one runs in this process).
+    prepare : str or None
+        A module local workers import as they start (the one that holds the run function). With it, the workers
+        start when the executor opens, so their start-up overlaps what this process does before its first
+        submission (drawing scenarios, loading files); without it, at the first submission.
 
     Yields
     ------
@@ -171,7 +184,7 @@ def open_executor(kind: ExecutorKind, jobs: int, scheduler: str | None, n_tasks:
         with InlineExecutor() as inline:
             yield inline
         return
-    with _process_pool(jobs) as pool:
+    with _process_pool(jobs, prepare) as pool:
         yield pool
 
 

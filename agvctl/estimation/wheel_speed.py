@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import math
 
-import control
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
@@ -124,6 +123,8 @@ class KalmanWheelSpeed:
     """
 
     def __init__(self, vehicle: VehicleParams) -> None:
+        import control
+
         ts = vehicle.control.sample_period_s
         self.count_rad = 2.0 * math.pi / vehicle.sensors.encoder_counts_per_rev
         self._actuator = Actuator(vehicle)

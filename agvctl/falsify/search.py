@@ -417,7 +417,7 @@ def _search(t0: float, spec: FuzzSpec, stop_at_first: bool, options: dict[str, A
     def after(start: int) -> Callable[[int, int], None]:
         return lambda done, _total: tick(start + done)
 
-    with open_executor(executor, jobs, scheduler, max(batch, 2)) as pool:
+    with open_executor(executor, jobs, scheduler, max(batch, 2), prepare=run_fuzz_tasks.__module__) as pool:
         while more():
             n = batch if budget_runs is None else min(batch, budget_runs - len(runs))
             asked = _propose(optuna, study, spec, vehicle, sampler, seed, len(runs), n, requirement)

@@ -6,12 +6,13 @@ All nonlinear terms and the cross-coupling dropped; each motor sees the equivale
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
-import control
+from typing import TYPE_CHECKING, NamedTuple
 
 from agvctl.errors import expect_instance
 from agvctl.params import VehicleParams
+
+if TYPE_CHECKING:
+    import control
 
 __all__ = ["DecoupledModels", "decoupled_wheel_models"]
 
@@ -44,6 +45,8 @@ def decoupled_wheel_models(vehicle: VehicleParams) -> DecoupledModels:
     DecoupledModels
         ``(left, right)``: each a ``control.TransferFunction`` from motor voltage (V) to motor speed (rad/s).
     """
+    import control
+
     expect_instance(vehicle, VehicleParams, "decoupled_wheel_models", "vehicle")
     d = vehicle.derived
     out = []

@@ -7,11 +7,15 @@ inertia (k_ll, k_rr, k_lr of eqs 47-49) kept. States and outputs are the motor s
 
 from __future__ import annotations
 
-import control
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from agvctl.errors import expect_instance
 from agvctl.params import VehicleParams
+
+if TYPE_CHECKING:
+    import control
 
 __all__ = ["linear_model", "linear_model_speed_yaw_rate", "linear_model_matrices"]
 
@@ -59,6 +63,8 @@ def linear_model(vehicle: VehicleParams) -> control.StateSpace:
         Inputs ``voltage_left_v``, ``voltage_right_v`` (V); states and outputs ``omega_motor_left_rad_s``,
         ``omega_motor_right_rad_s``.
     """
+    import control
+
     expect_instance(vehicle, VehicleParams, "linear_model", "vehicle")
     A, B = linear_model_matrices(vehicle)
     return control.ss(
@@ -80,6 +86,8 @@ def linear_model_speed_yaw_rate(vehicle: VehicleParams) -> control.StateSpace:
         Inputs ``voltage_left_v``, ``voltage_right_v`` (V); states the motor speeds (rad/s); outputs
         ``speed_m_s`` (m/s) and ``yaw_rate_rad_s`` (rad/s).
     """
+    import control
+
     A, B = linear_model_matrices(vehicle)
     r_l, r_r, b = vehicle.wheels.left.radius_m, vehicle.wheels.right.radius_m, vehicle.wheels.separation_m
     n_l, n_r = vehicle.motor.left.gear_ratio, vehicle.motor.right.gear_ratio

@@ -330,7 +330,7 @@ def tune_pose(
     if not study.trials and len(defaults) == len(space.params):
         study.enqueue_trial(defaults)
     tick = _Ticker(todo * spec.scenarios + 2 * validation_scenarios, progress)
-    with open_executor(executor, jobs, scheduler, max(tick.total, 2)) as pool:
+    with open_executor(executor, jobs, scheduler, max(tick.total, 2), prepare=run_fuzz_tasks.__module__) as pool:
         if todo:
             study.optimize(_objective(optuna, training, space, weights, pool, tick), n_trials=todo)
         best_values = dict(study.best_trial.params)

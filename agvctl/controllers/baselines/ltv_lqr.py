@@ -30,7 +30,6 @@ import functools
 import math
 from dataclasses import dataclass
 
-import control
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
@@ -132,6 +131,8 @@ def unicycle_lqr_gain(speed_m_s: float, sample_period_s: float, config: LtvLqrCo
     ndarray
         K, 2 × 3: from the error (e_x in m, e_y in m, e_θ in rad) to the correction (δv in m/s, δω in rad/s).
     """
+    import control
+
     a_d, b_d = unicycle_error_model(speed_m_s, sample_period_s)
     q = np.diag(1.0 / np.array([config.tolerance_x_m, config.tolerance_y_m, config.tolerance_heading_rad]) ** 2)
     r = np.diag(1.0 / np.array([config.effort_speed_m_s, config.effort_yaw_rate_rad_s]) ** 2)

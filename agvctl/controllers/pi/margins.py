@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import control
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
@@ -34,6 +34,9 @@ from agvctl.config import document_fields
 from agvctl.controllers.pi.options import PIGains
 from agvctl.params import VehicleParams
 from agvctl.plant.decoupled import decoupled_wheel_models
+
+if TYPE_CHECKING:
+    import control
 
 __all__ = [
     "GRID_POINTS",
@@ -99,6 +102,8 @@ def sampled_wheel_models(vehicle: VehicleParams) -> tuple[control.TransferFuncti
     tuple of control.TransferFunction
         (left, right), discrete at the sample period: motor voltage (V) to motor speed (rad/s).
     """
+    import control
+
     ts = vehicle.control.sample_period_s
     models = decoupled_wheel_models(vehicle)
     return (
@@ -120,6 +125,8 @@ def tf_polynomials(tf: control.TransferFunction) -> tuple[NDArray[np.float64], N
     num, den : ndarray
         Their coefficients, in descending powers of s or z.
     """
+    import control
+
     num, den = control.tfdata(tf)
     return np.atleast_1d(np.asarray(num[0][0], dtype=float)), np.atleast_1d(np.asarray(den[0][0], dtype=float))
 

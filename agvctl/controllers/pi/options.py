@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass
-
-import control
+from typing import TYPE_CHECKING
 
 from agvctl.config import check_fields, document_fields, number
 from agvctl.errors import expect_instance
 from agvctl.planning.spec import BodyLimits
+
+if TYPE_CHECKING:
+    import control
 
 __all__ = ["FEEDFORWARD_RAMP_RAD_S", "Braking", "PIGains", "WheelLoopOptions", "braking_for"]
 
@@ -52,6 +54,8 @@ class PIGains:
 
     def transfer_function(self) -> control.TransferFunction:
         """C(z) as a discrete python-control transfer function with ``dt = dt_s``."""
+        import control
+
         return control.tf(
             list(self.num), list(self.den), self.dt_s, inputs="speed_error_rad_s", outputs="motor_voltage_v"
         )

@@ -17,9 +17,8 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
-import control
 import numpy as np
 from scipy.optimize import brentq
 
@@ -37,6 +36,9 @@ from agvctl.controllers.pi.margins import (
 from agvctl.controllers.pi.options import PIGains
 from agvctl.errors import ConfigError, expect_instance
 from agvctl.params import VehicleParams
+
+if TYPE_CHECKING:
+    import control
 
 __all__ = [  # the loop's analysis is agvctl.controllers.pi.margins's, and still importable from here
     "LoopMargins",
@@ -113,6 +115,8 @@ class TuningResult:
 
     def loop(self, side: str = "left") -> control.TransferFunction:
         """The open loop L(z) = C(z) k_chain G_zoh(z) of one wheel as a python-control transfer function."""
+        import control
+
         num, den = loop_polynomials(
             self.gains, self.plant_left if side == "left" else self.plant_right, self.chain_gain
         )
@@ -337,6 +341,8 @@ def closed_loop_time_constant_s(vehicle: VehicleParams, gains: PIGains, horizon_
     float
         τ of the slower wheel, s.
     """
+    import control
+
     ts = gains.dt_s
     n = max(3, int(round(horizon_s / ts)))
     k = np.arange(n)
