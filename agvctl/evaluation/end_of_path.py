@@ -185,7 +185,7 @@ def rest_current_a(log: SimLog, sample_period_s: float) -> NDArray[np.float64]:
         rest &= np.abs(np.asarray(log[f"wheel_speed_{side}_m_s"])) < REST_SPEED_M_S
     current = 0.5 * (np.abs(np.asarray(log["current_left_a"])) + np.abs(np.asarray(log["current_right_a"])))
     count = np.concatenate(([0], np.cumsum(rest)))
-    whole = (count[n:] - count[:-n]) == n
-    medians = np.median(np.lib.stride_tricks.sliding_window_view(current, n), axis=1)
-    out[n - 1 :] = np.where(whole, medians, 0.0)
+    whole = np.flatnonzero((count[n:] - count[:-n]) == n)  # the windows at rest, by their first sample
+    if whole.size:
+        out[n - 1 + whole] = np.median(np.lib.stride_tricks.sliding_window_view(current, n)[whole], axis=1)
     return out

@@ -47,6 +47,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from agvctl.config import document_fields
+from agvctl.planning.geometry import segment_distances
 from agvctl.planning.reference import Reference
 
 __all__ = ["PATH_LOG_COLUMNS", "PathErrors", "ReferencePath", "path_error_columns", "path_errors"]
@@ -61,6 +62,8 @@ curve through its waypoints, before the planner smooths its joins), per sample."
 
 _BRANCH_SPAN = 8.0
 """Candidates within this many vertex spacings of travel from the chosen one are on its branch."""
+_ROWS = 64
+"""Samples evaluated together: their (rows × 3·neighbours) work arrays fit the processor's cache."""
 
 
 def _wrap(angle_rad: FloatArray) -> FloatArray:
@@ -163,11 +166,35 @@ class ReferencePath:
             d = np.hypot(px - self.x_m[0], py - self.y_m[0])
             heading = self._vertex_heading_error(th, np.zeros(len(th), dtype=np.int64))
             return PathErrors(d, s_ref - self.s_m[0], heading, zero + self.s_m[0])
-        dist, seg, u = self._candidates(px, py, s_ref, neighbours)
+        k = min(max(1, neighbours), len(self))
+        _, idx = self.tree.query(np.column_stack([px, py]), k=k)
+        idx = np.asarray(idx, dtype=np.int64).reshape(len(px), k)
+        travel_ref = np.interp(t, self._clock_t_s, self._clock_travel_m)
+        d_min, s_star, heading = (np.empty(len(px)) for _ in range(3))
+        for start in range(0, len(px), _ROWS):  # rows are independent; a block's work arrays stay in the cache
+            at = slice(start, start + _ROWS)
+            d_min[at], s_star[at], heading[at] = self._nearest(
+                px[at], py[at], th[at], s_ref[at], travel_ref[at], idx[at], branch_weight, turn_zone_m
+            )
+        return PathErrors(d_min, s_ref - s_star, heading, s_star)
+
+    def _nearest(
+        self,
+        px: FloatArray,
+        py: FloatArray,
+        th: FloatArray,
+        s_ref: FloatArray,
+        travel_ref: FloatArray,
+        idx: NDArray[np.int64],
+        branch_weight: float,
+        turn_zone_m: float,
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The distance to the path, the arc length s* of the nearest point of the branch and the heading error
+        there, of samples whose nearest vertices are ``idx``."""
+        dist, seg, u = self._candidates(px, py, s_ref, idx)
         rows = np.arange(len(px))
         s_c = self.s_m[seg] + u * (self.s_m[seg + 1] - self.s_m[seg])
         travel_c = s_c + (self.travel_leave_m[seg] - self.s_m[seg])
-        travel_ref = np.interp(t, self._clock_t_s, self._clock_travel_m)
         d_min = np.min(dist, axis=1)
         # the branch (a stretch of travel) nearest with a preference for the clock's, then its nearest point
         seed = np.argmin(dist + branch_weight * np.abs(travel_c - travel_ref[:, None]), axis=1)
@@ -178,7 +205,7 @@ class ReferencePath:
         j, uj = seg[rows, pick], u[rows, pick]
         reach = np.maximum(2.0 * dist[rows, pick] + self.spacing_m, turn_zone_m)
         heading = self._near_turns(px, py, th, s_ref, reach, self._heading_error(th, j, uj))
-        return PathErrors(d_min, s_ref - s_c[rows, pick], heading, s_c[rows, pick])
+        return d_min, s_c[rows, pick], heading
 
     def _near_turns(
         self,
@@ -204,22 +231,16 @@ class ReferencePath:
         return np.asarray(np.where(np.abs(best) < np.abs(heading), best, heading), dtype=np.float64)
 
     def _candidates(
-        self, px: FloatArray, py: FloatArray, s_ref: FloatArray, neighbours: int
+        self, px: FloatArray, py: FloatArray, s_ref: FloatArray, idx: NDArray[np.int64]
     ) -> tuple[FloatArray, NDArray[np.int64], FloatArray]:
         """(distance, segment index, projection parameter u ∈ [0, 1]) onto the candidate segments of each
-        sample, shape (samples, 3·neighbours): those next to its ``neighbours`` nearest vertices (the global
-        nearest point) and the ``neighbours`` around the time-indexed reference point (its branch, where the
-        path overlaps itself)."""
-        k = min(max(1, neighbours), len(self))
-        _, idx = self.tree.query(np.column_stack([px, py]), k=k)
-        idx = np.asarray(idx, dtype=np.int64).reshape(len(px), k)
+        sample, shape (samples, 3·k): those next to its k nearest vertices ``idx`` (the global nearest point) and
+        the k around the time-indexed reference point (its branch, where the path overlaps itself)."""
+        k = idx.shape[1]
         at_clock = np.searchsorted(self.s_m, s_ref)[:, None] + np.arange(-(k // 2), k - k // 2)
         seg = np.clip(np.concatenate([idx - 1, idx, at_clock], axis=1), 0, len(self) - 2)
-        ax, ay = self.x_m[seg], self.y_m[seg]
-        bx, by = self.x_m[seg + 1] - ax, self.y_m[seg + 1] - ay
-        rx, ry = px[:, None] - ax, py[:, None] - ay
-        u = np.clip((rx * bx + ry * by) / np.maximum(bx * bx + by * by, 1e-300), 0.0, 1.0)
-        return np.hypot(rx - u * bx, ry - u * by), seg, u
+        dist, u = segment_distances(px, py, self.x_m, self.y_m, seg)
+        return dist, seg, u
 
     def _heading_error(self, theta: FloatArray, seg: NDArray[np.int64], u: FloatArray) -> FloatArray:
         """θ against the path heading at parameter u of segment seg; at a vertex, against its heading range."""

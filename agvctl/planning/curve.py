@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 from agvctl.config import document_fields
 from agvctl.planning.geometry import Pose
 
-__all__ = ["Curve", "CurveSamples", "polyval_rows"]
+__all__ = ["Curve", "CurveSamples", "curvature_bounds", "polyval_rows"]
 
 FloatArray = NDArray[np.float64]
 
@@ -78,6 +78,42 @@ def _integral(coeffs: FloatArray) -> FloatArray:
     return out
 
 
+def curvature_bounds(lengths_m: FloatArray, curvature_coeffs: FloatArray) -> FloatArray:
+    """Upper bounds of the magnitudes of κ, dκ/ds and d²κ/ds² on each piece of polynomial curvature, from its
+    coefficients alone.
+
+    Each is the largest of 65 samples plus δ²/8 times the largest sample of its second derivative (δ the spacing):
+    between two samples a smooth f exceeds the larger by at most δ²/8 times the largest magnitude of f''.
+
+    Parameters
+    ----------
+    lengths_m : ndarray
+        The pieces' lengths, m.
+    curvature_coeffs : ndarray
+        Ascending coefficients of κ(σ) on each piece, one row per piece (1/m, 1/m², …).
+
+    Returns
+    -------
+    ndarray
+        (pieces, 3): the bounds of the magnitudes of κ (1/m), dκ/ds (1/m²) and d²κ/ds² (1/m³).
+    """
+    k = np.atleast_2d(np.asarray(curvature_coeffs, dtype=float))
+    dk = _derivative(k)
+    ddk = _derivative(dk)
+    d3k = _derivative(ddk)
+    d4k = _derivative(d3k)
+    u = np.linspace(0.0, 1.0, _BOUND_SAMPLES)
+    sigma = lengths_m[:, None] * u[None, :]
+    slack = (lengths_m / (_BOUND_SAMPLES - 1)) ** 2 / 8.0
+
+    def peak(c: FloatArray) -> FloatArray:
+        out: FloatArray = np.max(np.abs(polyval_rows(c[:, None, :], sigma)), axis=1)
+        return out
+
+    pairs = ((k, ddk), (dk, d3k), (ddk, d4k))
+    return np.column_stack([peak(f) + slack * peak(f2) for f, f2 in pairs])
+
+
 @document_fields
 @dataclass(frozen=True, eq=False)
 class CurveSamples:
@@ -130,8 +166,6 @@ class Curve:
         self._k = c
         self._dk = _derivative(c)
         self._ddk = _derivative(self._dk)
-        self._d3k = _derivative(self._ddk)
-        self._d4k = _derivative(self._d3k)
         self._th = _integral(c)
         self._const = np.all(c[:, 1:] == 0, axis=1)
         # each piece starts where the previous one ends: its displacement, turned by its start heading
@@ -203,18 +237,5 @@ class Curve:
         return Pose(float(e.x_m[0]), float(e.y_m[0]), float(e.theta_rad[0]))
 
     def piece_bounds(self) -> FloatArray:
-        """(pieces, 3): upper bounds of |κ|, |dκ/ds| and |d²κ/ds²| on each piece.
-
-        Each is the largest of 65 samples plus δ²/8 times the largest sample of its second derivative (δ the
-        spacing): between two samples a smooth f exceeds the larger by at most δ²/8 · max |f''|.
-        """
-        u = np.linspace(0.0, 1.0, _BOUND_SAMPLES)
-        sigma = self.lengths_m[:, None] * u[None, :]
-        slack = (self.lengths_m / (_BOUND_SAMPLES - 1)) ** 2 / 8.0
-
-        def peak(c: FloatArray) -> FloatArray:
-            out: FloatArray = np.max(np.abs(polyval_rows(c[:, None, :], sigma)), axis=1)
-            return out
-
-        pairs = ((self._k, self._ddk), (self._dk, self._d3k), (self._ddk, self._d4k))
-        return np.column_stack([peak(f) + slack * peak(f2) for f, f2 in pairs])
+        """(pieces, 3): upper bounds of |κ|, |dκ/ds| and |d²κ/ds²| on each piece (:func:`curvature_bounds`)."""
+        return curvature_bounds(self.lengths_m, self._k)

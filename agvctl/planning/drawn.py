@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from agvctl.planning.geometry import Pose, advance, segment_end_pose, segment_kinematics
+from agvctl.planning.geometry import Pose, advance, segment_distances, segment_end_pose, segment_kinematics
 from agvctl.planning.spec import Segment
 
 __all__ = ["CHORD_ERROR_M", "SPACING_M", "DrawnPath", "arc_points", "piece_distance_m"]
@@ -204,9 +204,5 @@ class DrawnPath:
         _, idx = self._tree.query(np.column_stack([px[ok], py[ok]]), k=k)
         idx = np.asarray(idx, dtype=np.int64).reshape(-1, k)
         seg = np.clip(np.concatenate([idx - 1, idx], axis=1), 0, len(self) - 2)
-        ax, ay = self.x_m[seg], self.y_m[seg]
-        bx, by = self.x_m[seg + 1] - ax, self.y_m[seg + 1] - ay
-        rx, ry = px[ok][:, None] - ax, py[ok][:, None] - ay
-        u = np.clip((rx * bx + ry * by) / np.maximum(bx * bx + by * by, 1e-300), 0.0, 1.0)
-        out[ok] = np.min(np.hypot(rx - u * bx, ry - u * by), axis=1)
+        out[ok] = np.min(segment_distances(px[ok], py[ok], self.x_m, self.y_m, seg)[0], axis=1)
         return out

@@ -33,7 +33,7 @@ import numpy as np
 from numpy.polynomial import polynomial as P
 from numpy.typing import NDArray
 
-from agvctl.planning.curve import DEGREE, Curve
+from agvctl.planning.curve import DEGREE, Curve, curvature_bounds
 from agvctl.planning.drawn import piece_distance_m
 from agvctl.planning.geometry import Pose, advance
 from agvctl.planning.spec import WheelLimits
@@ -141,11 +141,9 @@ class JoinWindow:
     def __init__(self, k1: float, k2: float, length_m: float, p: FloatArray) -> None:
         self.length_m = length_m
         self.coeffs = _coeffs(k1, k2, length_m, p)
-        window = Curve(Pose(0.0, 0.0, 0.0), [length_m], self.coeffs[None, :])
-        k0, k1_max, k2_max = (float(b) for b in window.piece_bounds()[0])
+        k0, k1_max, k2_max = (float(b) for b in curvature_bounds(np.array([length_m]), self.coeffs[None, :])[0])
         self.bounds = (k0, k1_max, k2_max)
         """max |κ| (1/m), |dκ/ds| (1/m²), |d²κ/ds²| (1/m³) over the window."""
-        self._window = window
         self._corner = (k1, k2)
 
     @functools.cached_property
@@ -157,7 +155,8 @@ class JoinWindow:
         half = 0.5 * self.length_m
         origin = Pose(0.0, 0.0, 0.0)
         mid = advance(origin, displacement_m=half, curvature_1_m=k1)
-        w = self._window.evaluate(np.linspace(0.0, self.length_m, _DEVIATION_SAMPLES))
+        window = Curve(origin, [self.length_m], self.coeffs[None, :])
+        w = window.evaluate(np.linspace(0.0, self.length_m, _DEVIATION_SAMPLES))
         first = piece_distance_m(w.x_m, w.y_m, origin, half, k1)
         second = piece_distance_m(w.x_m, w.y_m, mid, half, k2)
         return float(np.max(np.minimum(first, second)))
