@@ -214,14 +214,18 @@ def _candidate(
 def _fastest_crossover(
     plants: tuple[control.TransferFunction, ...], chain: float, pm_design: float, ts: float, spec: TuningSpec
 ) -> float:
-    """The fastest crossover at which a PI meets ``spec`` on both wheels: a log-spaced scan, then Brent's method
-    between the last feasible point and the next. Raises :class:`ConfigError` when none does."""
+    """The fastest crossover at which a PI meets ``spec`` on both wheels: a log-spaced scan down from the Nyquist
+    frequency to the first feasible point, then Brent's method between it and the next. Raises
+    :class:`ConfigError` when none does."""
     w_nyq = math.pi / ts
     scan = np.geomspace(w_nyq * 1e-4, w_nyq * (1 - 1e-6), 160)
-    feasible = [
-        _candidate(plants, chain, float(wc), pm_design, ts, spec, _SEARCH_GRID_POINTS) is not None for wc in scan
-    ]
-    if not any(feasible):
+    feasible = (
+        i
+        for i in reversed(range(len(scan)))
+        if _candidate(plants, chain, float(scan[i]), pm_design, ts, spec, _SEARCH_GRID_POINTS) is not None
+    )
+    last = next(feasible, None)
+    if last is None:
         raise ConfigError(
             SPEC_SOURCE,
             "phase_margin_deg",
@@ -233,7 +237,6 @@ def _fastest_crossover(
     def excess(wc: float) -> float:
         return _spec_excess(plants, chain, wc, pm_design, ts, spec)
 
-    last = max(i for i, ok in enumerate(feasible) if ok)
     lo = float(scan[last])
     hi = float(scan[last + 1]) if last + 1 < len(scan) else w_nyq
     if not excess(hi) < 0:  # feasible (or undefined) up to the Nyquist frequency: the last scanned point
