@@ -28,6 +28,8 @@ OUT = Path(__file__).resolve().parent / "results.md"
 # TOPP-RA is the planning benchmark's optional peer (the bench extra): skipped when it is not installed.
 NO_TOPPRA = [] if importlib.util.find_spec("toppra") else ["--no-toppra"]
 
+_FUZZ_C = ["--controllers", "ramsete_c", "--wheel-loops", "pi_c", "--goal-s", "15", "--peer", "ramsete,pi"]
+
 # name: (script, quick arguments, full arguments, what it measures)
 BENCHMARKS: dict[str, tuple[str, list[str], list[str], str]] = {
     "plant": ("plant.py", ["--quick"], [], "The open-loop simulator against python-control, and a batch."),
@@ -43,6 +45,13 @@ BENCHMARKS: dict[str, tuple[str, list[str], list[str], str]] = {
     "estimation": ("estimation.py", ["--repeat", "2"], [], "EKF, Kalman wheel speeds, sensors, loop on estimates."),
     "shipped": ("shipped.py", [], [], "The shipped experiments, each run once as `agvctl run` runs it."),
     "fuzz": ("fuzz.py", ["--scenarios", "40"], [], "The scenario fuzzer on local worker processes."),
+    "fuzz_c": (
+        "fuzz.py",
+        _FUZZ_C,
+        _FUZZ_C,
+        "The scenario fuzzer with a compiled pose controller and wheel loops (the loop in C), against the same laws "
+        "in Python.",
+    ),
     "cascade_c": (
         "cascade_c.py",
         ["--repeat", "2"],
@@ -133,6 +142,8 @@ def main() -> int:
         kept[name] = run_one(name, args.full)
     sections = [kept[name] for name in BENCHMARKS if name in kept]
     mode = "each script's own settings" if args.full else "the quick settings of `regenerate.py` (fewer repeats)"
+    if args.only:  # sections kept from earlier runs may have been run with the other settings
+        mode = "the settings each section's command shows"
     header = (
         "# Benchmark results\n\n"
         "Written by `python docs/benchmarks/regenerate.py`; do not edit by hand. "

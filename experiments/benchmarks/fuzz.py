@@ -4,16 +4,17 @@ Runs ``experiments/fuzz/acceptance.toml`` (500 scenarios; by default only its fi
 controller, as the speed goal counts) through :func:`agvctl.fuzz.run.fuzz` with ``--jobs`` spawned worker
 processes, and prints the wall time, scenarios/s and runs/s, the simulated time per wall second, and where a run's
 time goes (the per-run wall time spent in the workers). Goal: the 500 scenarios in ≤ 4 min with 2 jobs on a
-2-core machine. With ``--qp-solver osqp_c`` (or ``osqp_c_float``), the LTV MPC's QP is solved by its generated C
-(``[controller] qp_solver``) in a second fuzz run of the same scenarios, and the ratio of the two wall times is
-printed (the first, with OSQP in Python, the peer).
+2-core machine (``--goal-s``: another, e.g. 15 s for the compiled laws below). With ``--qp-solver osqp_c`` (or
+``osqp_c_float``), the LTV MPC's QP is solved by its generated C (``[controller] qp_solver``) in a second fuzz run
+of the same scenarios, and the ratio of the two wall times is printed (the first, with OSQP in Python, the peer).
 
 With ``--controllers ramsete_c --wheel-loops pi_c`` (or ``ltv_lqr_c``) every part of each run has a compiled step
-and the closed loop runs in C (:mod:`agvctl.sim.compiled_loop`).
+and the closed loop runs in C (:mod:`agvctl.sim.compiled_loop`). ``--peer ramsete,pi`` also runs the same scenarios
+with that pose controller and those wheel loops (here the same laws in Python) and prints the ratio of the wall times.
 
 Run:  python experiments/benchmarks/fuzz.py [--jobs 2] [--scenarios 500] [--controllers mpc,ramsete]
                                             [--qp-solver osqp_c]  (with the LTV MPC, ``mpc``, alone)
-                                            [--wheel-loops pi_c]
+                                            [--wheel-loops pi_c] [--peer ramsete,pi]
 """
 
 from __future__ import annotations
@@ -39,6 +40,8 @@ def main() -> int:
     ap.add_argument("--controllers", default=None, help="comma-separated (default: the configuration's first)")
     ap.add_argument("--qp-solver", default=None, choices=("osqp_c", "osqp_c_float"), help="also with this solver")
     ap.add_argument("--wheel-loops", default=None, help='[controller] wheel_loops of every run (e.g. "pi_c")')
+    ap.add_argument("--goal-s", type=float, default=GOAL_S, help="the goal for 500 scenarios of one controller, s")
+    ap.add_argument("--peer", default=None, help='"POSE,WHEEL_LOOPS": the same scenarios with these, and the ratio')
     args = ap.parse_args()
 
     spec = load_fuzz_config(CONFIG)
@@ -71,11 +74,23 @@ def main() -> int:
     )
     for c, s in report.statistics().items():
         print(f"  {c:<16} {s['passed']} of {s['runs']} passed ({s['crashed']} crashed)")
-    goal = spec.scenarios / 500 * GOAL_S * len(spec.controllers)
+    goal = spec.scenarios / 500 * args.goal_s * len(spec.controllers)
     print(
         f"  goal             {spec.scenarios} scenarios × {len(spec.controllers)} in ≤ {goal:.0f} s: "
         f"{'met' if wall <= goal else 'NOT met'}"
     )
+    if args.peer:
+        pose, wheel_loops = args.peer.split(",")
+        peer = override_fuzz_config(spec, controllers=[pose])
+        peer = dataclasses.replace(peer, controller={**peer.controller, "wheel_loops": wheel_loops})
+        t1 = time.perf_counter()
+        peer_report = fuzz(peer, jobs=args.jobs)
+        peer_wall = time.perf_counter() - t1
+        passed = sum(s["passed"] for s in peer_report.statistics().values())
+        print(
+            f"peer {pose} with {wheel_loops}: wall time {peer_wall:.1f} s, {passed} of {len(peer_report.outcomes)} "
+            f"runs passed; ratio of this run to the peer {wall / peer_wall:.2f}"
+        )
     return 0
 
 
