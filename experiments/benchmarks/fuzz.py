@@ -27,10 +27,17 @@ import time
 from pathlib import Path
 
 from agvctl.fuzz.run import fuzz
-from agvctl.fuzz.spec import load_fuzz_config, override_fuzz_config
+from agvctl.fuzz.spec import FuzzSpec, load_fuzz_config, override_fuzz_config
 
 CONFIG = Path(__file__).resolve().parent.parent / "fuzz" / "acceptance.toml"
 GOAL_S = 240.0
+
+
+def _timed(spec: FuzzSpec, jobs: int) -> tuple[float, int]:
+    """The wall time of a fuzz of ``spec`` (s) and how many of its runs passed."""
+    t0 = time.perf_counter()
+    report = fuzz(spec, jobs=jobs)
+    return time.perf_counter() - t0, sum(s["passed"] for s in report.statistics().values())
 
 
 def main() -> int:
@@ -54,13 +61,10 @@ def main() -> int:
     wall = time.perf_counter() - t0
     if args.qp_solver:
         generated = dataclasses.replace(spec, controller={**spec.controller, "qp_solver": args.qp_solver})
-        t1 = time.perf_counter()
-        generated_report = fuzz(generated, jobs=args.jobs)
-        generated_wall = time.perf_counter() - t1
-        passed = sum(s["passed"] for s in generated_report.statistics().values())
+        generated_wall, passed = _timed(generated, args.jobs)
         print(
             f"with qp_solver = {args.qp_solver!r}: wall time {generated_wall:.1f} s, {passed} of "
-            f"{len(generated_report.outcomes)} runs passed; ratio to OSQP in Python {generated_wall / wall:.2f}"
+            f"{len(report.outcomes)} runs passed; ratio to OSQP in Python {generated_wall / wall:.2f}"
         )
     runs = len(report.outcomes)
     simulated = sum(o.simulated_s for o in report.outcomes)
@@ -82,14 +86,12 @@ def main() -> int:
     if args.peer:
         pose, wheel_loops = args.peer.split(",")
         peer = override_fuzz_config(spec, controllers=[pose])
-        peer = dataclasses.replace(peer, controller={**peer.controller, "wheel_loops": wheel_loops})
-        t1 = time.perf_counter()
-        peer_report = fuzz(peer, jobs=args.jobs)
-        peer_wall = time.perf_counter() - t1
-        passed = sum(s["passed"] for s in peer_report.statistics().values())
+        peer_wall, passed = _timed(
+            dataclasses.replace(peer, controller={**peer.controller, "wheel_loops": wheel_loops}), args.jobs
+        )
         print(
-            f"peer {pose} with {wheel_loops}: wall time {peer_wall:.1f} s, {passed} of {len(peer_report.outcomes)} "
-            f"runs passed; ratio of this run to the peer {wall / peer_wall:.2f}"
+            f"peer {pose} with {wheel_loops}: wall time {peer_wall:.1f} s, {passed} of {runs} runs passed; "
+            f"ratio of this run to the peer {wall / peer_wall:.2f}"
         )
     return 0
 
