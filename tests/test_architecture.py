@@ -121,13 +121,17 @@ def test_only_the_mpc_strategies_ask_which_prediction_model_or_error_frame_is_in
 
 
 def test_a_worker_of_the_gate_imports_neither_python_control_nor_matplotlib() -> None:
-    """Every worker of ``check``, ``fuzz`` and ``tune`` imports the run's code as it starts; python-control (which
-    imports matplotlib's pyplot) is for design and analysis only, so a worker starts without them."""
+    """Every worker of ``check``, ``fuzz`` and ``tune`` imports the run's code as it starts and designs the default
+    wheel loops at its first run; python-control (which imports matplotlib's pyplot) is for the linear models and
+    the tuning reports only, so a worker does neither with it."""
     import subprocess
     import sys
 
     code = (
         "import sys, agvctl.fuzz.run, agvctl.checks.runner, agvctl.cli; "
+        "from agvctl.params import load_vehicle; "
+        "from agvctl.controllers.pi.tuning import default_pi_gains; "
+        "default_pi_gains(load_vehicle(None)); "
         "print(sorted(m for m in ('control', 'matplotlib', 'optuna', 'dask') if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=PACKAGE.parent)

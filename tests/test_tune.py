@@ -197,3 +197,26 @@ def test_load_gains_is_strict(tmp_path, text, needle):
 
 def test_help():
     assert main(["tune", "--help"]) == 0
+
+
+@pytest.mark.parametrize("mass_kg", [None, 75.0, 140.0])
+def test_the_design_samples_the_wheel_models_as_python_control_does(vehicle, mass_kg):
+    """The design works on polynomials (so a run designs its loops without python-control); they are python-control's
+    ZOH-sampled models' coefficients, and the wheel loops' time constant fits python-control's step response."""
+    from agvctl.controllers.pi.margins import sampled_wheel_models, sampled_wheel_polynomials, tf_polynomials
+    from agvctl.controllers.pi.tuning import closed_loop_time_constant_s, loop_polynomials
+
+    v = vehicle if mass_kg is None else vehicle.with_overrides([("body.mass_kg", mass_kg)])
+    for (num, den), tf in zip(sampled_wheel_polynomials(v), sampled_wheel_models(v), strict=True):
+        tf_num, tf_den = tf_polynomials(tf)
+        assert np.array_equal(num, tf_num) and np.array_equal(den, tf_den)
+    gains = design_pi(v).gains
+    ts, n = gains.dt_s, 15
+    taus = []
+    for tf in sampled_wheel_models(v):
+        closed = control.feedback(control.tf(*loop_polynomials(gains, tf), ts), 1)
+        y = np.asarray(control.step_response(closed, np.arange(n) * ts).outputs, dtype=float).ravel()
+        poles = np.linspace(1e-3, 0.999, 999)
+        a = poles[int(np.argmin([np.sum((y - (1.0 - p ** np.arange(n))) ** 2) for p in poles]))]
+        taus.append(-ts / math.log(a))
+    assert closed_loop_time_constant_s(v, gains) == max(taus)

@@ -14,7 +14,7 @@ from agvctl.params import VehicleParams
 if TYPE_CHECKING:
     import control
 
-__all__ = ["DecoupledModels", "decoupled_wheel_models"]
+__all__ = ["DecoupledModels", "decoupled_wheel_coefficients", "decoupled_wheel_models"]
 
 
 class DecoupledModels(NamedTuple):
@@ -32,6 +32,30 @@ class DecoupledModels(NamedTuple):
     right: control.TransferFunction
 
 
+def decoupled_wheel_coefficients(vehicle: VehicleParams) -> tuple[tuple[list[float], list[float]], ...]:
+    """The coefficients of the per-wheel transfer functions of eqs 60-61, without python-control.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle whose equivalent inertia and damping (eqs 60-62) give each side's first-order model.
+
+    Returns
+    -------
+    tuple
+        ``((num, den), (num, den))`` of the left and the right motor, in descending powers of s: ``[k_t/R]`` and
+        ``[J̃, k_e k_t/R + f_m]``, from motor voltage (V) to motor speed (rad/s).
+    """
+    expect_instance(vehicle, VehicleParams, "decoupled_wheel_coefficients", "vehicle")
+    d = vehicle.derived
+    out = []
+    for side, consts in (("left", d.left), ("right", d.right)):
+        m = vehicle.motor.side(side)  # type: ignore[arg-type]
+        k_u = m.torque_constant_n_m_a / m.resistance_ohm
+        out.append(([k_u], [consts.inertia_equivalent_kg_m2, consts.damping_n_m_s_rad]))
+    return tuple(out)
+
+
 def decoupled_wheel_models(vehicle: VehicleParams) -> DecoupledModels:
     """The per-wheel transfer functions of eqs 60-61.
 
@@ -43,23 +67,20 @@ def decoupled_wheel_models(vehicle: VehicleParams) -> DecoupledModels:
     Returns
     -------
     DecoupledModels
-        ``(left, right)``: each a ``control.TransferFunction`` from motor voltage (V) to motor speed (rad/s).
+        ``(left, right)``: each a ``control.TransferFunction`` from motor voltage (V) to motor speed (rad/s), with
+        the coefficients of :func:`decoupled_wheel_coefficients`.
     """
     import control
 
     expect_instance(vehicle, VehicleParams, "decoupled_wheel_models", "vehicle")
-    d = vehicle.derived
-    out = []
-    for side, consts in (("left", d.left), ("right", d.right)):
-        m = vehicle.motor.side(side)  # type: ignore[arg-type]
-        k_u = m.torque_constant_n_m_a / m.resistance_ohm
-        out.append(
-            control.tf(
-                [k_u],
-                [consts.inertia_equivalent_kg_m2, consts.damping_n_m_s_rad],
-                inputs=f"voltage_{side}_v",
-                outputs=f"omega_motor_{side}_rad_s",
-                name=f"agv_wheel_{side}",
-            )
+    out = [
+        control.tf(
+            num,
+            den,
+            inputs=f"voltage_{side}_v",
+            outputs=f"omega_motor_{side}_rad_s",
+            name=f"agv_wheel_{side}",
         )
+        for side, (num, den) in zip(("left", "right"), decoupled_wheel_coefficients(vehicle), strict=True)
+    ]
     return DecoupledModels(*out)

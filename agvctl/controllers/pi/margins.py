@@ -5,7 +5,8 @@ The loop, broken at the controller's input::
     L(z) = C(z) · k_chain · G_zoh(z)
 
 * G_zoh(z): the decoupled model ω/u = (k_t/R)/(J̃ s + k_e k_t/R + f_m) (eqs 1, 60-61) sampled with a ZOH at
-  T_s (``control.sample_system(..., "zoh")``), K(1 − a)/(z − a) with a = exp(−T_s/τ_m);
+  T_s (``scipy.signal.cont2discrete``, which python-control's ``sample_system(..., "zoh")`` calls),
+  K(1 − a)/(z − a) with a = exp(−T_s/τ_m);
 * k_chain: the gain from the controller's output to the motor voltage. The controller outputs a motor
   voltage u_c, :class:`~agvctl.controllers.pi.wheel_loop.PIWheelController` sends the DA the voltage u_c/k_pow,
   the DA outputs that voltage (code·α = u_c/k_pow up to half a step: gain 1 V/V, quantisation neglected) and
@@ -28,12 +29,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
+from scipy.signal import cont2discrete
 
 from agvctl.actuator import Actuator
 from agvctl.config import document_fields
 from agvctl.controllers.pi.options import PIGains
 from agvctl.params import VehicleParams
-from agvctl.plant.decoupled import decoupled_wheel_models
+from agvctl.plant.decoupled import decoupled_wheel_coefficients, decoupled_wheel_models
 
 if TYPE_CHECKING:
     import control
@@ -45,9 +47,14 @@ __all__ = [
     "frequency_response",
     "loop_margins",
     "loop_polynomials",
+    "open_loop_polynomials",
     "sampled_wheel_models",
+    "sampled_wheel_polynomials",
     "tf_polynomials",
 ]
+
+Polynomials = tuple[NDArray[np.float64], NDArray[np.float64]]
+"""A transfer function's numerator and denominator, in descending powers of s or z."""
 
 GRID_POINTS = 20_000
 """Frequency points (linear in ω, up to π/T_s inclusive) for the final margins."""
@@ -112,6 +119,38 @@ def sampled_wheel_models(vehicle: VehicleParams) -> tuple[control.TransferFuncti
     )
 
 
+def sampled_wheel_polynomials(vehicle: VehicleParams) -> tuple[Polynomials, Polynomials]:
+    """The models of :func:`sampled_wheel_models` as polynomials, without python-control.
+
+    Each side's model of eqs 60-61 (:func:`~agvctl.plant.decoupled.decoupled_wheel_coefficients`) sampled with a
+    zero-order hold by ``scipy.signal.cont2discrete``, which python-control's ``sample_system`` calls: the same
+    coefficients as :func:`tf_polynomials` of :func:`sampled_wheel_models`. The PI design and the wheel loops'
+    time constant use these, so a run designs its wheel loops without importing python-control.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The vehicle: its equivalent inertias and damping, and its sample period.
+
+    Returns
+    -------
+    tuple
+        ``((num, den), (num, den))`` of the left and the right wheel, in descending powers of z: motor voltage (V)
+        to motor speed (rad/s).
+    """
+    ts = vehicle.control.sample_period_s
+    out = []
+    for num, den in decoupled_wheel_coefficients(vehicle):
+        num_z, den_z, _ = cont2discrete((num, den), ts, method="zoh")
+        out.append(
+            (
+                np.trim_zeros(np.atleast_1d(np.asarray(num_z[0], dtype=float)), "f"),
+                np.atleast_1d(np.asarray(den_z, dtype=float)),
+            )
+        )
+    return out[0], out[1]
+
+
 def tf_polynomials(tf: control.TransferFunction) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The numerator and denominator of a single-input, single-output transfer function.
 
@@ -150,7 +189,27 @@ def loop_polynomials(
     num, den : ndarray
         Their coefficients, in descending powers of z.
     """
-    g_num, g_den = tf_polynomials(plant_z)
+    return open_loop_polynomials(gains, tf_polynomials(plant_z), chain)
+
+
+def open_loop_polynomials(gains: PIGains, plant: Polynomials, chain: float = 1.0) -> Polynomials:
+    """:func:`loop_polynomials` of a plant given as its polynomials.
+
+    Parameters
+    ----------
+    gains : PIGains
+        The PI's gains, C(z).
+    plant : tuple of ndarray
+        G(z)'s numerator and denominator, in descending powers of z (:func:`sampled_wheel_polynomials`).
+    chain : float
+        The chain gain k_chain (:func:`chain_gain`), V/V.
+
+    Returns
+    -------
+    num, den : ndarray
+        L(z)'s coefficients, in descending powers of z.
+    """
+    g_num, g_den = plant
     num = np.asarray(chain * np.polymul(gains.num, g_num), dtype=np.float64)
     return num, np.asarray(np.polymul(gains.den, g_den), dtype=np.float64)
 

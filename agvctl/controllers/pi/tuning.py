@@ -21,17 +21,20 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from scipy.optimize import brentq
+from scipy.signal import dstep
 
 from agvctl.config import check_fields, document_fields
 from agvctl.controllers.pi.margins import (
     GRID_POINTS,
     LoopMargins,
+    Polynomials,
     chain_gain,
     frequency_response,
     loop_margins,
     loop_polynomials,
+    open_loop_polynomials,
     sampled_wheel_models,
-    tf_polynomials,
+    sampled_wheel_polynomials,
 )
 from agvctl.controllers.pi.options import PIGains
 from agvctl.errors import ConfigError, expect_instance
@@ -124,7 +127,7 @@ class TuningResult:
 
 
 def _pi_for_crossover(
-    plant_z: control.TransferFunction,
+    plant_z: Polynomials,
     chain: float,
     crossover_rad_s: float,
     phase_margin_deg: float,
@@ -134,7 +137,7 @@ def _pi_for_crossover(
     k_i <= 0 (a PI cannot provide the phase lead). Where it would need k_p < 0, the pure integrator (k_p =
     0) instead."""
     theta = crossover_rad_s * dt_s
-    g_num, g_den = tf_polynomials(plant_z)
+    g_num, g_den = plant_z
     g = chain * complex(frequency_response(g_num, g_den, dt_s, np.array([crossover_rad_s]))[0])
     c = np.exp(1j * math.radians(phase_margin_deg - 180.0)) / g
     # C(e^{jθ}) = k_p + k_i T (1/2 − j/2 · cot(θ/2)), since z/(z − 1) = 1/(1 − e^{−jθ})
@@ -161,7 +164,7 @@ def _worst(a: LoopMargins, b: LoopMargins) -> LoopMargins:
 
 
 def _spec_excess(
-    plants: tuple[control.TransferFunction, ...],
+    plants: tuple[Polynomials, ...],
     chain: float,
     crossover_rad_s: float,
     pm_design_deg: float,
@@ -176,7 +179,8 @@ def _spec_excess(
         gains = _pi_for_crossover(plant, chain, crossover_rad_s, pm_design_deg, dt_s)
         if gains is not None:
             m = [
-                loop_margins(*loop_polynomials(gains, p, chain), dt_s, grid_points=_SEARCH_GRID_POINTS) for p in plants
+                loop_margins(*open_loop_polynomials(gains, p, chain), dt_s, grid_points=_SEARCH_GRID_POINTS)
+                for p in plants
             ]
             best = max(
                 best,
@@ -189,7 +193,7 @@ _Candidate = tuple[PIGains, LoopMargins, LoopMargins]
 
 
 def _candidate(
-    plants: tuple[control.TransferFunction, ...],
+    plants: tuple[Polynomials, ...],
     chain: float,
     wc: float,
     pm_design: float,
@@ -204,7 +208,7 @@ def _candidate(
         gains = _pi_for_crossover(plant, chain, wc, pm_design, ts)
         if gains is None:
             continue
-        m = [loop_margins(*loop_polynomials(gains, p, chain), ts, grid_points=grid) for p in plants]
+        m = [loop_margins(*open_loop_polynomials(gains, p, chain), ts, grid_points=grid) for p in plants]
         meets = all(x.phase_margin_deg >= spec.phase_margin_deg and x.gain_margin_db >= spec.gain_margin_db for x in m)
         if meets and (best is None or min(x.crossover_rad_s for x in m) > min(x.crossover_rad_s for x in best[1:])):
             best = (gains, m[0], m[1])
@@ -212,7 +216,7 @@ def _candidate(
 
 
 def _fastest_crossover(
-    plants: tuple[control.TransferFunction, ...], chain: float, pm_design: float, ts: float, spec: TuningSpec
+    plants: tuple[Polynomials, ...], chain: float, pm_design: float, ts: float, spec: TuningSpec
 ) -> float:
     """The fastest crossover at which a PI meets ``spec`` on both wheels: a log-spaced scan down from the Nyquist
     frequency to the first feasible point, then Brent's method between it and the next. Raises
@@ -281,8 +285,26 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
     expect_instance(vehicle, VehicleParams, "design_pi", "vehicle")
     spec = TuningSpec() if spec is None else spec
     expect_instance(spec, TuningSpec, "design_pi", "spec")
-    ts = vehicle.control.sample_period_s
+    (gains, m_left, m_right), max_wc = _design(vehicle, spec)
     plants = sampled_wheel_models(vehicle)
+    return TuningResult(
+        gains=gains,
+        margins=_worst(m_left, m_right),
+        margins_left=m_left,
+        margins_right=m_right,
+        spec=spec,
+        chain_gain=chain_gain(vehicle),
+        plant_left=plants[0],
+        plant_right=plants[1],
+        max_crossover_rad_s=max_wc,
+    )
+
+
+def _design(vehicle: VehicleParams, spec: TuningSpec) -> tuple[_Candidate, float]:
+    """:func:`design_pi`'s gains and margins, and the fastest crossover the margins allow (rad/s), on the
+    sampled models' polynomials (no python-control)."""
+    ts = vehicle.control.sample_period_s
+    plants = sampled_wheel_polynomials(vehicle)
     chain = chain_gain(vehicle)
     w_nyq = math.pi / ts
     pm_design = spec.phase_margin_deg + _PM_DESIGN_EXTRA_DEG
@@ -309,18 +331,7 @@ def design_pi(vehicle: VehicleParams, spec: TuningSpec | None = None) -> TuningR
             f"gain margin >= {spec.gain_margin_db:g} dB; with these margins the crossover can be at most "
             f"{max_wc:.4g} rad/s",
         )
-    gains, m_left, m_right = found
-    return TuningResult(
-        gains=gains,
-        margins=_worst(m_left, m_right),
-        margins_left=m_left,
-        margins_right=m_right,
-        spec=spec,
-        chain_gain=chain,
-        plant_left=plants[0],
-        plant_right=plants[1],
-        max_crossover_rad_s=max_wc,
-    )
+    return found, max_wc
 
 
 def closed_loop_time_constant_s(vehicle: VehicleParams, gains: PIGains, horizon_s: float = 0.6) -> float:
@@ -344,17 +355,16 @@ def closed_loop_time_constant_s(vehicle: VehicleParams, gains: PIGains, horizon_
     float
         τ of the slower wheel, s.
     """
-    import control
-
     ts = gains.dt_s
     n = max(3, int(round(horizon_s / ts)))
     k = np.arange(n)
     chain = chain_gain(vehicle)
     taus = []
-    for plant in sampled_wheel_models(vehicle):
-        num, den = loop_polynomials(gains, plant, chain)
-        closed = control.feedback(control.tf(num, den, ts), 1)
-        y = np.asarray(control.step_response(closed, k * ts).outputs, dtype=float).ravel()
+    for plant in sampled_wheel_polynomials(vehicle):
+        num, den = open_loop_polynomials(gains, plant, chain)
+        # the closed loop L/(1 + L) under unit feedback, and its step response from rest
+        _, (y,) = dstep((num, np.polyadd(den, num), ts), n=n)
+        y = np.asarray(y, dtype=float).ravel()
         poles = np.linspace(1e-3, 0.999, 999)  # a = exp(-T/τ); a first-order step response is 1 − a^k
         errors = [float(np.sum((y - (1.0 - a**k)) ** 2)) for a in poles]
         a_best = float(poles[int(np.argmin(errors))])
@@ -384,5 +394,6 @@ def default_pi_gains(vehicle: VehicleParams) -> WheelLoopDesign:
         The gains and the time constant (s) of the first-order lag that best fits their closed loop (the MPC's
         wheel-loop model); cached per vehicle.
     """
-    gains = design_pi(vehicle).gains
+    expect_instance(vehicle, VehicleParams, "default_pi_gains", "vehicle")
+    (gains, _, _), _ = _design(vehicle, TuningSpec())
     return WheelLoopDesign(gains, closed_loop_time_constant_s(vehicle, gains))
