@@ -265,18 +265,8 @@ def fuzz(
     import the calling script again).
     """
     t0 = time.perf_counter()
-    jobs = resolved_jobs(jobs, executor, scheduler, progress)
-    if not isinstance(spec, FuzzSpec):
-        raise ConfigError("fuzz", "spec", f"expected a FuzzSpec (got {spec!r})")
-    if scenarios is not None:
-        _check_indices(scenarios)
-    check_against_vehicle(spec, load_vehicle(None if spec.vehicle == "default" else spec.vehicle))
-    n_tasks = (spec.scenarios if scenarios is None else len(scenarios)) * len(spec.controllers)
-    # the workers start (and import the runs' code) while this process draws the scenarios
-    with open_executor(executor, jobs, scheduler, n_tasks, prepare=__name__) as pool:
-        work = fuzz_tasks(spec, scenarios)
-        outcomes = run_fuzz_tasks(pool, work.tasks, progress)
-    return FuzzReport(spec, work.tasks, outcomes, time.perf_counter() - t0)
+    work = fuzz_tasks(spec, scenarios)
+    return run_fuzz(work, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress, t0=t0)
 
 
 def run_fuzz(
@@ -319,6 +309,6 @@ def run_fuzz(
     t0 = time.perf_counter() if t0 is None else t0
     jobs = resolved_jobs(jobs, executor, scheduler, progress)
     spec = work.spec
-    with open_executor(executor, jobs, scheduler, len(work.tasks), prepare=__name__) as pool:
+    with open_executor(executor, jobs, scheduler, len(work.tasks)) as pool:
         outcomes = run_fuzz_tasks(pool, work.tasks, progress)
     return FuzzReport(spec, work.tasks, outcomes, time.perf_counter() - t0)
