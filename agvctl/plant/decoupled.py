@@ -38,7 +38,7 @@ def decoupled_wheel_coefficients(vehicle: VehicleParams) -> tuple[tuple[list[flo
     Parameters
     ----------
     vehicle : VehicleParams
-        The vehicle whose equivalent inertia and damping (eqs 60-62) give each side's first-order model.
+        Its equivalent inertias and damping (eqs 60-62) are the coefficients.
 
     Returns
     -------

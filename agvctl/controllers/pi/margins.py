@@ -130,7 +130,7 @@ def sampled_wheel_polynomials(vehicle: VehicleParams) -> tuple[Polynomials, Poly
     Parameters
     ----------
     vehicle : VehicleParams
-        The vehicle: its equivalent inertias and damping, and its sample period.
+        As for :func:`sampled_wheel_models`.
 
     Returns
     -------
