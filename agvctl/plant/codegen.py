@@ -20,10 +20,10 @@ import sys
 import tempfile
 import threading
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import casadi as ca
 import numpy as np
@@ -31,8 +31,17 @@ from numpy.typing import NDArray
 
 __all__ = ["CFunctionAddress", "NumericFunction", "c_compiler", "cache_dir", "compiled_library", "native_functions"]
 
-NumericFunction = Callable[..., tuple[NDArray[np.float64], ...]]
-"""A CasADi function evaluated on numpy arrays: inputs in its order, outputs as 2-D arrays (rows × columns)."""
+
+class NumericFunction(Protocol):
+    """A CasADi function evaluated on numpy arrays: compiled C called through ctypes, or CasADi's virtual machine."""
+
+    @property
+    def address(self) -> CFunctionAddress | None:
+        """The compiled function, for C that calls it directly; None in the virtual machine."""
+
+    def __call__(self, *inputs: Any) -> tuple[NDArray[np.float64], ...]:
+        """The function's outputs at ``inputs`` (in its order), as 2-D arrays (rows × columns)."""
+
 
 _COMPILER_FLAGS = ("-O2", "-fPIC", "-shared")
 

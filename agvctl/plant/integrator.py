@@ -245,8 +245,7 @@ class CompiledPlant:
     def step_address(self) -> CFunctionAddress | None:
         """The compiled sample step (``x, u, p, dt -> x_next, aux at the start, stats``), for C that calls it
         directly; None where the model runs in CasADi's virtual machine."""
-        address: CFunctionAddress | None = getattr(self._fns.step, "address", None)
-        return address
+        return self._fns.step.address
 
     def aux(self, x: NDArray[np.float64], u: NDArray[np.float64], p: NDArray[np.float64]) -> NDArray[np.float64]:
         """The instantaneous outputs (:data:`AUX_NAMES`) at state ``x`` with input ``u``."""

@@ -43,7 +43,7 @@ from agvctl.plant.codegen import CFunctionAddress, c_templates
 from agvctl.plant.full import AUX_NAMES, STATE_NAMES
 from agvctl.plant.integrator import STATS_NAMES, merge_stats
 from agvctl.sensing import Sensors
-from agvctl.sim.records import _NO_CALIBRATION, _NO_CONSISTENCY, _checked_command, _ControlRow
+from agvctl.sim.records import _NO_CALIBRATION, _NO_CONSISTENCY, _STATUS_CODE, _checked_command, _ControlRow
 from agvctl.sim.stepper import PlantStepper
 
 __all__ = ["CompiledParts", "LoopPlan", "compiled_parts", "run_compiled"]
@@ -63,7 +63,7 @@ _CONTROL = (
     "measured_omega_motor_right_rad_s",
 )
 """What the C records per sample (its ``control`` rows), by log column, in the C's order."""
-_FALLBACK_STATUS = 2
+_FALLBACK_STATUS = _STATUS_CODE["fallback_feedforward"]
 """The status of a compiled pose controller's fallback (the reference's wheel speeds, ``fallback_feedforward``)."""
 
 
