@@ -107,6 +107,13 @@ def test_wheel_limits_hold_by_finite_differences(shipped, vehicle):
     assert peaks["peak_wheel_jerk_m_s3"] <= j_lim
 
 
+def test_the_peak_wheel_speed_alone_is_the_one_of_all_peaks(shipped, vehicle):
+    reference = plan(load_path(shipped[0]), vehicle)  # a new reference: no peaks worked out yet
+    speed_alone = reference.peak_wheel_speed_m_s()
+    assert speed_alone == reference.peaks()["peak_wheel_speed_m_s"]
+    assert reference.peak_wheel_speed_m_s() == speed_alone  # and again once the peaks are known
+
+
 def test_pose_is_continuous(shipped):
     _, ref = shipped
     t = np.arange(0.0, ref.duration_s + 0.05, DT)

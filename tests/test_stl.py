@@ -96,3 +96,19 @@ def test_temporal_operators_reach_as_far_right_as_they_can():
 def test_a_formula_that_does_not_parse_says_where(text, says):
     with pytest.raises(FormulaError, match=re.escape(says)):
         parse_formula(text)
+
+
+def test_a_window_with_no_end_takes_the_minimum_and_the_earliest_witness_of_a_window_to_the_last_sample():
+    rng = np.random.default_rng(11)
+    for _ in range(40):
+        n = int(rng.integers(1, 30))
+        t = np.arange(n) * 0.1
+        x = rng.integers(0, 4, n) * 0.1  # ties
+        x[rng.random(n) < 0.1] = np.inf
+        trace = Trace(t, lambda name, x=x: x, lambda atom, n=n: np.ones(n, dtype=bool))
+        lo = float(rng.integers(0, 4)) * 0.1
+        open_ended = robustness(parse_formula(f"always[{lo:.1f}, inf] x_m <= 0.5"), trace)
+        to_last = robustness(parse_formula(f"always[{lo:.1f}, {n * 0.1 + 1:.1f}] x_m <= 0.5"), trace)
+        assert np.array_equal(open_ended.value, to_last.value)
+        assert np.array_equal(open_ended.sample, to_last.sample)
+        assert np.array_equal(open_ended.leaf, to_last.leaf)

@@ -99,7 +99,7 @@ class ReferencePath:
     def __init__(self, reference: Reference, spacing_m: float = 0.01) -> None:
         if not spacing_m > 0:
             raise ValueError(f"spacing_m must be > 0 (got {spacing_m})")
-        speed = max(reference.peaks()["peak_wheel_speed_m_s"], 1e-9)  # bounds |U| (eqs 39-43)
+        speed = max(reference.peak_wheel_speed_m_s(), 1e-9)  # bounds |U| (eqs 39-43)
         # samples at most spacing/2 apart, one vertex per spacing/2 of arc length: vertices at most spacing apart
         half = 0.5 * spacing_m
         n = max(2, min(4_000_000, math.ceil(reference.duration_s * speed / half) + 1))

@@ -87,10 +87,30 @@ def _negate(r: Robustness) -> Robustness:
     return Robustness(-r.value, r.sample, r.leaf)
 
 
+def _suffix_min(r: Robustness, k_lo: int) -> Robustness:
+    """:func:`_window_min` with no end, in one pass: at each sample k the minimum of ``r`` over samples
+    [k + k_lo, last], the earliest of a tie as witness (as the doubling table picks it); +∞ past the last."""
+    n = len(r.value)
+    backwards = r.value[::-1]
+    low = np.minimum.accumulate(backwards)
+    # the latest position (backwards) at which the running minimum was reached: the earliest sample attaining it
+    reached = np.maximum.accumulate(np.where(backwards == low, np.arange(n), 0))
+    witness = (n - 1 - reached)[::-1]
+    starts = np.arange(n) + k_lo
+    empty = starts >= n
+    at = np.minimum(starts, n - 1)
+    j = witness[at]
+    value = np.where(empty, np.inf, low[::-1][at])
+    return Robustness(value, np.where(empty, np.arange(n), r.sample[j]), np.where(empty, -1, r.leaf[j]))
+
+
 def _window_min(r: Robustness, k_lo: int, k_hi: int | None) -> Robustness:
     """At each sample k, the minimum of ``r`` over samples [k + k_lo, k + k_hi] cut at the last (None: no end);
-    +∞ for an empty window."""
+    +∞ for an empty window. A doubling table of minima (its witness the earliest sample of a tie); a window with no
+    end is a running minimum from the last sample (:func:`_suffix_min`)."""
     n = len(r.value)
+    if k_hi is None and n and not np.isnan(r.value).any():
+        return _suffix_min(r, k_lo)
     if k_hi is not None and k_hi < k_lo:
         return Robustness(np.full(n, np.inf), np.arange(n), np.full(n, -1))
     length = n if k_hi is None else min(k_hi - k_lo + 1, n)

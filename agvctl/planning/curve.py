@@ -213,23 +213,25 @@ class Curve:
             curvature_accel_1_m3=polyval_rows(self._ddk[p], sigma),
         )
 
-    def curvatures(self, s_m: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+    def curvatures(self, s_m: ArrayLike, orders: int = 3) -> tuple[FloatArray, ...]:
         """κ, dκ/ds and d²κ/ds² at arc lengths ``s_m`` (clamped to [0, length_m]), without the pose.
 
         Parameters
         ----------
         s_m : array_like
             Arc lengths, m.
+        orders : int
+            How many of the three, from κ (1: κ alone).
 
         Returns
         -------
         tuple of ndarray
-            κ (1/m), dκ/ds (1/m²), d²κ/ds² (1/m³).
+            κ (1/m), dκ/ds (1/m²), d²κ/ds² (1/m³): the first ``orders`` of them.
         """
         s = np.clip(np.atleast_1d(np.asarray(s_m, dtype=float)).ravel(), 0.0, self.length_m)
         p = self.piece_at(s)
         sigma = np.minimum(s - self.s0_m[p], self.lengths_m[p])
-        return polyval_rows(self._k[p], sigma), polyval_rows(self._dk[p], sigma), polyval_rows(self._ddk[p], sigma)
+        return tuple(polyval_rows(c[p], sigma) for c in (self._k, self._dk, self._ddk)[:orders])
 
     def end_pose(self) -> Pose:
         """The pose at the end of the curve."""

@@ -350,28 +350,38 @@ class Reference:
         """
         known: dict[float, dict[str, float]] = self.__dict__.setdefault("_peaks_by_period", {})
         if dense_period_s not in known:
-            known[dense_period_s] = self._dense_peaks(dense_period_s)
+            out = self._dense_peaks(dense_period_s, 3)
+            known[dense_period_s] = {
+                "peak_wheel_speed_m_s": float(out[0]),
+                "peak_wheel_accel_m_s2": float(out[1]),
+                "peak_wheel_jerk_m_s3": float(out[2]),
+            }
         return dict(known[dense_period_s])
 
-    def _dense_peaks(self, dense_period_s: float) -> dict[str, float]:
+    def peak_wheel_speed_m_s(self, dense_period_s: float = 1e-3) -> float:
+        """The ``peak_wheel_speed_m_s`` of :meth:`peaks`, the same number, without the accelerations' work (the
+        curvature alone is evaluated): the largest rate of travel, |U| + |ω| b/2."""
+        known: dict[float, dict[str, float]] = self.__dict__.setdefault("_peaks_by_period", {})
+        if dense_period_s in known:
+            return known[dense_period_s]["peak_wheel_speed_m_s"]
+        return float(self._dense_peaks(dense_period_s, 1)[0])
+
+    def _dense_peaks(self, dense_period_s: float, orders: int) -> FloatArray:
+        """The first ``orders`` of the peaks (speed, acceleration, jerk) of :meth:`peaks`."""
         n_dense = math.ceil(self.duration_s / dense_period_s)
-        out = np.zeros(3)
+        out = np.zeros(orders)
         for lo in range(0, n_dense, PEAK_CHUNK):
             t = np.arange(lo, min(n_dense, lo + PEAK_CHUNK), dtype=np.float64) * dense_period_s
-            out = np.maximum(out, self._wheel_peaks(t[t < self.duration_s]))
+            out = np.maximum(out, self._wheel_peaks(t[t < self.duration_s], orders))
         for lo in range(0, len(self._ph_t0), PEAK_CHUNK):
-            out = np.maximum(out, self._wheel_peaks(self._ph_t0[lo : lo + PEAK_CHUNK]))
-        out = np.maximum(out, self._wheel_peaks(np.array([self.duration_s])))
-        return {
-            "peak_wheel_speed_m_s": float(out[0]),
-            "peak_wheel_accel_m_s2": float(out[1]),
-            "peak_wheel_jerk_m_s3": float(out[2]),
-        }
+            out = np.maximum(out, self._wheel_peaks(self._ph_t0[lo : lo + PEAK_CHUNK], orders))
+        return np.maximum(out, self._wheel_peaks(np.array([self.duration_s]), orders))
 
-    def _wheel_peaks(self, t_s: FloatArray) -> FloatArray:
-        """The largest ``|wheel speed|``, ``|wheel accel|``, ``|wheel jerk|`` (either wheel) at the times."""
+    def _wheel_peaks(self, t_s: FloatArray, orders: int) -> FloatArray:
+        """The largest ``|wheel speed|``, ``|wheel accel|``, ``|wheel jerk|`` (either wheel) at the times: the first
+        ``orders`` of them (1: the speed alone, 3: all)."""
         if len(t_s) == 0:
-            return np.zeros(3)
+            return np.zeros(orders)
         _, q, qd, qdd, j, m = self._coordinate(t_s)
         u, ud, uj = np.zeros(len(q)), np.zeros(len(q)), np.zeros(len(q))
         w, wd, wj = np.empty(len(q)), np.empty(len(q)), np.empty(len(q))
@@ -382,14 +392,19 @@ class Reference:
             if mo.curve is None:  # spin in place
                 w[sel], wd[sel], wj[sel] = d * qd[sel], d * qdd[sel], d * j[sel]
                 continue
+            v = qd[sel]
+            if orders == 1:
+                u[sel], w[sel] = d * v, mo.curve.curvatures(q[sel], 1)[0] * v
+                continue
             k, k1, k2 = mo.curve.curvatures(q[sel])
-            v, acc, jk = qd[sel], qdd[sel], j[sel]
+            acc, jk = qdd[sel], j[sel]
             u[sel], ud[sel], uj[sel] = d * v, d * acc, d * jk
             w[sel] = k * v
             wd[sel] = k * acc + k1 * v**2
             wj[sel] = k * jk + 3.0 * k1 * v * acc + k2 * v**3
         h = 0.5 * self.separation_m
-        return np.array([np.max(np.abs(a) + np.abs(b) * h) for a, b in ((u, w), (ud, wd), (uj, wj))])
+        pairs = ((u, w), (ud, wd), (uj, wj))[:orders]
+        return np.array([np.max(np.abs(a) + np.abs(b) * h) for a, b in pairs])
 
     def summary(self) -> dict[str, object]:
         """The ``agvctl plan --json`` object."""
