@@ -360,11 +360,15 @@ class Reference:
 
     def peak_wheel_speed_m_s(self, dense_period_s: float = 1e-3) -> float:
         """The ``peak_wheel_speed_m_s`` of :meth:`peaks`, the same number, without the accelerations' work (the
-        curvature alone is evaluated): the largest rate of travel, |U| + |ω| b/2."""
+        curvature alone is evaluated): the largest rate of travel, |U| + |ω| b/2. Worked out once per
+        ``dense_period_s``, like the peaks."""
         known: dict[float, dict[str, float]] = self.__dict__.setdefault("_peaks_by_period", {})
         if dense_period_s in known:
             return known[dense_period_s]["peak_wheel_speed_m_s"]
-        return float(self._dense_peaks(dense_period_s, 1)[0])
+        speeds: dict[float, float] = self.__dict__.setdefault("_peak_speed_by_period", {})
+        if dense_period_s not in speeds:
+            speeds[dense_period_s] = float(self._dense_peaks(dense_period_s, 1)[0])
+        return speeds[dense_period_s]
 
     def _dense_peaks(self, dense_period_s: float, orders: int) -> FloatArray:
         """The first ``orders`` of the peaks (speed, acceleration, jerk) of :meth:`peaks`."""
