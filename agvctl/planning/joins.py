@@ -152,8 +152,23 @@ class JoinWindow:
 
     @classmethod
     def many(cls, k1: float, k2: float, lengths_m: list[float], ps: list[FloatArray]) -> list[JoinWindow]:
-        """Windows between the same curvatures, one per length and mode weights, their bounds computed together
-        (the same as each window's own, in a fraction of the time)."""
+        """Windows between the same curvatures, their bounds computed together (the same as each window's own, in a
+        fraction of the time).
+
+        Parameters
+        ----------
+        k1, k2 : float
+            The curvatures before and after the join, 1/m.
+        lengths_m : list of float
+            The windows' lengths, m.
+        ps : list of ndarray
+            Their mode weights, from :func:`join_shape`, one per length.
+
+        Returns
+        -------
+        list of JoinWindow
+            One window per length, in order.
+        """
         if not lengths_m:
             return []
         coeffs = np.array([_coeffs(k1, k2, length, p) for length, p in zip(lengths_m, ps, strict=True)])

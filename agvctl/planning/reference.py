@@ -360,7 +360,7 @@ class Reference:
 
     def peak_wheel_speed_m_s(self, dense_period_s: float = 1e-3) -> float:
         """The ``peak_wheel_speed_m_s`` of :meth:`peaks`, the same number, without the accelerations' work (the
-        curvature alone is evaluated): the largest rate of travel, |U| + |ω| b/2. Worked out once per
+        curvature alone is evaluated): the largest rate of travel, ``|U| + |ω| b/2``. Worked out once per
         ``dense_period_s``, like the peaks."""
         known: dict[float, dict[str, float]] = self.__dict__.setdefault("_peaks_by_period", {})
         if dense_period_s in known:
