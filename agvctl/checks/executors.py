@@ -15,13 +15,15 @@ import multiprocessing
 import numbers
 import os
 import signal
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
+from multiprocessing import resource_tracker
 from typing import Any, Literal, TypeVar
 
 from agvctl.errors import ConfigError, caused_by_interrupt
 
-__all__ = ["MAX_JOBS", "ExecutorKind", "InlineExecutor", "execute", "open_executor", "resolved_jobs"]
+__all__ = ["MAX_JOBS", "ExecutorKind", "InlineExecutor", "LocalPool", "execute", "open_executor", "resolved_jobs"]
 
 ExecutorKind = Literal["local", "dask"]
 T = TypeVar("T")
@@ -94,37 +96,107 @@ def _sigint_blocked() -> Iterator[None]:
     """SIGINT blocked in this thread meanwhile (and delivered when the block ends): worker processes and threads
     started meanwhile inherit the block, so an interrupt (Ctrl-C reaches the whole process group) stops only this
     process, which then stops them."""
-    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+class LocalPool(ProcessPoolExecutor):
+    """Spawned worker processes, all but one started when the pool opens; :attr:`ready` says when the first of them
+    is up (with its ``prepare`` module imported), so that :func:`execute` runs tasks in this process until then.
+
+    Parameters
+    ----------
+    jobs : int
+        The worker processes.
+    prepare : str or None
+        A module each worker imports as it starts (None: none).
+    """
+
+    def __init__(self, jobs: int, prepare: str | None) -> None:
+        self.used = False
+        """Whether a task was submitted (a pool that got none is stopped without waiting for its start)."""
+        self._warned = False
+        # the tracker of multiprocessing's semaphores unblocks SIGINT in the thread that starts it: started first,
+        # so that the block below holds while the workers and the pool's thread start (they inherit it)
+        resource_tracker.ensure_running()
+        spawn = multiprocessing.get_context("spawn")
+        opened = False
+        try:
+            with _sigint_blocked():
+                if prepare is None:
+                    super().__init__(max_workers=jobs, mp_context=spawn)
+                else:
+                    super().__init__(jobs, spawn, initializer=importlib.import_module, initargs=(prepare,))
+                opened = True
+                # a submission that finds no idle worker starts one: all but one start now, this process being the
+                # last while they start (no more busy processes than jobs); the last starts at the hand-over
+                self._starts = [ProcessPoolExecutor.submit(self, int) for _ in range(max(1, jobs - 1))]
+        except BaseException:  # an interrupt that arrived meanwhile: no worker outlives the pool
+            if opened:
+                self.stop()
+                self.shutdown(wait=True, cancel_futures=True)
+            raise
+
+    @property
+    def ready(self) -> bool:
+        """Whether a worker is up (has started and imported the ``prepare`` module)."""
+        return any(f.done() and not f.cancelled() and f.exception() is None for f in self._starts)
+
+    @property
+    def failure(self) -> BaseException | None:
+        """Why the workers could not start, or None (the pool broke before it was given a task: a worker died,
+        or a script without the ``if __name__ == "__main__":`` guard started processes as it was imported)."""
+        for f in self._starts:
+            if f.done() and not f.cancelled() and f.exception() is not None:
+                return f.exception()
+        return None
+
+    def runs_here(self) -> bool:
+        """Whether the next task had better run in the submitting process: until a worker is up, and always where
+        the workers could not start (said once, as a warning)."""
+        failure = self.failure
+        if failure is not None and not self._warned:
+            self._warned = True
+            warnings.warn(
+                f"the local worker processes could not start ({type(failure).__name__}); the runs go one after "
+                "another in this process",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+        return failure is not None or not self.ready
+
+    def submit(self, fn: Callable[..., R], /, *args: Any, **kwargs: Any) -> Future[R]:
+        self.used = True
+        return super().submit(fn, *args, **kwargs)
+
+    def stop(self) -> None:
+        """Terminate the workers at once (a run in progress is abandoned)."""
+        for process in list(self._processes.values()):
+            process.terminate()
 
 
 @contextlib.contextmanager
 def _process_pool(jobs: int, prepare: str | None) -> Iterator[Executor]:
-    """``jobs`` spawned worker processes that never see SIGINT, terminated at once when the block is left by an
-    exception or an interrupt (a run in progress is abandoned) and shut down otherwise. With ``prepare``, they
-    start at once and import that module, rather than at the first submission."""
+    """``jobs`` spawned worker processes that never see SIGINT, started at once, terminated at once when the block
+    is left by an exception or an interrupt (a run in progress is abandoned) or without having been given a task,
+    and shut down otherwise. With ``prepare``, each imports that module as it starts."""
     # one thread per worker for the numerical libraries (as Dask does for its workers): with N workers on N cores
     # their own thread pools would oversubscribe the machine several times over
     saved = {k: os.environ.get(k) for k in _THREAD_VARS}
     os.environ.update({k: "1" for k, v in saved.items() if v is None})
     try:
-        with _sigint_blocked():
-            spawn = multiprocessing.get_context("spawn")
-            if prepare is None:
-                pool = ProcessPoolExecutor(max_workers=jobs, mp_context=spawn)
-            else:
-                pool = ProcessPoolExecutor(jobs, spawn, initializer=importlib.import_module, initargs=(prepare,))
-                pool.submit(int)  # the first submission starts every worker
+        pool = LocalPool(jobs, prepare)
         try:
             yield pool
         except BaseException:
-            for process in list(pool._processes.values()):
-                process.terminate()
+            pool.stop()
             raise
         finally:
+            if not pool.used:
+                pool.stop()  # every task ran here while the workers started: do not wait for their start
             pool.shutdown(wait=True, cancel_futures=True)
     finally:
         for k, v in saved.items():
@@ -143,7 +215,8 @@ def open_executor(
     Parameters
     ----------
     kind : {'local', 'dask'}
-        ``"local"``: ``jobs`` spawned worker processes, or, for one job or one task, this process itself
+        ``"local"``: ``jobs`` spawned worker processes (:class:`LocalPool`, started at once; :func:`execute` runs
+        tasks in this process until the first of them is up), or, for one job or one task, this process itself
         (:class:`InlineExecutor`: no start-up cost; the runs go one after another). ``"dask"``: the
         ``concurrent.futures`` executor of a Dask client.
     jobs : int
@@ -153,9 +226,9 @@ def open_executor(
     n_tasks : int
         How many runs will be submitted (one runs in this process).
     prepare : str or None
-        A module local workers import as they start (the one that holds the run function). With it, the workers
-        start when the executor opens, so their start-up overlaps what this process does before its first
-        submission (drawing scenarios, loading files); without it, at the first submission.
+        A module local workers import as they start (the one that holds the run function), so that their start-up
+        overlaps what this process does before its first submission (drawing scenarios) and the tasks it runs
+        itself meanwhile; a worker is up once it has imported it.
 
     Yields
     ------
@@ -197,6 +270,10 @@ def execute(
 ) -> list[R]:
     """Run every task on an executor; the results in the order of the tasks, whatever order they finish in.
 
+    On local workers (:class:`LocalPool`), this process runs the first tasks itself, one after another, until a
+    worker is up, and hands the rest to the workers: a few runs finish before the workers would have started, and
+    a long list loses nothing. Each run's result is its own wherever it runs.
+
     Parameters
     ----------
     pool : concurrent.futures.Executor
@@ -228,19 +305,27 @@ def execute(
         if progress:
             progress(done, len(tasks))
 
+    def here() -> bool:
+        """Whether the next task runs in this process."""
+        return pool.runs_here() if isinstance(pool, LocalPool) else isinstance(pool, InlineExecutor)
+
     futures: list[Future[R]] = []
-    if isinstance(pool, InlineExecutor):  # each run in its turn, so progress comes run by run
-        for done, task in enumerate(tasks, start=1):
-            futures.append(pool.submit(run, task))
-            record(done, futures[-1], task)
+    inline = InlineExecutor()
+    for done, task in enumerate(tasks, start=1):  # each run in its turn, so progress comes run by run
+        if not here():
+            break
+        futures.append(inline.submit(run, task))
+        record(done, futures[-1], task)
+    if len(futures) == len(tasks):
         return [outcomes[f] for f in futures]
-    with _sigint_blocked():  # worker processes start on the first submissions, and inherit the block
-        futures = [pool.submit(run, task) for task in tasks]
-    task_of = dict(zip(futures, tasks, strict=True))
+    first = len(futures)
+    with _sigint_blocked():  # worker processes started on a first submission inherit the block
+        sent = [pool.submit(run, task) for task in tasks[first:]]
+    task_of = dict(zip(sent, tasks[first:], strict=True))
     try:
-        for done, future in enumerate(as_completed(futures), start=1):
+        for done, future in enumerate(as_completed(sent), start=first + 1):
             record(done, future, task_of[future])
     finally:
-        for future in futures:
+        for future in sent:
             future.cancel()  # after an error or an interrupt: the runs not started yet
-    return [outcomes[f] for f in futures]
+    return [outcomes[f] for f in futures + sent]

@@ -344,7 +344,7 @@ def check_experiments(
         raise ConfigError("render", "", f"expected a function render(experiment, result, limits) (got {render!r})")
     work = paths if isinstance(paths, CheckWork) else load_check(paths)
     all_tasks = [t for ts in work.tasks for t in ts]
-    with open_executor(executor, jobs, scheduler, len(all_tasks)) as pool:
+    with open_executor(executor, jobs, scheduler, len(all_tasks), prepare=run_task.__module__) as pool:
         run = run_task if render is None else functools.partial(_run_drawn, render=render)
         outcomes = execute(pool, run, all_tasks, progress, on_error=run_error)
     report = CheckReport()

@@ -309,6 +309,6 @@ def run_fuzz(
     t0 = time.perf_counter() if t0 is None else t0
     jobs = resolved_jobs(jobs, executor, scheduler, progress)
     spec = work.spec
-    with open_executor(executor, jobs, scheduler, len(work.tasks)) as pool:
+    with open_executor(executor, jobs, scheduler, len(work.tasks), prepare=run_fuzz_task.__module__) as pool:
         outcomes = run_fuzz_tasks(pool, work.tasks, progress)
     return FuzzReport(spec, work.tasks, outcomes, time.perf_counter() - t0)
