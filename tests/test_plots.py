@@ -12,7 +12,7 @@ import pytest
 
 from agvctl.controllers.pi.tuning import design_pi
 from agvctl.log import SimLog
-from agvctl.plots import render_run_panel, render_tuning_plots, save_open_loop_plot
+from agvctl.plots import render_run_panel, render_tuning_plots, save_metric_histograms, save_open_loop_plot
 from agvctl.scenario.experiment import load_experiment, run_experiment
 from agvctl.sim import simulate_open_loop, wheel_step_response
 
@@ -98,3 +98,21 @@ def test_run_panels_drawn_in_threads_at_once_are_those_drawn_one_by_one_and_leav
         drawn = list(threads.map(two_panels, [0, 1] * 6))
     assert drawn == new * 6
     assert matplotlib.rcParams["text.hinting"] == hinting
+
+
+def test_a_metric_histogram_shows_its_bars_beside_a_distant_bound(tmp_path):
+    from PIL import Image
+
+    from agvctl.checks.report import CheckReport, ExperimentReport, LimitVerdict, RunOutcome, RunTask
+
+    # four samples within 0.1 mm of one another and a bound five times their value: bins over the samples alone
+    # would be a hundredth of a pixel wide
+    values = [0.0200, 0.0201, 0.0202, 0.0203]
+    outcomes = [RunOutcome(RunTask("e.toml", k), {"cross_track_error_max_m": v}, (), 0.0) for k, v in enumerate(values)]
+    verdict = LimitVerdict("cross_track_error_max_m", 0.1, True, 0.0203, None, None, 3, {}, 4, 0)
+    report = CheckReport(experiments=[ExperimentReport("e", "e.toml", [verdict], outcomes, 0.0)])
+    (path,) = save_metric_histograms(report, tmp_path)
+    assert path.name == "e_cross_track_error_max_m.png" and path.read_bytes().startswith(PNG_SIGNATURE)
+    rgb = np.asarray(Image.open(path).convert("RGB")).astype(int)
+    blue = np.abs(rgb - np.array([0x1F, 0x77, 0xB4])).sum(axis=2) < 30  # matplotlib's first colour, the bars
+    assert blue.sum() > 0.02 * blue.size

@@ -60,7 +60,8 @@ def subplots(*grid: int, figsize: tuple[float, float], **kwargs: Any) -> tuple[A
 
 
 def save_png(fig: Any, path: Path) -> None:
-    """Write a figure to a PNG file at 90 dots per inch, atomically (a temporary file moved into place).
+    """Write a figure to a PNG file at 90 dots per inch, atomically (a temporary file moved into place), drawn and
+    encoded as :func:`png_bytes` does.
 
     Parameters
     ----------
@@ -69,8 +70,9 @@ def save_png(fig: Any, path: Path) -> None:
     path : Path
         The PNG file to write; its folder is made if missing, and a failed write leaves no half-written file.
     """
+    data = png_bytes(fig, 90)
     with atomic_open(path, "wb") as fh:
-        fig.savefig(fh, format="png", dpi=90)
+        fh.write(data)
 
 
 def png_bytes(fig: Any, dpi: int) -> bytes:
