@@ -299,6 +299,7 @@ def check_experiments(
     scheduler: str | None = None,
     progress: Callable[[int, int], None] | None = None,
     render: RunRender | None = None,
+    t0: float | None = None,
 ) -> CheckReport:
     """Run every experiment (its Monte Carlo samples too) and check its limits.
 
@@ -318,6 +319,9 @@ def check_experiments(
     render : RunRender or None
         Draws each nominal run's figures where it runs (:data:`RunRender`), into :attr:`RunOutcome.figures`; the
         Monte Carlo samples are not drawn.
+    t0 : float or None
+        A :func:`time.perf_counter` reading, s: the report's wall time starts there (None: now), so that a caller
+        that loaded the :class:`CheckWork` first counts its loading too.
 
     Returns
     -------
@@ -338,7 +342,7 @@ def check_experiments(
     Local workers are spawned processes, which import the calling script again: from a script, call this under
     ``if __name__ == "__main__":``.
     """
-    t0 = time.perf_counter()
+    t0 = time.perf_counter() if t0 is None else t0
     jobs = resolved_jobs(jobs, executor, scheduler, progress)
     if render is not None and not callable(render):
         raise ConfigError("render", "", f"expected a function render(experiment, result, limits) (got {render!r})")

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import time
 from pathlib import Path
 from typing import Any
 
@@ -114,6 +115,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--scheduler", "", "only with --executor dask")
     if args.margins is not None and args.margins < 1:
         raise ConfigError("--margins", "", f"must be >= 1 (got {args.margins})")
+    t0 = time.perf_counter()
     work = load_check(args.experiments)  # every file validated, every output checked: then the runs
     named = (("--junit", args.junit), ("--json", args.json_out), ("--html", args.html))
     outputs = [Output(flag, Path(name)) for flag, name in named if name]
@@ -131,6 +133,7 @@ def run(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
             progress=progress,
             render=check_run_figures if args.html else None,
+            t0=t0,
         )
     # everything is computed before anything is written
     texts = {"--junit": junit_xml(report), "--json": json.dumps(report.as_dict(), indent=2) + "\n"}

@@ -13,6 +13,7 @@ import json
 import math
 import os
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -155,13 +156,14 @@ def run(args: argparse.Namespace) -> int:
     only = _indices(args.only) if args.only is not None else None
     out_dir = Path(args.out) if args.out else Path("out") / "fuzz" / spec.name
     resolved_jobs(args.jobs, args.executor)
+    t0 = time.perf_counter()  # the report's time counts the drawing of the scenarios, as fuzz() does
     work = fuzz_tasks(spec, only)
     _check_outputs(args, work, out_dir)
     jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
     where = f"a Dask cluster ({args.scheduler or 'local'})" if args.executor == "dask" else f"{jobs} local jobs"
     print(f"fuzz {spec.name}: {len(work.tasks)} runs on {where}", file=sys.stderr, flush=True)
     with Progress("fuzz", unit="runs") as progress:
-        report = run_fuzz(work, jobs=jobs, executor=args.executor, scheduler=args.scheduler, progress=progress)
+        report = run_fuzz(work, jobs=jobs, executor=args.executor, scheduler=args.scheduler, progress=progress, t0=t0)
     # everything is computed before anything is written
     texts = {out_dir / "summary.json": json.dumps(report.as_dict(), indent=2) + "\n"}
     failures = report.failure_files()
