@@ -139,16 +139,20 @@ def run(args: argparse.Namespace) -> int:
     texts = {"--junit": junit_xml(report), "--json": json.dumps(report.as_dict(), indent=2) + "\n"}
     if args.html:
         texts["--html"] = check_html(report)
+    written = [str(out.path) for out in outputs]
     with staged_outputs("check") as staging:  # every output moved into place once all are written
         if report.monte_carlo:
             staged = staging.directory("--report-dir", report_dir)
             with writing("--report-dir", report_dir):
-                save_metric_histograms(report, staged)
+                histograms = save_metric_histograms(report, staged)
+            written.append(f"{report_dir}/ ({len(histograms)} histograms)")
         for out in outputs:
             staging.write_text(out.flag, out.path, texts[out.flag])
     print(format_report(report))
     if args.margins is not None:
         print(format_margins(report, args.margins))
+    if written:
+        print(f"wrote {', '.join(written)}")
     return exit_code(report)
 
 
