@@ -148,7 +148,8 @@ def test_every_output_of_check_gives_each_verdict_its_margin(tmp_path, capsys):
     page = out["html"].read_text()
     assert all(name in page for name in REQUIREMENTS) and "margin / bound" in page
     # --margins: the three verdicts with the smallest margin over bound, the smallest first
-    listed = text[text.index("closest to failing") :].splitlines()[1:]
+    after = text[text.index("closest to failing") :].splitlines()[1:]
+    listed = after[: next((k for k, line in enumerate(after) if not line.startswith("  ")), len(after))]
     ranked = sorted(verdicts.values(), key=lambda v: v["normalised_margin"])[:3]
     assert [line.split()[2].rstrip(":") for line in listed] == [v["limit"] for v in ranked]
 
