@@ -109,3 +109,12 @@ def test_the_worst_run_decides_a_verdict():
     assert not verdict.passed and (verdict.runs, verdict.failed_runs) == (4, 2)
     (verdict,) = worst_run_verdicts([_outcome(0, 0.2), _outcome(1, 0.25)])
     assert verdict.passed and verdict.sample == 1 and verdict.failed_runs == 0
+
+
+def test_check_ends_by_saying_what_it_wrote(tmp_path, capsys):
+    junit, hist = tmp_path / "report.xml", tmp_path / "hist"
+    argv = ["check", DATA / "line_mc_impossible.toml", "--junit", junit, "--jobs", "1", "--report-dir", hist]
+    assert main([str(a) for a in argv]) == 1
+    last = capsys.readouterr().out.splitlines()[-1]
+    pngs = sorted(hist.glob("*.png"))
+    assert pngs and last == f"wrote {junit}, {hist}/ ({len(pngs)} histograms)"
