@@ -105,8 +105,8 @@ def test_a_metric_histogram_shows_its_bars_beside_a_distant_bound(tmp_path):
 
     from agvctl.checks.report import CheckReport, ExperimentReport, LimitVerdict, RunOutcome, RunTask
 
-    # four samples within 0.1 mm of one another and a bound five times their value: bins over the samples alone
-    # would be a hundredth of a pixel wide
+    # four samples within 0.3 mm of one another and a bound five times their value: bins over the samples alone
+    # would be a third of a pixel wide
     values = [0.0200, 0.0201, 0.0202, 0.0203]
     outcomes = [RunOutcome(RunTask("e.toml", k), {"cross_track_error_max_m": v}, (), 0.0) for k, v in enumerate(values)]
     verdict = LimitVerdict("cross_track_error_max_m", 0.1, True, 0.0203, None, None, 3, {}, 4, 0)
