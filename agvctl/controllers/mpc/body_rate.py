@@ -6,13 +6,16 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import NDArray
 
-from agvctl.controllers.mpc.body_bounds import BodyBounds
+from agvctl.controllers.mpc.body_bounds import NEAR_REST_SPEED_M_S, BodyBounds
 from agvctl.controllers.mpc.fallback import clamp
 from agvctl.controllers.mpc.ltv_qp import INF, QpReference, QpStep, SpeedBox, StepBlock, StepQp
 from agvctl.controllers.mpc.qp_blocks import Pattern, VariableLayout
 
 __all__ = ["BodyRate"]
+
+FloatArray = NDArray[np.float64]
 
 
 def _bounded(step_m_s: float) -> float:
@@ -40,6 +43,8 @@ class BodyRate(StepBlock):
     """
 
     name = "body rate"
+    c_step = "body_rate"
+    c_tables_names = ("mean_lower", "mean_upper", "difference_lower", "difference_upper", "steps")
 
     def __init__(self, horizon: int, bounds: BodyBounds, box: SpeedBox) -> None:
         self._horizon, self._bounds, self._box = horizon, bounds, box
@@ -71,6 +76,22 @@ class BodyRate(StepBlock):
         change = np.stack([0.5 * (d[:, 0] + d[:, 1]), d[:, 1] - d[:, 0]])
         self._later_lower = np.minimum(-steps - change, 0.0)
         self._later_upper = np.maximum(steps - change, 0.0)
+
+    def c_values(self, qp: StepQp) -> dict[str, object]:
+        """The speed box's first row, and the speed below which a wheel is near rest."""
+        return {"box_row": qp.rows[self._box.name].start, "near_rest": NEAR_REST_SPEED_M_S}
+
+    def c_tables(self) -> dict[str, FloatArray]:
+        """The later samples' bounds of the mean and the difference by grid point, and the path's steps (mean,
+        difference, the share near rest)."""
+        b = self._bounds
+        return {
+            "mean_lower": self._later_lower[0],
+            "mean_upper": self._later_upper[0],
+            "difference_lower": self._later_lower[1],
+            "difference_upper": self._later_upper[1],
+            "steps": np.array([b.mean_step_m_s, b.difference_step_m_s, b.breakaway_share]),
+        }
 
     def write(self, step: QpStep) -> None:
         """The first change from the previous command within the first sample's box; the window's later ones."""

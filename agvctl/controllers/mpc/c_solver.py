@@ -16,10 +16,12 @@ the Python solver's answers bit for bit.
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import hashlib
 import threading
 import weakref
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,10 +29,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.mpc.c_qp import QpC, compile_qp_c, generate_qp_c
+from agvctl.controllers.mpc.c_step import StepC
 from agvctl.controllers.mpc.qp_blocks import BlockQp
 from agvctl.errors import AgvctlError
 
-__all__ = ["CompiledQp", "GeneratedOsqp", "QpSolution", "QpSolverError", "generated_qp"]
+__all__ = ["CompiledQp", "GeneratedOsqp", "QpInfo", "QpSolution", "QpSolverError", "generated_qp"]
 
 FloatArray = NDArray[np.float64]
 
@@ -39,7 +42,10 @@ class QpSolverError(AgvctlError):
     """An OSQP call inside the generated solver returned an error (its exit flag): the solver's own failure."""
 
 
-class _Info(ctypes.Structure):
+class QpInfo(ctypes.Structure):
+    """What one solve of the generated solver did (``<prefix>_info``): OSQP's status, the iterations, the exit flag
+    of a failed call."""
+
     _fields_ = [("status", ctypes.c_int), ("iterations", ctypes.c_int), ("error", ctypes.c_int)]
 
 
@@ -137,8 +143,20 @@ class CompiledQp:
         self._input_addresses = [int(b.ctypes.data) for b in self._inputs]
         self._x = np.empty(code.n_variables)
         self._y = np.empty(code.n_constraints)
-        self._info = _Info()
+        self._info = QpInfo()
         self._outputs = (int(self._x.ctypes.data), int(self._y.ctypes.data), ctypes.addressof(self._info))
+
+    @property
+    def library(self) -> ctypes.CDLL:
+        """The loaded library (the solver, and the QP's step where it was generated with it)."""
+        return self._library.lib
+
+    @contextmanager
+    def held(self) -> Iterator[None]:
+        """The library's lock, its solver holding this solver's state: for calls into the library that solve."""
+        with self._library.lock:
+            self._hold()
+            yield
 
     def _hold(self) -> None:
         """Make the library hold this solver's state (the caller holds the library's lock)."""
@@ -238,8 +256,11 @@ _GENERATED: dict[str, QpC] = {}
 _GENERATED_LOCK = threading.Lock()
 
 
-def generated_qp(qp: BlockQp[Any, Any], settings: Mapping[str, Any], *, single: bool = False) -> QpC:
-    """The generated solver of ``qp`` set up with ``settings``, generated once per process for the same data.
+def generated_qp(
+    qp: BlockQp[Any, Any], settings: Mapping[str, Any], *, single: bool = False, step: StepC | None = None
+) -> QpC:
+    """The generated solver of ``qp`` set up with ``settings`` (and ``step``'s files with it), generated once per
+    process for the same data.
 
     Parameters
     ----------
@@ -249,13 +270,16 @@ def generated_qp(qp: BlockQp[Any, Any], settings: Mapping[str, Any], *, single: 
         OSQP's settings.
     single : bool
         In single precision.
+    step : StepC or None
+        The QP's step in C (:func:`~agvctl.controllers.mpc.c_step.generate_step_c`), compiled into the same library.
 
     Returns
     -------
     QpC
         The generated C (:func:`~agvctl.controllers.mpc.c_qp.generate_qp_c`).
     """
-    digest = hashlib.sha256(repr((single, sorted(settings.items()))).encode())
+    step_files = sorted(step.files.items()) if step is not None else []
+    digest = hashlib.sha256(repr((single, sorted(settings.items()), step_files)).encode())
     for matrix in (qp.P, qp.A):
         for part in (matrix.indptr, matrix.indices, matrix.data):
             digest.update(np.ascontiguousarray(part).tobytes())
@@ -267,6 +291,8 @@ def generated_qp(qp: BlockQp[Any, Any], settings: Mapping[str, Any], *, single: 
         if code is None:
             origin = "an LTV MPC in the closed loop"
             code = generate_qp_c(qp, settings, origin=origin, generator="agvctl", single=single)
+            if step is not None:
+                code = dataclasses.replace(code, files={**code.files, **step.files})
             _GENERATED[key] = code
         return code
 
@@ -296,6 +322,9 @@ class GeneratedOsqp:
         OSQP's settings (``time_limit`` has no effect: the generated solver keeps no time).
     single : bool
         Generate the solver in single precision (``qp_solver = "osqp_c_float"``).
+    step : StepC or None
+        The QP's step in C (:func:`~agvctl.controllers.mpc.c_step.generate_step_c`), compiled into the solver's
+        library (:class:`~agvctl.controllers.mpc.c_step_loop.CompiledStep` calls it).
 
     Raises
     ------
@@ -303,8 +332,15 @@ class GeneratedOsqp:
         Another OSQP release than the generator's, no C compiler, or the code does not compile.
     """
 
-    def __init__(self, qp: BlockQp[Any, Any], settings: Mapping[str, Any], *, single: bool = False) -> None:
-        self.solver = CompiledQp(generated_qp(qp, settings, single=single))
+    def __init__(
+        self,
+        qp: BlockQp[Any, Any],
+        settings: Mapping[str, Any],
+        *,
+        single: bool = False,
+        step: StepC | None = None,
+    ) -> None:
+        self.solver = CompiledQp(generated_qp(qp, settings, single=single, step=step))
         self._vectors: dict[str, Any] = {}
 
     def update(self, **arguments: Any) -> None:

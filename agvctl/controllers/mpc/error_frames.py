@@ -29,6 +29,11 @@ WindowSource = tuple[FloatArray, int, int]
 class ErrorFrame(Protocol):
     """The axes of the position error (see the module notes)."""
 
+    c_step: str
+    """The frame's part of the QP step in C (the template ``step/<c_step>.c.j2`` of
+    :mod:`~agvctl.controllers.mpc.c_step`): its position error and coupling as :meth:`position_error` and
+    :meth:`coupling` compute them."""
+
     def along_track_share(self, config: MpcConfig) -> float:
         """The weight of the first position error relative to the second's.
 
@@ -136,6 +141,8 @@ class PathFrame:
         T_s, s.
     """
 
+    c_step = "path_frame"
+
     def __init__(self, horizon: int, sample_period_s: float) -> None:
         self._half_period_s = 0.5 * sample_period_s
         self._coupling = np.zeros((horizon, 2))
@@ -192,6 +199,8 @@ class WorldFrame:
     sample_period_s : float
         T_s, s.
     """
+
+    c_step = "world_frame"
 
     def __init__(self, horizon: int, sample_period_s: float) -> None:
         self._horizon = horizon

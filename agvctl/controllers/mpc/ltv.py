@@ -42,6 +42,8 @@ from numpy.typing import NDArray
 from agvctl.angles import wrap_angle
 from agvctl.controllers.mpc.body_rate import BodyRate
 from agvctl.controllers.mpc.c_solver import GeneratedOsqp, QpSolverError
+from agvctl.controllers.mpc.c_step import StepParts, generate_step_c, step_tables
+from agvctl.controllers.mpc.c_step_loop import CompiledStep
 from agvctl.controllers.mpc.common import MpcStepper
 from agvctl.controllers.mpc.config import MpcConfig, check_ltv_settings
 from agvctl.controllers.mpc.error_frames import ERROR_FRAMES
@@ -60,6 +62,7 @@ from agvctl.controllers.mpc.ltv_qp import (
     reversal_samples,
 )
 from agvctl.controllers.mpc.ltv_qp_model import Dynamics, StateCost
+from agvctl.controllers.mpc.prediction import RELINEARISE_RAD
 from agvctl.controllers.mpc.qp_blocks import BlockQp, VariableBlock
 from agvctl.controllers.mpc.shaping import HorizonStep
 from agvctl.errors import AgvctlError, ConfigError, expect_instance
@@ -147,6 +150,21 @@ class LtvMpcController(MpcStepper):
         return self._qp
 
     @property
+    def step_parts(self) -> StepParts:
+        """What the QP's step in C is generated from (:func:`~agvctl.controllers.mpc.c_step.generate_step_c`): the QP,
+        the error frame, the prediction model and the constants the step uses."""
+        c = self.config
+        return StepParts(
+            self._qp,
+            self._frame,
+            self._model,
+            c.horizon,
+            self.sample_period_s,
+            self.max_wheel_speed_m_s,
+            RELINEARISE_RAD,
+        )
+
+    @property
     def osqp_settings(self) -> dict[str, Any]:
         """OSQP's settings as the solver was set up with them: the config's tolerance and limits, then
         :data:`OSQP_SETTINGS`, then the constructor's overrides (what a generated solver of the QP uses too)."""
@@ -171,6 +189,8 @@ class LtvMpcController(MpcStepper):
         self._model.restart()
         a_step = self.max_wheel_accel_m_s2 * self.sample_period_s
         self._qp.retarget(QpReference(grid, self.max_wheel_speed_m_s, a_step, d, self._reach, self._lead_factor_s))
+        if self._c_step is not None:
+            self._c_step.start(self._qp, step_tables(self._qp, grid))
         return grid
 
     # -- problem structure --------------------------------------------------------------------------------
@@ -223,14 +243,18 @@ class LtvMpcController(MpcStepper):
         # at rest the problem above is the zero problem: A's varying entries are set at reset
 
     def _set_up(self, settings: dict[str, Any]) -> osqp.OSQP | GeneratedOsqp:
-        """The solver set up on the QP: OSQP, or its C generated for the QP (``qp_solver``)."""
+        """The solver set up on the QP: OSQP, or its C generated for the QP with the QP's step (``qp_solver``)."""
         qp = self._qp
+        self._c_step: CompiledStep | None = None
         if self.config.qp_solver == "osqp":
             solver = osqp.OSQP()
             solver.setup(qp.P, qp.q, qp.A, qp.lower, qp.upper, **settings)
             return solver
         try:
-            return GeneratedOsqp(qp, settings, single=self.config.qp_solver == "osqp_c_float")
+            code = generate_step_c(self.step_parts, origin="an LTV MPC in the closed loop", generator="agvctl")
+            generated = GeneratedOsqp(qp, settings, single=self.config.qp_solver == "osqp_c_float", step=code)
+            self._c_step = CompiledStep(generated.solver, code)
+            return generated
         except AgvctlError as exc:  # no compiler, or another OSQP release than the generator's
             problem = f"{self.config.qp_solver!r} cannot be used here: {exc}"
             raise ConfigError("LtvMpcController", "qp_solver", problem) from None
@@ -264,6 +288,13 @@ class LtvMpcController(MpcStepper):
 
     def _solve(self, step: HorizonStep) -> tuple[float, float] | None:
         g, k, N = step.grid, step.k, self.config.horizon
+        if self._c_step is not None:  # the same step in the generated C
+            solved = self._c_step.solve(
+                k, step.fraction, step.pose, step.wheel_speed_m_s, step.previous_m_s, step.window
+            )
+            if solved is None:
+                return None
+            return self._fallback.store_solution(k, g.feedforward_m_s[k : k + N], solved, self.max_wheel_speed_m_s)
         x0 = self._initial_error(step)
         e = x0.tolist()
         u_l, u_r = step.previous_m_s.tolist()

@@ -10,8 +10,8 @@ first M samples (``"reversal slacks"``, two per sample). The blocks, in row orde
 * :class:`SpeedBox`, the speed box on δs (2N);
 * :class:`Rate`, the rate δs_k − δs_{k−1} (2(N − 1));
 * :class:`FirstMove`, the first move from the previous command (2);
-* the prediction model's own: with the wheel-loop model :class:`Reach`, the setpoints' reachable lead over the
-  predicted wheel speeds s_k − v_k (2(N − 1));
+* the prediction model's own: with the wheel-loop model :class:`~agvctl.controllers.mpc.reach.Reach`, the
+  setpoints' reachable lead over the predicted wheel speeds s_k − v_k (2(N − 1));
 * :class:`Reversal`, with the reversal slacks: r_k + δs_k (2M), r_k − δs_k (2M) and r_k (2M). With r_k ≥ 0 and
   r_k ≥ −d_k s_k (d_k the wheel's direction, one of the first two rows left open), r_k is at least the setpoint's
   speed against its wheel's direction, and its linear cost makes it exactly that;
@@ -44,7 +44,6 @@ __all__ = [
     "QpReference",
     "QpStep",
     "Rate",
-    "Reach",
     "Reversal",
     "SpeedBox",
     "reversal_samples",
@@ -123,6 +122,8 @@ class SpeedBox(StepBlock):
     """
 
     name = "speed box"
+    c_step = "speed_box"
+    c_tables_names = ("lower", "upper")
 
     def __init__(self, horizon: int) -> None:
         self._horizon = horizon
@@ -146,6 +147,10 @@ class SpeedBox(StepBlock):
         ff, v_max = reference.grid.feedforward_m_s, reference.max_wheel_speed_m_s
         self._box = np.stack([(-v_max - ff).ravel(), (v_max - ff).ravel()])  # (lower, upper) × flat samples
 
+    def c_tables(self) -> dict[str, FloatArray]:
+        """The box's lower and upper bounds, by grid point and wheel."""
+        return {"lower": self._box[0], "upper": self._box[1]}
+
     def write(self, step: QpStep) -> None:
         """The window's box."""
         k = step.k
@@ -162,6 +167,8 @@ class Rate(StepBlock):
     """
 
     name = "rate"
+    c_step = "rate"
+    c_tables_names = ("lower", "upper")
 
     def __init__(self, horizon: int) -> None:
         self._horizon = horizon
@@ -184,6 +191,10 @@ class Rate(StepBlock):
         d, a_step = reference.feedforward_step_m_s, reference.max_step_m_s
         self._rate = np.stack([(-a_step - d).ravel(), (a_step - d).ravel()])
 
+    def c_tables(self) -> dict[str, FloatArray]:
+        """The bounds' lower and upper values, by grid point and wheel."""
+        return {"lower": self._rate[0], "upper": self._rate[1]}
+
     def write(self, step: QpStep) -> None:
         """The window's bounds."""
         k = step.k
@@ -196,6 +207,8 @@ class FirstMove(StepBlock):
     relaxed just enough."""
 
     name = "first move"
+    c_step = "first_move"
+    c_tables_names = ("step",)
     n_rows = 2
 
     def constraints(self, layout: VariableLayout, pattern: Pattern) -> None:
@@ -212,78 +225,15 @@ class FirstMove(StepBlock):
         """a_lim·T_s."""
         self._step_m_s = reference.max_step_m_s
 
+    def c_tables(self) -> dict[str, FloatArray]:
+        """a_lim·T_s."""
+        return {"step": np.array([self._step_m_s])}
+
     def write(self, step: QpStep) -> None:
         """s_{−1} − s_ff,0 ± a_lim·T_s."""
         (start_l, start_r), a_step, lo, hi = step.start_m_s, self._step_m_s, self._lower, self._upper
         lo[0], lo[1] = start_l - a_step, start_r - a_step
         hi[0], hi[1] = start_l + a_step, start_r + a_step
-
-
-class Reach(StepBlock):
-    """The setpoints' reachable leads over their wheels: s_k − v_k ∈ [−D↓, D↑], k = 1 … N − 1 (2(N − 1) rows, the
-    wheel speeds being states), and the first sample's from the measured speed within the speed box, tightening its
-    rows. Later samples' leads are the reference's speeds', never tighter than the first's (so that holding the first
-    setpoint stays feasible as the wheel converges).
-
-    Parameters
-    ----------
-    horizon : int
-        N.
-    n_states : int
-        nx.
-    wheel_columns : tuple of int
-        The states of the wheel-speed errors (left, right).
-    box : SpeedBox
-        The speed box, whose first sample this block tightens (it comes after it).
-    """
-
-    name = "reach"
-
-    def __init__(self, horizon: int, n_states: int, wheel_columns: tuple[int, int], box: SpeedBox) -> None:
-        self._horizon, self._nx, self._wheels, self._box = horizon, n_states, wheel_columns, box
-        self.n_rows = 2 * (horizon - 1)
-
-    def constraints(self, layout: VariableLayout, pattern: Pattern) -> None:
-        """δs_k − δv_k (δv_0 is data, in the first sample's bounds)."""
-        xs, us, nx = layout.start("states"), layout.start("setpoints"), self._nx
-        for k in range(1, self._horizon):
-            for j in range(2):
-                pattern.add(2 * (k - 1) + j, us + 2 * k + j, 1.0)
-                pattern.add(2 * (k - 1) + j, xs + (k - 1) * nx + self._wheels[j], -1.0)
-
-    def bind(self, qp: StepQp, rows: slice) -> None:
-        """Its bounds, by sample and wheel."""
-        self._lower, self._upper = qp.lower[rows].reshape(-1, 2), qp.upper[rows].reshape(-1, 2)
-
-    def retarget(self, reference: QpReference) -> None:
-        """The leads at the reference's wheel speeds: δs_k − δv_k ∈ v_ref − s_ff + [−D↓, D↑]."""
-        g = reference.grid
-        up, down = reference.reach.accel_m_s2(g.wheel_m_s[:-1])
-        self._base = g.wheel_m_s[:-1] - g.feedforward_m_s
-        self._down = down * reference.lead_factor_s
-        self._up = up * reference.lead_factor_s
-        self._max_wheel_speed_m_s = reference.max_wheel_speed_m_s
-
-    def write(self, step: QpStep) -> None:
-        """The first sample's box within the window, the later samples' leads."""
-        assert step.window is not None  # finite wheel speeds: x_0 holds them
-        N, k, (ff_l, ff_r), window = self._horizon, step.k, step.feedforward_m_s, step.window
-        first = self._box.first
-        (box_lo_l, box_lo_r), (box_hi_l, box_hi_r) = first.tolist()
-        (lower_l, lower_r), (upper_l, upper_r) = window.lower_m_s, window.upper_m_s
-        first[0, 0], first[0, 1] = max(box_lo_l, lower_l - ff_l), max(box_lo_r, lower_r - ff_r)
-        first[1, 0], first[1, 1] = min(box_hi_l, upper_l - ff_l), min(box_hi_r, upper_r - ff_r)
-        lo, hi = self._lower, self._upper
-        v_l, v_r = step.wheel_speed_m_s.tolist()
-        if max(abs(v_l), abs(v_r)) <= self._max_wheel_speed_m_s:
-            base = self._base[k + 1 : k + N]
-            np.maximum(self._down[k + 1 : k + N], window.lead_down_m_s, out=lo)
-            np.subtract(base, lo, out=lo)
-            np.maximum(self._up[k + 1 : k + N], window.lead_up_m_s, out=hi)
-            np.add(base, hi, out=hi)
-        else:  # a wheel beyond the speed box (a reset at speed): only the first sample is bounded
-            lo[:] = -INF
-            hi[:] = INF
 
 
 class Reversal(StepBlock):
@@ -300,6 +250,8 @@ class Reversal(StepBlock):
     """
 
     name = "reversal"
+    c_step = "reversal"
+    c_tables_names = ("forward", "backward")
 
     def __init__(self, samples: int, weight: float) -> None:
         self._samples, self._weight = samples, weight
@@ -332,6 +284,14 @@ class Reversal(StepBlock):
             [np.where(direction > 0, -ff, -INF).ravel(), np.where(direction < 0, ff, -INF).ravel()]
         )
 
+    def c_values(self, qp: StepQp) -> dict[str, object]:
+        """M."""
+        return {"samples": self._samples}
+
+    def c_tables(self) -> dict[str, FloatArray]:
+        """The two rows' lower bounds by grid point and wheel."""
+        return {"forward": self._reversal_lower[0], "backward": self._reversal_lower[1]}
+
     def write(self, step: QpStep) -> None:
         """The window's lower bounds."""
         k, M = step.k, self._samples
@@ -350,6 +310,8 @@ class InputCost(StepBlock):
     """
 
     name = "input cost"
+    c_step = "input_cost"
+    c_tables_names = ("d", "inner", "last")
 
     def __init__(self, config: MpcConfig) -> None:
         self._config = config
@@ -373,10 +335,19 @@ class InputCost(StepBlock):
         """The linear term where it depends on the reference only: 2 w_Δ (d_j − d_j+1) for the inner samples,
         2 w_Δ d_j for the last."""
         d, w_rate = reference.feedforward_step_m_s, self._w_rate
+        self._d = d
         self._d_pairs: list[list[float]] = d.tolist()  # per-step reads as plain floats
         self._inner = np.zeros_like(d)
         self._inner[:-1] = (d[:-1] - d[1:]) * w_rate
         self._last = (d - 0.0) * w_rate
+
+    def c_values(self, qp: StepQp) -> dict[str, object]:
+        """The setpoints' first variable and 2 w_Δ."""
+        return {"first_setpoint": qp.layout.start("setpoints"), "w_rate": self._w_rate}
+
+    def c_tables(self) -> dict[str, FloatArray]:
+        """d, the inner and the last samples' linear terms, by grid point and wheel."""
+        return {"d": self._d.ravel(), "inner": self._inner.ravel(), "last": self._last.ravel()}
 
     def write(self, step: QpStep) -> None:
         """The window's linear term, its first sample's from the previous command."""

@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.error_frames import ErrorFrame
@@ -15,6 +16,8 @@ from agvctl.controllers.mpc.prediction import PredictionModel
 from agvctl.controllers.mpc.qp_blocks import Pattern, VariableLayout
 
 __all__ = ["Dynamics", "StateCost"]
+
+FloatArray = NDArray[np.float64]
 
 
 class Dynamics(StepBlock):
@@ -38,6 +41,8 @@ class Dynamics(StepBlock):
     """
 
     name = "dynamics"
+    c_step = "dynamics"
+    c_tables_names = ("ad", "neg_ad", "neg_bd", "version")
 
     def __init__(
         self, model: PredictionModel, frame: ErrorFrame, horizon: int, sample_period_s: float, separation_m: float
@@ -87,6 +92,7 @@ class Dynamics(StepBlock):
         n = g.n_points - 1
         E = expm_batch(self._model.continuous(g, self._frame, self._separation_m) * self._period_s)
         self._Ad = np.ascontiguousarray(E[:, :nx, :nx])
+        self._Ad_rows: list[list[list[float]]] = self._Ad.tolist()  # per-step products as plain floats
         self._neg_Ad_flat = np.ascontiguousarray(-self._Ad).reshape(n * nx * nx)
         self._neg_Bd_flat = np.ascontiguousarray(-E[:, :nx, nx:]).reshape(n * nx * 2)
         # window k takes A_{k+1} … A_{k+N−1}, B_k … B_{k+N−1} and what else the frame's coupling depends on
@@ -94,12 +100,43 @@ class Dynamics(StepBlock):
         self._version: list[int] = window_versions(sources, g.last_start + 1).tolist()
         self._held = None
 
+    def c_values(self, qp: StepQp) -> dict[str, object]:
+        """nx, the wheel-speed states and where −A_k, −B_k and the coupling's entries lie among A's varying ones."""
+        wheels = self._wheels
+        return {
+            "nx": self._nx,
+            "wheels": list(wheels) if wheels is not None else None,
+            "a_index": qp.varying_index("A", self._pos_A),
+            "b_index": qp.varying_index("A", self._pos_B),
+            "coupled_index": (
+                [qp.varying_index("A", self._pos_coupled[:, i]) for i in (0, 1)]
+                if self._pos_coupled is not None
+                else None
+            ),
+        }
+
+    def c_tables(self) -> dict[str, FloatArray]:
+        """A_j, −A_j and −B_j of every interval (row-major) and each window's version."""
+        return {
+            "ad": self._Ad.ravel(),
+            "neg_ad": self._neg_Ad_flat,
+            "neg_bd": self._neg_Bd_flat,
+            "version": np.asarray(self._version, dtype=np.float64),
+        }
+
     def write(self, step: QpStep) -> None:
-        """A_0 x_0 (with the coupling of x_0's wheel speeds) as both bounds of the first rows."""
-        first = np.dot(self._Ad[step.k], step.x0, out=self._lower_first)
+        """A_0 x_0 (with the coupling of x_0's wheel speeds) as both bounds of the first rows: each row's products
+        summed in index order (the same on every machine and in the generated C; a BLAS product's order is its
+        own)."""
+        e, first = step.errors, self._lower_first
+        for i, row in enumerate(self._Ad_rows[step.k]):
+            total = row[0] * e[0]
+            for j in range(1, self._nx):
+                total += row[j] * e[j]
+            first[i] = total
         coupling = step.coupling
         if coupling is not None and self._wheels is not None:
-            e, (left, right) = step.errors, self._wheels
+            left, right = self._wheels
             first[0] += coupling[0, 0] * (e[left] + e[right])
             first[1] += coupling[0, 1] * (e[left] + e[right])
         self._upper_first[:] = first
@@ -143,6 +180,8 @@ class StateCost(StepBlock):
     """
 
     name = "state cost"
+    c_step = "state_cost"
+    c_tables_names = ("weights", "version")
 
     def __init__(self, config: MpcConfig, frame: ErrorFrame, n_states: int, separation_m: float) -> None:
         self._config, self._frame, self._nx, self._separation_m = config, frame, n_states, separation_m
@@ -180,6 +219,17 @@ class StateCost(StepBlock):
         self._weights = weights * 2.0 * c.weight_position
         self._version: list[int] = window_versions([(self._weights, 1, c.horizon)], g.last_start + 1).tolist()
         self._held = None
+
+    def c_values(self, qp: StepQp) -> dict[str, object]:
+        """Where the position weights lie among P's varying entries, and each sample's horizon scale."""
+        return {
+            "index": qp.varying_index("P", self._positions),
+            "scale": self._horizon_scale.ravel().tolist(),
+        }
+
+    def c_tables(self) -> dict[str, FloatArray]:
+        """The position weights by grid point (first, second) and each window's version."""
+        return {"weights": self._weights.ravel(), "version": np.asarray(self._version, dtype=np.float64)}
 
     def write_matrices(self, step: QpStep) -> tuple[bool, bool]:
         """The weights of points k + 1 … k + N, where the window's version changed."""

@@ -18,7 +18,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
-from agvctl.controllers.mpc.ltv_qp import Reach, SpeedBox, StepBlock
+from agvctl.controllers.mpc.ltv_qp import SpeedBox, StepBlock
+from agvctl.controllers.mpc.reach import Reach
 
 if TYPE_CHECKING:
     from agvctl.controllers.mpc.error_frames import ErrorFrame
@@ -44,6 +45,10 @@ class PredictionModel(Protocol):
     """The states of the wheel-speed errors (δv_l, δv_r), None where the setpoints drive the kinematics directly."""
     time_constant_s: float | None
     """τ of the wheel loops' lag the model predicts, s; None where the setpoints drive the kinematics directly."""
+    c_step: str
+    """The model's part of the QP step in C (the template ``step/<c_step>.c.j2`` of
+    :mod:`~agvctl.controllers.mpc.c_step`): its wheel errors and coupling as :meth:`wheel_errors` and
+    :meth:`coupling` compute them."""
     lead_factor_s: float
     """D/a: how far a setpoint may lead its wheel per m/s² of acceleration the wheel can reach, s, scaled by the
     settings' ``reach_lead`` (:class:`~agvctl.controllers.mpc.shaping.ReachWindow`, the ``Reach`` block)."""
@@ -187,6 +192,7 @@ class KinematicModel:
     """
 
     n_states = 3
+    c_step = "kinematic_model"
     wheel_columns: tuple[int, int] | None = None
     time_constant_s: float | None = None
 
@@ -245,6 +251,7 @@ class WheelLoopModel:
     """
 
     n_states = 5
+    c_step = "wheel_loop_model"
     wheel_columns: tuple[int, int] | None = (3, 4)
 
     def __init__(self, config: MpcConfig, sample_period_s: float) -> None:

@@ -133,6 +133,13 @@ class QpBlock(Generic[R, S]):
     """The variables the block introduces (laid out after those of the blocks before it)."""
     n_rows: int = 0
     """Its number of constraint rows."""
+    c_step: str | None = None
+    """The block's part of the QP step in C: the template ``step/<c_step>.c.j2`` beside
+    :mod:`agvctl.controllers.mpc.c_step`, which renders its state (``part == "state"``) and its writes (``part ==
+    "code"``) as :meth:`write` and :meth:`write_matrices` compute them. None: the block has no C, and neither has a QP
+    that holds it."""
+    c_tables_names: tuple[str, ...] = ()
+    """The names of the tables :meth:`c_tables` gives, in that order."""
 
     def constraints(self, layout: VariableLayout, pattern: Pattern) -> None:
         """Add the block's entries of A, in its own rows 0 … :attr:`n_rows` − 1.
@@ -175,6 +182,34 @@ class QpBlock(Generic[R, S]):
         reference : R
             The reference's data.
         """
+
+    def c_values(self, qp: BlockQp[R, S]) -> dict[str, object]:
+        """What the block's C template is rendered with, besides its rows (``first_row``, ``n_rows``): positions,
+        sizes, constants of its settings.
+
+        Parameters
+        ----------
+        qp : BlockQp
+            The assembled problem.
+
+        Returns
+        -------
+        dict
+            Names and values for the template.
+        """
+        del qp
+        return {}
+
+    def c_tables(self) -> dict[str, FloatArray]:
+        """The block's precompute for the present reference as its C reads it: name → one-dimensional array, the
+        names those of :attr:`c_tables_names`.
+
+        Returns
+        -------
+        dict of str to ndarray
+            The tables.
+        """
+        return {}
 
     def write(self, step: S) -> None:
         """Write the step's rows of l and u and the block's part of q.
@@ -317,6 +352,28 @@ class BlockQp(Generic[R, S]):
             The block.
         """
         return self.blocks[list(self.rows).index(name)]
+
+    def varying_index(self, matrix: str, positions: IntArray) -> list[int]:
+        """Where entries of a matrix's data lie among its varying entries: the order in which a solver takes their
+        values (``Ax``/``Px`` of :meth:`matrix_update`).
+
+        Parameters
+        ----------
+        matrix : {'A', 'P'}
+            The matrix.
+        positions : ndarray of int
+            Positions in its data array (:attr:`a_slots`, :attr:`p_slots`).
+
+        Returns
+        -------
+        list of int
+            Their indices in :attr:`a_varying` (or :attr:`p_varying`).
+        """
+        varying = self.a_varying if matrix == "A" else self.p_varying
+        index = np.searchsorted(varying, positions)
+        if not np.array_equal(varying[index], positions):
+            raise ValueError(f"positions of {matrix} that are not among its varying entries")
+        return [int(i) for i in index]
 
     def retarget(self, reference: R) -> None:
         """Every block's precompute for ``reference``.

@@ -1,0 +1,285 @@
+"""The LTV MPC's QP step as generated C99: the initial error, every block's writes and the solve.
+
+What :meth:`LtvMpcController._solve <agvctl.controllers.mpc.ltv.LtvMpcController>` computes in Python, rendered from
+the QP's own parts: each block (:attr:`~agvctl.controllers.mpc.qp_blocks.QpBlock.c_step`), the error frame and the
+prediction model names a template in ``templates/step/`` that writes what its Python writes, in the same order and with
+the same arithmetic. A QP holding a part without C has no step in C (:func:`generate_step_c` says which).
+
+What varies with the reference is data, the *tables*: the reference's pose, wheel speeds and feed-forward on the
+horizon grid, and each block's precompute (:meth:`~agvctl.controllers.mpc.qp_blocks.QpBlock.c_tables`), computed in
+Python at each reset and handed to C as pointers (:class:`~agvctl.controllers.mpc.c_step_loop.CompiledStep`). What a
+step keeps for the next (the QP's vectors, the matrices' varying values, which window's matrices the solver holds, the
+coupling's heading) is one state structure the caller owns. The step is compiled into the library of the QP's
+generated solver (:mod:`~agvctl.controllers.mpc.c_qp`), which it calls.
+
+Every product is summed in index order on both sides (A_0 x_0 too, which Python computes in plain floats rather than
+with BLAS, whose order and fused multiply-adds are the machine's), so that C and Python write the same bits.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvctl.controllers.mpc.horizon import HorizonReference
+from agvctl.controllers.mpc.qp_blocks import BlockQp, QpBlock
+from agvctl.errors import AgvctlError
+from agvctl.plant.codegen import c_templates
+
+__all__ = [
+    "BROKEN",
+    "STEP_ERROR",
+    "NOT_SOLVED",
+    "REFERENCE_TABLES",
+    "SOLVED",
+    "StepC",
+    "StepParts",
+    "generate_step_c",
+    "reference_tables",
+    "step_tables",
+]
+
+FloatArray = NDArray[np.float64]
+
+PREFIX = "agv_mpc_step"
+"""The step's stem and the prefix of the names it defines."""
+
+REFERENCE_TABLES = ("x", "y", "theta", "cos_theta", "sin_theta", "wheel_left", "wheel_right", "feedforward")
+"""The reference's own tables, first of all: its pose, cos θ and sin θ, and wheel speeds at the grid points, and the
+feed-forward of each interval (left, right)."""
+
+SOLVED, NOT_SOLVED, BROKEN, STEP_ERROR = 0, 1, 2, 3
+"""What the step returns (``<prefix>_SOLVED`` … ``_ERROR`` in its header)."""
+
+
+def reference_tables(grid: HorizonReference) -> list[FloatArray]:
+    """The reference's tables on ``grid``, in the order of :data:`REFERENCE_TABLES`.
+
+    Parameters
+    ----------
+    grid : HorizonReference
+        The reference on the horizon grid.
+
+    Returns
+    -------
+    list of ndarray
+        One-dimensional arrays of double.
+    """
+    return [
+        grid.x_m,
+        grid.y_m,
+        grid.theta_rad,
+        grid.cos_theta,
+        grid.sin_theta,
+        grid.wheel_m_s[:, 0],
+        grid.wheel_m_s[:, 1],
+        grid.feedforward_m_s.ravel(),
+    ]
+
+
+@dataclass(frozen=True)
+class StepParts:
+    """What a QP step is generated from: the QP and the controller's strategies and constants.
+
+    Parameters
+    ----------
+    qp : BlockQp
+        The assembled QP (its blocks bound).
+    frame : object
+        The error frame (``c_step``; :mod:`~agvctl.controllers.mpc.error_frames`).
+    model : object
+        The prediction model (``c_step``, ``n_states``; :mod:`~agvctl.controllers.mpc.prediction`).
+    horizon : int
+        N.
+    sample_period_s : float
+        T_s, s.
+    max_wheel_speed_m_s : float
+        v_max, the controller's speed limit, m/s.
+    relinearise_rad : float
+        How far the heading error moves before the coupling is linearised again, rad.
+    """
+
+    qp: BlockQp[Any, Any]
+    frame: Any
+    model: Any
+    horizon: int
+    sample_period_s: float
+    max_wheel_speed_m_s: float
+    relinearise_rad: float
+
+
+@dataclass(frozen=True)
+class _Part:
+    id: str
+    c_step: str
+    v: dict[str, Any]
+    first_row: int
+    n_rows: int
+    t: dict[str, str]
+    has_write: bool
+    has_matrices: bool
+    has_start: bool
+
+
+@dataclass(frozen=True)
+class StepC:
+    """The generated C of one QP's step.
+
+    Parameters
+    ----------
+    files : dict of str to str
+        ``<prefix>.h`` and ``<prefix>.c``.
+    prefix : str
+        The stem and the names' prefix.
+    table_names : tuple of str
+        The tables in the order the step reads them: the reference's, then ``<block>.<name>`` for each block's.
+    horizon : int
+        N.
+    """
+
+    files: dict[str, str]
+    prefix: str
+    table_names: tuple[str, ...]
+    horizon: int
+
+
+def _identifier(name: str) -> str:
+    return name.replace(" ", "_").replace("-", "_")
+
+
+def _parts(parts: StepParts, macro: str) -> tuple[list[_Part], list[dict[str, str]]]:
+    """The C parts in order (frame, model, the blocks in row order) and the table list after the reference's."""
+    qp, tables = parts.qp, []
+    missing = [b.name for b in qp.blocks if b.c_step is None]
+    if missing:
+        raise AgvctlError(f"the QP step has no C for {', '.join(missing)}")
+    half = 0.5 * parts.sample_period_s
+    result = [
+        _Part("frame", parts.frame.c_step, {"half_period": half}, 0, 0, {}, False, False, False),
+        _Part("model", parts.model.c_step, {"relinearise": parts.relinearise_rad}, 0, 0, {}, False, False, False),
+    ]
+    for block in qp.blocks:
+        ident = _identifier(block.name)
+        t = {}
+        for name in block.c_tables_names:
+            t[name] = f"{macro}_TABLE_{ident.upper()}_{name.upper()}"
+            tables.append({"macro": f"{ident.upper()}_{name.upper()}", "doc": f"{block.name}: {name}"})
+        rows = qp.rows[block.name]
+        has_write = type(block).write is not QpBlock.write
+        has_matrices = type(block).write_matrices is not QpBlock.write_matrices
+        result.append(
+            _Part(
+                ident,
+                block.c_step or "",
+                block.c_values(qp),
+                rows.start,
+                block.n_rows,
+                t,
+                has_write,
+                has_matrices,
+                False,
+            )
+        )
+    return result, tables
+
+
+def generate_step_c(
+    parts: StepParts, *, origin: str, generator: str, prefix: str = PREFIX, qp_prefix: str = "agv_mpc_qp"
+) -> StepC:
+    """The C99 of a QP's step (see the module's description).
+
+    Parameters
+    ----------
+    parts : StepParts
+        The QP, the strategies and the constants.
+    origin : str
+        What the QP is of, written into the files.
+    generator : str
+        What wrote them.
+    prefix : str
+        The step's stem and the names' prefix.
+    qp_prefix : str
+        The prefix of the QP's generated solver (:func:`~agvctl.controllers.mpc.c_qp.generate_qp_c`).
+
+    Returns
+    -------
+    StepC
+        The files.
+
+    Raises
+    ------
+    AgvctlError
+        A block has no C.
+    """
+    import osqp
+
+    macro = prefix.upper()
+    c_parts, block_tables = _parts(parts, macro)
+    env = c_templates("agvctl.controllers.mpc")
+    reference = [{"macro": f"REFERENCE_{name.upper()}", "doc": f"the reference: {name}"} for name in REFERENCE_TABLES]
+    qp = parts.qp
+    values: dict[str, Any] = {
+        "prefix": prefix,
+        "qp_prefix": qp_prefix,
+        "guard": f"{macro}_H",
+        "macro": macro,
+        "origin": origin,
+        "generator": generator,
+        "block_names": [b.name for b in qp.blocks],
+        "frame": parts.frame.c_step,
+        "model": parts.model.c_step,
+        "horizon": parts.horizon,
+        "nx": parts.model.n_states,
+        "n": qp.layout.n_variables,
+        "m": qp.n_rows,
+        "n_p": len(qp.p_varying),
+        "n_a": len(qp.a_varying),
+        "tables": reference + block_tables,
+        "n_tables": len(reference) + len(block_tables),
+        "pi": math.pi,
+        "max_speed": parts.max_wheel_speed_m_s,
+        "first_setpoint": qp.layout.start("setpoints"),
+        "solved": int(osqp.SolverStatus.OSQP_SOLVED),
+        "solved_inaccurate": int(osqp.SolverStatus.OSQP_SOLVED_INACCURATE),
+    }
+    # a part has a start where its code defines one
+    rendered = []
+    for part in c_parts:
+        text = env.get_template(f"step/{part.c_step}.c.j2").render({**values, "part": part, "section": "code"})
+        rendered.append(_Part(**{**part.__dict__, "has_start": f"{part.id}_start(" in text}))
+    values["parts"] = rendered
+    files = {
+        f"{prefix}.h": env.get_template("mpc_step.h.j2").render(values),
+        f"{prefix}.c": env.get_template("mpc_step.c.j2").render(values),
+    }
+    names = (*REFERENCE_TABLES, *(f"{b.name}.{n}" for b in qp.blocks for n in b.c_tables_names))
+    return StepC(files, prefix, names, parts.horizon)
+
+
+def step_tables(qp: BlockQp[Any, Any], grid: HorizonReference) -> list[FloatArray]:
+    """The tables of the present reference, in the order of :attr:`StepC.table_names` (contiguous copies where a
+    table is a strided view).
+
+    Parameters
+    ----------
+    qp : BlockQp
+        The QP, its blocks retargeted to the reference.
+    grid : HorizonReference
+        The reference on the horizon grid.
+
+    Returns
+    -------
+    list of ndarray
+        One-dimensional arrays of double.
+    """
+    tables = reference_tables(grid)
+    for block in qp.blocks:
+        given = block.c_tables()
+        if tuple(given) != block.c_tables_names:
+            raise AgvctlError(f"block {block.name!r} gives the tables {list(given)}, not {list(block.c_tables_names)}")
+        tables.extend(given.values())
+    return [np.ascontiguousarray(t, dtype=np.float64).ravel() for t in tables]
