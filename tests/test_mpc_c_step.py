@@ -4,6 +4,7 @@ without C is refused in one line that names the block."""
 
 from __future__ import annotations
 
+import ctypes
 import dataclasses
 import re
 import subprocess
@@ -13,7 +14,11 @@ import osqp
 import pytest
 from test_mpc import _CappedLeftWheel
 
+from agvctl.codegen.qp import experiment_qp
+from agvctl.controllers.mpc.c_qp import compile_qp_c
+from agvctl.controllers.mpc.c_solver import QpInfo
 from agvctl.controllers.mpc.c_step import generate_step_c
+from agvctl.controllers.mpc.c_step_loop import CompiledStep, StepInput
 from agvctl.controllers.mpc.config import MpcConfig
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.ltv_qp import SpeedBox
@@ -85,3 +90,55 @@ def test_the_step_compiles_strictly_and_calls_only_the_solver_and_libm(tmp_path)
     names = {re.split(r"\s+", line.strip())[-1] for line in undefined.stdout.splitlines() if line.strip()}
     assert names <= {"agv_mpc_qp_solve", "agv_mpc_qp_warm_start", "cos", "sin", "sincos", "fmod"}, names
     assert {"agv_mpc_qp_solve", "agv_mpc_qp_warm_start"} <= names
+
+
+def test_the_codegen_folder_steps_the_experiments_qp_as_the_closed_loop_did(monkeypatch):
+    """``agvctl codegen``'s QP folder (the solver, the step and the figure 8 as static tables), compiled: started as
+    the controller's reset starts it and given each step's input from a closed loop run with the step in C, it gives
+    that run's corrections, bit for bit."""
+    experiment = load_experiment("experiments/figure8.toml")
+    steps: list[tuple[tuple, np.ndarray | None]] = []
+    starts: list[int] = []
+    solve, start = CompiledStep.solve, CompiledStep.start
+
+    def recording_solve(self, *args):
+        result = solve(self, *args)
+        kept = tuple(np.array(a) if isinstance(a, np.ndarray) else a for a in args)  # the loop reuses its arrays
+        steps.append((kept, None if result is None else result.copy()))
+        return result
+
+    def recording_start(self, *args):
+        starts.append(len(steps))
+        start(self, *args)
+
+    monkeypatch.setattr(CompiledStep, "solve", recording_solve)
+    monkeypatch.setattr(CompiledStep, "start", recording_start)
+    settings = experiment.spec.controller.pose_settings
+    vehicle = experiment.controller_vehicle
+    run_experiment(
+        experiment, pose_controller=LtvMpcController(vehicle, dataclasses.replace(settings, qp_solver="osqp_c"))
+    )
+    on_path = steps[: starts[1]] if len(starts) > 1 else steps  # the path's own steps (not a docking manoeuvre's)
+    assert len(on_path) > 600
+
+    folder = experiment_qp(experiment, LtvMpcController(vehicle, settings), generator="a test", measure_memory=False)
+    assert folder.code is not None
+    library = compile_qp_c(folder.code)
+    state = np.zeros(library.agv_mpc_step_state_size(), dtype=np.uint8)
+    assert library.agv_mpc_step_start_reference(ctypes.c_void_p(state.ctypes.data)) == 0
+    tables = ctypes.addressof(ctypes.c_void_p.in_dll(library, "agv_mpc_step_tables"))
+    step_input, correction, info = StepInput(), np.empty(2 * settings.horizon), QpInfo()
+    for args, expected in on_path:
+        step_input.set(*args)
+        result = library.agv_mpc_step_solve(
+            ctypes.c_void_p(state.ctypes.data),
+            ctypes.c_void_p(tables),
+            ctypes.byref(step_input),
+            ctypes.c_void_p(correction.ctypes.data),
+            ctypes.byref(info),
+        )
+        if expected is None:
+            assert result != 0
+        else:
+            assert result == 0
+            np.testing.assert_array_equal(correction.reshape(-1, 2), expected)

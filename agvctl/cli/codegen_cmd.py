@@ -25,8 +25,10 @@ def register(sub: Any) -> None:
         "dependency-free C99 into DIR: a header with an init/step API, the source, an example caller, a Makefile "
         "and a README naming the experiment and the agvctl version; for the Ramsete law and the LTV unicycle LQR, "
         "the whole cascade (the law, the reference as data and agv_cascade_step: pose and motor speeds in, DA "
-        "voltages out); for the LTV MPC, the QP it solves each step as OSQP's generated solver in DIR/mpc_qp (the "
-        "MPC's step around its QP is not generated yet). The code is compiled once to measure its static memory.",
+        "voltages out); for the LTV MPC, the QP it solves each step as OSQP's generated solver in DIR/mpc_qp with the "
+        "QP's step (the error, the QP's data, the solve) and the experiment's reference as its tables (the MPC's "
+        "governor, setpoint window, rules, docking and rest are not generated yet). The code is compiled once to "
+        "measure its static memory.",
     )
     p.add_argument("experiment", metavar="EXPERIMENT.toml")
     add_vehicle_options(p, "the experiment's vehicle")
@@ -71,5 +73,6 @@ def run(args: argparse.Namespace) -> int:
     else:
         memory = "not measured" if qp.static_bytes is None else f"{qp.static_bytes} bytes"
         print(f"  the MPC's QP solver in {out_dir / QP_FOLDER}: {qp.note}; static memory {memory}; no heap")
+        print(f"  the QP's step agv_mpc_step.h over it, the reference as {qp.n_tables} tables (agv_mpc_step_tables.h)")
     print(f"  build the example: make -C {out_dir}")
     return 0

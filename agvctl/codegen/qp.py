@@ -1,9 +1,12 @@
 """An experiment's MPC QP solver as C, for ``agvctl codegen``: the LTV MPC built as a run builds it, set up on the
 experiment's reference, and its QP generated (:func:`~agvctl.controllers.mpc.c_qp.generate_qp_c`) into the
-folder :data:`QP_FOLDER` of the output, with its static memory as the compiler lays it out."""
+folder :data:`QP_FOLDER` of the output with the QP's step (:func:`~agvctl.controllers.mpc.c_step.generate_step_c`)
+and the experiment's reference as its tables (:func:`~agvctl.controllers.mpc.c_step.generate_step_tables_c`), with
+their static memory as the compiler lays it out."""
 
 from __future__ import annotations
 
+import dataclasses
 import shutil
 import subprocess
 from dataclasses import dataclass
@@ -12,6 +15,7 @@ import osqp
 
 from agvctl.controllers.base import PoseController
 from agvctl.controllers.mpc.c_qp import QpC, compile_qp_c, generate_qp_c
+from agvctl.controllers.mpc.c_step import generate_step_c, generate_step_tables_c
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.osqp_fixes import OSQP_VERSION
 from agvctl.plant.codegen import c_compiler
@@ -37,12 +41,16 @@ class ExperimentQp:
     note : str
         What the solver is of, or why it was not generated.
     static_bytes : int or None
-        The bytes of static storage of the compiled solver, its workspace included (None: not measured).
+        The bytes of static storage of the compiled solver, its workspace, its step and the reference's tables included
+        (None: not measured).
+    n_tables : int
+        The reference's tables the step reads (0: none generated).
     """
 
     code: QpC | None
     note: str
     static_bytes: int | None
+    n_tables: int = 0
 
 
 def _static_bytes(code: QpC) -> int | None:
@@ -99,7 +107,18 @@ def experiment_qp(
     controller.reset(experiment.reference)  # the QP of this path: its body-rate rows where the path limits the body
     origin = f"The QP of the LTV MPC of experiment {spec.name!r}."
     code = generate_qp_c(controller.qp, controller.osqp_settings, origin=origin, generator=generator, single=single)
+    step = generate_step_c(controller.step_parts, origin=origin, generator=generator)
+    tables = generate_step_tables_c(
+        step,
+        controller.qp,
+        controller.step_tables(),
+        controller.last_start,
+        rho=float(controller.osqp_settings["rho"]),
+        origin=f"the reference of experiment {spec.name!r}.",
+        generator=generator,
+    )
+    code = dataclasses.replace(code, files={**code.files, **step.files, **tables})
     horizon = controller.config.horizon
     precision = "single precision (float)" if single else "double precision"
     note = f"n = {code.n_variables} variables, m = {code.n_constraints} constraints, horizon N = {horizon}, {precision}"
-    return ExperimentQp(code, note, _static_bytes(code) if measure_memory else None)
+    return ExperimentQp(code, note, _static_bytes(code) if measure_memory else None, len(step.table_names))

@@ -19,6 +19,7 @@ with BLAS, whose order and fused multiply-adds are the machine's), so that C and
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -39,6 +40,7 @@ __all__ = [
     "StepC",
     "StepParts",
     "generate_step_c",
+    "generate_step_tables_c",
     "reference_tables",
     "step_tables",
 ]
@@ -283,3 +285,84 @@ def step_tables(qp: BlockQp[Any, Any], grid: HorizonReference) -> list[FloatArra
             raise AgvctlError(f"block {block.name!r} gives the tables {list(given)}, not {list(block.c_tables_names)}")
         tables.extend(given.values())
     return [np.ascontiguousarray(t, dtype=np.float64).ravel() for t in tables]
+
+
+def generate_step_tables_c(
+    code: StepC,
+    qp: BlockQp[Any, Any],
+    tables: Sequence[FloatArray],
+    last_start: int,
+    *,
+    rho: float,
+    origin: str,
+    generator: str,
+    qp_prefix: str = "agv_mpc_qp",
+) -> dict[str, str]:
+    """One reference's tables as static C data beside a step (``<prefix>_tables.{h,c}``): the arrays, the array of
+    their addresses the step reads, and a start of the reference as the controller's reset (the QP's vectors and
+    varying entries as set up, the solver from zero with its step size).
+
+    Parameters
+    ----------
+    code : StepC
+        The step.
+    qp : BlockQp
+        The QP, retargeted to the reference (its vectors as set up: the fixed rows' bounds and costs).
+    tables : sequence of ndarray
+        The reference's tables (:func:`step_tables`).
+    last_start : int
+        The reference's last window start.
+    rho : float
+        The solver's step size as set up, which a start of the reference sets again (as the controller's reset).
+    origin : str
+        What the reference is, written into the files.
+    generator : str
+        What wrote them.
+    qp_prefix : str
+        The prefix of the QP's generated solver.
+
+    Returns
+    -------
+    dict of str to str
+        ``{file name: text}``.
+
+    Raises
+    ------
+    AgvctlError
+        The tables are not the step's, or hold a NaN.
+    """
+    if len(tables) != len(code.table_names):
+        raise AgvctlError(f"the QP step reads {len(code.table_names)} tables, given {len(tables)}")
+    for name, table in zip(code.table_names, tables, strict=True):
+        if not np.all(np.isfinite(table) | np.isinf(table)):
+            raise AgvctlError(f"the QP step's table {name!r} holds NaN")
+    macro = code.prefix.upper()
+    start = [
+        ("q", qp.q),
+        ("l", qp.lower),
+        ("u", qp.upper),
+        ("p", qp.p_data[qp.p_varying]),
+        ("a", qp.a_data[qp.a_varying]),
+    ]
+    values = {
+        "prefix": code.prefix,
+        "macro": macro,
+        "guard": f"{macro}_TABLES_H",
+        "origin": origin,
+        "generator": generator,
+        "last_start": last_start,
+        "rho": rho,
+        "qp_prefix": qp_prefix,
+        "n": qp.layout.n_variables,
+        "m": qp.n_rows,
+        "tables": [
+            {"doc": name, "data": [float(v) for v in table]}
+            for name, table in zip(code.table_names, tables, strict=True)
+        ],
+        "start": [(name, [float(v) for v in vector]) for name, vector in start],
+    }
+    env = c_templates("agvctl.controllers.mpc")
+    return {
+        f"{code.prefix}_tables.h": env.get_template("mpc_step_tables.h.j2").render(values),
+        f"{code.prefix}_tables.c": env.get_template("mpc_step_tables.c.j2").render(values),
+    }

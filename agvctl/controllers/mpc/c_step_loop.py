@@ -20,12 +20,14 @@ from agvctl.controllers.mpc.c_step import SOLVED, STEP_ERROR, StepC
 from agvctl.controllers.mpc.qp_blocks import BlockQp
 from agvctl.errors import AgvctlError
 
-__all__ = ["CompiledStep"]
+__all__ = ["CompiledStep", "StepInput"]
 
 FloatArray = NDArray[np.float64]
 
 
-class _Input(ctypes.Structure):
+class StepInput(ctypes.Structure):
+    """What the controller measured and decided before the QP, for one step (the step's ``<prefix>_input``)."""
+
     _fields_ = [
         ("k", ctypes.c_int),
         ("fraction", ctypes.c_double),
@@ -37,6 +39,47 @@ class _Input(ctypes.Structure):
         ("lead_down", ctypes.c_double * 2),
         ("lead_up", ctypes.c_double * 2),
     ]
+
+    def set(
+        self,
+        k: int,
+        fraction: float,
+        pose: FloatArray,
+        wheel_speed_m_s: FloatArray,
+        previous_m_s: FloatArray,
+        window: Any,
+    ) -> None:
+        """Fill the structure for one step.
+
+        Parameters
+        ----------
+        k : int
+            The window's first grid point.
+        fraction : float
+            How far the governed clock lies past it, in samples.
+        pose : ndarray
+            The pose (x, y, θ).
+        wheel_speed_m_s : ndarray
+            The measured wheel speeds (left, right), m/s.
+        previous_m_s : ndarray
+            The previous command (left, right), m/s.
+        window : SetpointWindow or None
+            Where the setpoints can be reached (None: a broken measurement, NaN in C).
+        """
+        self.k = k
+        self.fraction = fraction
+        self.pose[0], self.pose[1], self.pose[2] = pose[0], pose[1], pose[2]
+        self.wheel[0], self.wheel[1] = wheel_speed_m_s[0], wheel_speed_m_s[1]
+        self.previous[0], self.previous[1] = previous_m_s[0], previous_m_s[1]
+        if window is None:
+            nan = math.nan
+            self.window_lower[0] = self.window_lower[1] = self.window_upper[0] = self.window_upper[1] = nan
+            self.lead_down[0] = self.lead_down[1] = self.lead_up[0] = self.lead_up[1] = nan
+        else:
+            self.window_lower[0], self.window_lower[1] = window.lower_m_s
+            self.window_upper[0], self.window_upper[1] = window.upper_m_s
+            self.lead_down[0], self.lead_down[1] = window.lead_down_m_s
+            self.lead_up[0], self.lead_up[1] = window.lead_up_m_s
 
 
 class CompiledStep:
@@ -65,7 +108,7 @@ class CompiledStep:
         self._state = np.zeros(size, dtype=np.uint8)
         self._tables = (ctypes.c_void_p * len(code.table_names))()
         self._kept: list[FloatArray] = []
-        self._input = _Input()
+        self._input = StepInput()
         self._correction = np.empty(2 * code.horizon)
         self._addresses: tuple[int, ...] = ()
 
@@ -132,21 +175,7 @@ class CompiledStep:
         QpSolverError
             An OSQP call failed.
         """
-        inp = self._input
-        inp.k = k
-        inp.fraction = fraction
-        inp.pose[0], inp.pose[1], inp.pose[2] = pose[0], pose[1], pose[2]
-        inp.wheel[0], inp.wheel[1] = wheel_speed_m_s[0], wheel_speed_m_s[1]
-        inp.previous[0], inp.previous[1] = previous_m_s[0], previous_m_s[1]
-        if window is None:
-            nan = math.nan
-            inp.window_lower[0] = inp.window_lower[1] = inp.window_upper[0] = inp.window_upper[1] = nan
-            inp.lead_down[0] = inp.lead_down[1] = inp.lead_up[0] = inp.lead_up[1] = nan
-        else:
-            inp.window_lower[0], inp.window_lower[1] = window.lower_m_s
-            inp.window_upper[0], inp.window_upper[1] = window.upper_m_s
-            inp.lead_down[0], inp.lead_down[1] = window.lead_down_m_s
-            inp.lead_up[0], inp.lead_up[1] = window.lead_up_m_s
+        self._input.set(k, fraction, pose, wheel_speed_m_s, previous_m_s, window)
         with self._hold():
             result = self._solve(*self._addresses)
         if result == STEP_ERROR:

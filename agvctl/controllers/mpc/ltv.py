@@ -164,6 +164,29 @@ class LtvMpcController(MpcStepper):
             RELINEARISE_RAD,
         )
 
+    def step_tables(self) -> list[FloatArray]:
+        """The present reference's tables as the QP's step in C reads them
+        (:func:`~agvctl.controllers.mpc.c_step.step_tables`).
+
+        Returns
+        -------
+        list of ndarray
+            One-dimensional arrays, in the order of the step's tables.
+
+        Raises
+        ------
+        RuntimeError
+            Before :meth:`reset`.
+        """
+        if self._grid is None:
+            raise RuntimeError("LtvMpcController.step_tables called before reset(reference)")
+        return step_tables(self._qp, self._grid)
+
+    @property
+    def last_start(self) -> int:
+        """The present reference's last window start (0 before :meth:`reset`)."""
+        return 0 if self._grid is None else self._grid.last_start
+
     @property
     def osqp_settings(self) -> dict[str, Any]:
         """OSQP's settings as the solver was set up with them: the config's tolerance and limits, then
