@@ -113,6 +113,13 @@ class WheelReach:
         self._way_constants = pair + pair
         """Each side's constants for :meth:`accel_pair_m_s2`'s four ways (up left, up right, down left, down right)."""
 
+    @property
+    def constants(self) -> tuple[float, float, tuple[float, ...], tuple[float, ...]]:
+        """What :meth:`accel_pair_m_s2` computes from: u_fs (V), I_max (A), and each side's r/n (m/rad), k_e, R, k_t,
+        f_m, τ_c, τ_s and J_tot (SI units), left then right (what a generated controller takes)."""
+        left, right = self._way_constants[0], self._way_constants[1]
+        return self._u_fs, self._i_max, left, right
+
     def _up(self, v: NDArray[np.float64]) -> NDArray[np.float64]:
         omega = v / self._r_over_n
         current = np.clip((self._u_fs - self._k_e * omega) / self._resistance, 0.0, self._i_max)

@@ -201,9 +201,14 @@ def test_the_mpcs_qp_solver_is_in_the_folder_and_builds_into_a_library_with_no_h
     listed = subprocess.run(["nm", str(tmp_path / "libagv_mpc_qp.a")], capture_output=True, text=True, check=True)
     undefined = {line.split()[-1] for line in listed.stdout.splitlines() if re.match(r"^\s+U\s", line)}
     defined = {line.split()[-1] for line in listed.stdout.splitlines() if re.match(r"^[0-9a-f]+\s+[A-Za-z]\s", line)}
-    assert undefined - defined <= {"memset", "memcpy", "sqrt"}, undefined - defined  # no heap, no file I/O
+    libm = {"sqrt", "cos", "sin", "sincos", "fmod"}  # the solver's square roots, the step's angles
+    assert undefined - defined <= {"memset", "memcpy", *libm}, undefined - defined  # no heap, no file I/O
     # the workspace holds P, A, their factorisation and the iterates: tens of kB for n = 150, m = 248
-    assert qp.static_bytes is not None and 10_000 < qp.static_bytes < 1_000_000
+    assert qp.static_bytes is not None and qp.table_bytes is not None
+    assert 10_000 < qp.static_bytes - qp.table_bytes < 1_000_000
+    # the reference's tables: some hundred values (A_j, -A_j, -B_j, bounds, weights) for each of the figure 8's
+    # 28.6 s / 40 ms + N + 2 grid points, in 8 bytes
+    assert 50 * 687 * 8 < qp.table_bytes < 150 * 687 * 8
     assert f"{qp.static_bytes} bytes of static storage" in figure8_code.files["README.md"]
 
 
@@ -218,8 +223,11 @@ def test_with_float_the_qp_solver_is_single_precision_builds_strictly_and_takes_
     _write(single.files, tmp_path)
     done = subprocess.run(["make", "-C", str(tmp_path)], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
-    assert single.qp.static_bytes is not None and figure8_code.qp.static_bytes is not None
-    assert single.qp.static_bytes < 0.8 * figure8_code.qp.static_bytes  # the workspace's values in 4 bytes, not 8
+    single_bytes, double_bytes = single.qp.static_bytes, figure8_code.qp.static_bytes
+    assert single_bytes is not None and double_bytes is not None
+    assert single.qp.table_bytes == figure8_code.qp.table_bytes is not None  # the step and its tables in double
+    solver_single, solver_double = single_bytes - single.qp.table_bytes, double_bytes - figure8_code.qp.table_bytes
+    assert solver_single < 0.8 * solver_double  # the workspace's values in 4 bytes, not 8
 
 
 def test_a_pose_controller_neither_generated_nor_solving_a_qp_gets_the_loops_only_and_the_readme_says_why(tmp_path):

@@ -72,6 +72,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"  the pose controller's step and the MPC's QP solver: not generated ({qp.note})")
     else:
         memory = "not measured" if qp.static_bytes is None else f"{qp.static_bytes} bytes"
+        if qp.table_bytes is not None:
+            memory += f" ({qp.table_bytes} of them the reference's tables)"
         print(f"  the MPC's QP solver in {out_dir / QP_FOLDER}: {qp.note}; static memory {memory}; no heap")
         print(f"  the QP's step agv_mpc_step.h over it, the reference as {qp.n_tables} tables (agv_mpc_step_tables.h)")
     print(f"  build the example: make -C {out_dir}")

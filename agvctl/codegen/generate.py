@@ -94,6 +94,7 @@ def _qp_values(qp: ExperimentQp) -> dict[str, Any]:
         "qp_prefix": code.prefix,
         "qp_note": qp.note,
         "qp_memory": "not measured" if qp.static_bytes is None else f"{qp.static_bytes} bytes",
+        "qp_table_bytes": "not measured" if qp.table_bytes is None else f"{qp.table_bytes} bytes",
         "qp_includes": " ".join(f"-I{QP_FOLDER}/{d}" if d != "." else f"-I{QP_FOLDER}" for d in code.include_dirs),
         "qp_pairs": [(src, src.replace("/", "_").removesuffix(".c") + ".o") for src in sources],
         "qp_tables": qp.n_tables,

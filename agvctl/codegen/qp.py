@@ -45,27 +45,35 @@ class ExperimentQp:
         (None: not measured).
     n_tables : int
         The reference's tables the step reads (0: none generated).
+    table_bytes : int or None
+        The bytes of ``static_bytes`` that are the reference's tables and the QP's vectors as set up for it (None: not
+        measured).
     """
 
     code: QpC | None
     note: str
     static_bytes: int | None
     n_tables: int = 0
+    table_bytes: int | None = None
 
 
-def _static_bytes(code: QpC) -> int | None:
-    """The compiled solver's static storage, summed over its symbols (None without a compiler or ``nm``)."""
+def _static_bytes(code: QpC, step_prefix: str) -> tuple[int, int] | tuple[None, None]:
+    """The compiled folder's static storage, summed over its symbols, and the part of it that is the reference's
+    tables (``<step_prefix>_reference_*`` and ``<step_prefix>_tables``); None without a compiler or ``nm``."""
     nm = shutil.which("nm")
     if nm is None or c_compiler() is None:
-        return None
+        return None, None
     library = compile_qp_c(code)._name
     listed = subprocess.run([nm, "-S", "--defined-only", library], capture_output=True, text=True, check=True).stdout
-    total = 0
+    total = tables = 0
     for line in listed.splitlines():
         parts = line.split()
         if len(parts) == 4 and parts[2] in _STATIC_SYMBOLS:
-            total += int(parts[1], 16)
-    return total
+            size, name = int(parts[1], 16), parts[3]
+            total += size
+            if name.startswith(f"{step_prefix}_reference_") or name == f"{step_prefix}_tables":
+                tables += size
+    return total, tables
 
 
 def experiment_qp(
@@ -121,4 +129,5 @@ def experiment_qp(
     horizon = controller.config.horizon
     precision = "single precision (float)" if single else "double precision"
     note = f"n = {code.n_variables} variables, m = {code.n_constraints} constraints, horizon N = {horizon}, {precision}"
-    return ExperimentQp(code, note, _static_bytes(code) if measure_memory else None, len(step.table_names))
+    total, tables_bytes = _static_bytes(code, step.prefix) if measure_memory else (None, None)
+    return ExperimentQp(code, note, total, len(step.table_names), tables_bytes)

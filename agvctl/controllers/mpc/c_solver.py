@@ -29,7 +29,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.mpc.c_qp import QpC, compile_qp_c, generate_qp_c
-from agvctl.controllers.mpc.c_step import StepC
 from agvctl.controllers.mpc.qp_blocks import BlockQp
 from agvctl.errors import AgvctlError
 
@@ -257,10 +256,10 @@ _GENERATED_LOCK = threading.Lock()
 
 
 def generated_qp(
-    qp: BlockQp[Any, Any], settings: Mapping[str, Any], *, single: bool = False, step: StepC | None = None
+    qp: BlockQp[Any, Any], settings: Mapping[str, Any], *, single: bool = False, files: Mapping[str, str] | None = None
 ) -> QpC:
-    """The generated solver of ``qp`` set up with ``settings`` (and ``step``'s files with it), generated once per
-    process for the same data.
+    """The generated solver of ``qp`` set up with ``settings`` (and ``files`` with it), generated once per process for
+    the same data.
 
     Parameters
     ----------
@@ -270,15 +269,17 @@ def generated_qp(
         OSQP's settings.
     single : bool
         In single precision.
-    step : StepC or None
-        The QP's step in C (:func:`~agvctl.controllers.mpc.c_step.generate_step_c`), compiled into the same library.
+    files : mapping of str to str or None
+        More C compiled into the same library, ``{name: text}`` (the QP's step,
+        :func:`~agvctl.controllers.mpc.c_step.generate_step_c`, and the controller's,
+        :func:`~agvctl.controllers.mpc.c_update.generate_update_c`).
 
     Returns
     -------
     QpC
         The generated C (:func:`~agvctl.controllers.mpc.c_qp.generate_qp_c`).
     """
-    step_files = sorted(step.files.items()) if step is not None else []
+    step_files = sorted(files.items()) if files is not None else []
     digest = hashlib.sha256(repr((single, sorted(settings.items()), step_files)).encode())
     for matrix in (qp.P, qp.A):
         for part in (matrix.indptr, matrix.indices, matrix.data):
@@ -291,8 +292,8 @@ def generated_qp(
         if code is None:
             origin = "an LTV MPC in the closed loop"
             code = generate_qp_c(qp, settings, origin=origin, generator="agvctl", single=single)
-            if step is not None:
-                code = dataclasses.replace(code, files={**code.files, **step.files})
+            if files is not None:
+                code = dataclasses.replace(code, files={**code.files, **files})
             _GENERATED[key] = code
         return code
 
@@ -322,9 +323,9 @@ class GeneratedOsqp:
         OSQP's settings (``time_limit`` has no effect: the generated solver keeps no time).
     single : bool
         Generate the solver in single precision (``qp_solver = "osqp_c_float"``).
-    step : StepC or None
-        The QP's step in C (:func:`~agvctl.controllers.mpc.c_step.generate_step_c`), compiled into the solver's
-        library (:class:`~agvctl.controllers.mpc.c_step_loop.CompiledStep` calls it).
+    files : mapping of str to str or None
+        More C compiled into the solver's library: the QP's step and the controller's
+        (:class:`~agvctl.controllers.mpc.c_step_loop.CompiledController` calls them).
 
     Raises
     ------
@@ -338,9 +339,9 @@ class GeneratedOsqp:
         settings: Mapping[str, Any],
         *,
         single: bool = False,
-        step: StepC | None = None,
+        files: Mapping[str, str] | None = None,
     ) -> None:
-        self.solver = CompiledQp(generated_qp(qp, settings, single=single, step=step))
+        self.solver = CompiledQp(generated_qp(qp, settings, single=single, files=files))
         self._vectors: dict[str, Any] = {}
 
     def update(self, **arguments: Any) -> None:

@@ -7,10 +7,10 @@ the same arithmetic. A QP holding a part without C has no step in C (:func:`gene
 
 What varies with the reference is data, the *tables*: the reference's pose, wheel speeds and feed-forward on the
 horizon grid, and each block's precompute (:meth:`~agvctl.controllers.mpc.qp_blocks.QpBlock.c_tables`), computed in
-Python at each reset and handed to C as pointers (:class:`~agvctl.controllers.mpc.c_step_loop.CompiledStep`). What a
-step keeps for the next (the QP's vectors, the matrices' varying values, which window's matrices the solver holds, the
-coupling's heading) is one state structure the caller owns. The step is compiled into the library of the QP's
-generated solver (:mod:`~agvctl.controllers.mpc.c_qp`), which it calls.
+Python at each reset and handed to C as pointers (:class:`~agvctl.controllers.mpc.c_step_loop.CompiledController`).
+What a step keeps for the next (the QP's vectors, the matrices' varying values, which window's matrices the solver
+holds, the coupling's heading) is one state structure the caller owns. The step is compiled into the library of the
+QP's generated solver (:mod:`~agvctl.controllers.mpc.c_qp`), which it calls.
 
 Every product is summed in index order on both sides (A_0 x_0 too, which Python computes in plain floats rather than
 with BLAS, whose order and fused multiply-adds are the machine's), so that C and Python write the same bits.
@@ -32,11 +32,7 @@ from agvctl.errors import AgvctlError
 from agvctl.plant.codegen import c_templates
 
 __all__ = [
-    "BROKEN",
-    "STEP_ERROR",
-    "NOT_SOLVED",
     "REFERENCE_TABLES",
-    "SOLVED",
     "StepC",
     "StepParts",
     "generate_step_c",
@@ -50,12 +46,23 @@ FloatArray = NDArray[np.float64]
 PREFIX = "agv_mpc_step"
 """The step's stem and the prefix of the names it defines."""
 
-REFERENCE_TABLES = ("x", "y", "theta", "cos_theta", "sin_theta", "wheel_left", "wheel_right", "feedforward")
-"""The reference's own tables, first of all: its pose, cos θ and sin θ, and wheel speeds at the grid points, and the
-feed-forward of each interval (left, right)."""
-
-SOLVED, NOT_SOLVED, BROKEN, STEP_ERROR = 0, 1, 2, 3
-"""What the step returns (``<prefix>_SOLVED`` … ``_ERROR`` in its header)."""
+REFERENCE_TABLES = (
+    "x",
+    "y",
+    "theta",
+    "cos_theta",
+    "sin_theta",
+    "wheel_left",
+    "wheel_right",
+    "feedforward",
+    "speed",
+    "yaw_rate",
+    "travel",
+    "sizes",
+)
+"""The reference's own tables, first of all: its pose, cos θ and sin θ, and wheel speeds at the grid points, the
+feed-forward of each interval (left, right), its speed, yaw rate and travel at the grid points, and its sizes (the last
+window start, the grid points)."""
 
 
 def reference_tables(grid: HorizonReference) -> list[FloatArray]:
@@ -80,6 +87,10 @@ def reference_tables(grid: HorizonReference) -> list[FloatArray]:
         grid.wheel_m_s[:, 0],
         grid.wheel_m_s[:, 1],
         grid.feedforward_m_s.ravel(),
+        grid.speed_m_s,
+        grid.yaw_rate_rad_s,
+        grid.travel_m,
+        np.array([grid.last_start, grid.n_points], dtype=np.float64),
     ]
 
 

@@ -1,5 +1,7 @@
-"""The LTV MPC's QP step as generated C (:mod:`~agvctl.controllers.mpc.c_step`) in the loop: its state, the present
-reference's tables, and the call through ctypes.
+"""The LTV MPC's step as generated C in the loop: the QP's step (:mod:`~agvctl.controllers.mpc.c_step`) and the
+controller's around it (:mod:`~agvctl.controllers.mpc.c_update`), their state, the controller's settings, the present
+reference's tables, and the calls through ctypes; and the QP step's input as a ctypes structure, for calling a
+generated step from Python.
 
 A step holds the solver's lock and state (:meth:`CompiledQp.held <agvctl.controllers.mpc.c_solver.CompiledQp.held>`)
 while it runs, as every call into a generated solver does, so several controllers of the same QP in one process never
@@ -15,12 +17,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agvctl.controllers.mpc.c_solver import CompiledQp, QpInfo, QpSolverError
-from agvctl.controllers.mpc.c_step import SOLVED, STEP_ERROR, StepC
+from agvctl.controllers.mpc.c_solver import CompiledQp, QpInfo
+from agvctl.controllers.mpc.c_step import StepC
+from agvctl.controllers.mpc.c_update import UPDATE_SETTINGS, UpdateC
 from agvctl.controllers.mpc.qp_blocks import BlockQp
 from agvctl.errors import AgvctlError
 
-__all__ = ["CompiledStep", "StepInput"]
+__all__ = ["CompiledController", "StepInput"]
 
 FloatArray = NDArray[np.float64]
 
@@ -82,45 +85,80 @@ class StepInput(ctypes.Structure):
             self.lead_up[0], self.lead_up[1] = window.lead_up_m_s
 
 
-class CompiledStep:
-    """A generated QP step in the loop: its state, the present reference's tables, and the call.
+class CompiledController:
+    """The generated controller step (:mod:`~agvctl.controllers.mpc.c_update`) in the loop: its state (the QP step's
+    within it), its settings, the present reference's tables, and the calls.
 
     Parameters
     ----------
     solver : CompiledQp
-        The QP's generated solver, compiled with the step (``GeneratedOsqp(..., step=code).solver``): the step
-        solves with it, under its lock and with its state.
-    code : StepC
-        The step's C.
+        The QP's generated solver, compiled with the step and the controller's step.
+    step : StepC
+        The QP step's C.
+    update : UpdateC
+        The controller step's C.
     """
 
-    def __init__(self, solver: CompiledQp, code: StepC) -> None:
-        p, library = code.prefix, solver.library
-        self.code = code
+    def __init__(self, solver: CompiledQp, step: StepC, update: UpdateC) -> None:
+        library, p = solver.library, update.prefix
         self._hold = solver.held
-        self._start = getattr(library, f"{p}_start")
-        self._start.argtypes = [ctypes.c_void_p] * 6
-        self._start.restype = None
-        self._solve = getattr(library, f"{p}_solve")
-        self._solve.argtypes = [ctypes.c_void_p] * 5
-        self._solve.restype = ctypes.c_int
-        size = int(getattr(library, f"{p}_state_size")())
-        self._state = np.zeros(size, dtype=np.uint8)
-        self._tables = (ctypes.c_void_p * len(code.table_names))()
+        self.horizon = update.horizon
+
+        def function(name: str, restype: Any, *argtypes: Any) -> Any:
+            f = getattr(library, name)
+            f.argtypes, f.restype = list(argtypes), restype
+            return f
+
+        pointer = ctypes.c_void_p
+        self._start = function(f"{step.prefix}_start", None, *[pointer] * 6)
+        self._reset = function(f"{p}_reset", None, pointer)
+        self._track = function(f"{p}_track", None, pointer)
+        self._observe = function(f"{p}_observe", None, pointer, pointer)
+        self._clock = function(f"{p}_clock", ctypes.c_double, pointer)
+        self._sequence = function(f"{p}_sequence", ctypes.c_int, pointer, pointer)
+        self._update = function(
+            f"{p}_update", ctypes.c_int, *[pointer] * 3, ctypes.c_double, ctypes.c_int, ctypes.c_int, *[pointer] * 4
+        )
+        self._state = np.zeros(int(getattr(library, f"{p}_state_size")()), dtype=np.uint8)
+        self.settings = np.zeros(len(UPDATE_SETTINGS))
+        """The controller's numbers, by :data:`~agvctl.controllers.mpc.c_update.UPDATE_SETTINGS`."""
+        self._index = {name: i for i, name in enumerate(UPDATE_SETTINGS)}
+        self._tables = (ctypes.c_void_p * len(step.table_names))()
         self._kept: list[FloatArray] = []
-        self._input = StepInput()
-        self._correction = np.empty(2 * code.horizon)
-        self._addresses: tuple[int, ...] = ()
+        self._pose, self._wheel, self._command = np.empty(3), np.empty(2), np.empty(2)
+        self._info = QpInfo()
+        self._address = int(self._state.ctypes.data)
+        self._arguments = (
+            int(self.settings.ctypes.data),
+            ctypes.addressof(self._tables),
+        )
+        self._outputs = (
+            int(self._pose.ctypes.data),
+            int(self._wheel.ctypes.data),
+            int(self._command.ctypes.data),
+            ctypes.addressof(self._info),
+        )
+
+    def set(self, **values: float) -> None:
+        """Set numbers of :attr:`settings` by name.
+
+        Parameters
+        ----------
+        **values
+            Names of :data:`~agvctl.controllers.mpc.c_update.UPDATE_SETTINGS` and their values.
+        """
+        for name, value in values.items():
+            self.settings[self._index[name]] = value
 
     def start(self, qp: BlockQp[Any, Any], tables: Sequence[FloatArray]) -> None:
-        """Start a reference: its tables, and the QP's vectors as they are.
+        """Start the QP's step on a reference: its tables, and the QP's vectors as they are.
 
         Parameters
         ----------
         qp : BlockQp
-            The QP after set-up (the fixed parts of its vectors written).
+            The QP after set-up.
         tables : sequence of ndarray
-            The reference's tables (:func:`step_tables`).
+            The reference's tables (:func:`~agvctl.controllers.mpc.c_step.step_tables`).
         """
         if len(tables) != len(self._tables):
             raise AgvctlError(f"the QP step reads {len(self._tables)} tables, given {len(tables)}")
@@ -129,57 +167,65 @@ class CompiledStep:
             self._tables[i] = table.ctypes.data
         vectors = [qp.q, qp.lower, qp.upper, qp.p_data[qp.p_varying], qp.a_data[qp.a_varying]]
         arrays = [np.ascontiguousarray(v, dtype=np.float64) for v in vectors]
-        self._start(self._state.ctypes.data, *(a.ctypes.data for a in arrays))
-        self._info = QpInfo()
-        self._addresses = (
-            int(self._state.ctypes.data),
-            ctypes.addressof(self._tables),
-            ctypes.addressof(self._input),
-            int(self._correction.ctypes.data),
-            ctypes.addressof(self._info),
-        )
+        self._start(self._address, *(a.ctypes.data for a in arrays))  # the QP step's state comes first
 
-    def solve(
-        self,
-        k: int,
-        fraction: float,
-        pose: FloatArray,
-        wheel_speed_m_s: FloatArray,
-        previous_m_s: FloatArray,
-        window: Any,
-    ) -> FloatArray | None:
-        """One step (see the module's description).
+    def reset(self) -> None:
+        """A new path (see ``<prefix>_reset``)."""
+        self._reset(self._address)
+
+    def track(self) -> None:
+        """A new reference (see ``<prefix>_track``)."""
+        self._track(self._address)
+
+    def observe(self, covariance: FloatArray) -> None:
+        """The pose estimate's 3×3 covariance at this sample.
 
         Parameters
         ----------
-        k : int
-            The window's first grid point.
-        fraction : float
-            How far the governed clock lies past it, in samples.
+        covariance : ndarray
+            3×3, m², m rad, rad².
+        """
+        values = np.ascontiguousarray(covariance, dtype=np.float64).reshape(9)
+        self._observe(self._address, values.ctypes.data)
+
+    @property
+    def clock(self) -> float:
+        """The governed clock in samples (−1: not started)."""
+        return float(self._clock(self._address))
+
+    def sequence(self) -> FloatArray:
+        """The last solved setpoints (N × 2), m/s."""
+        out = np.empty(2 * self.horizon)
+        self._sequence(self._address, out.ctypes.data)
+        return out.reshape(-1, 2)
+
+    def update(
+        self, local_time_s: float, on_main_path: bool, done: bool, pose: FloatArray, wheel_speed_m_s: FloatArray
+    ) -> tuple[int, float, float]:
+        """One sample (see ``<prefix>_update``).
+
+        Parameters
+        ----------
+        local_time_s : float
+            The time on the present reference, s.
+        on_main_path : bool
+            The reference is the path itself.
+        done : bool
+            The controller is done with its references.
         pose : ndarray
-            The pose (x, y, θ).
+            x, y, θ.
         wheel_speed_m_s : ndarray
-            The measured wheel speeds (left, right), m/s.
-        previous_m_s : ndarray
-            The previous command (left, right), m/s.
-        window : SetpointWindow or None
-            Where the setpoints can be reached (None: a broken measurement).
+            The measured wheel speeds, m/s.
 
         Returns
         -------
-        ndarray or None
-            The setpoints' corrections (N × 2), or None where the solver did not solve or the measurement is broken.
-
-        Raises
-        ------
-        QpSolverError
-            An OSQP call failed.
+        tuple
+            The code (0 solved or held, 1 the shifted sequence, 2 the feed-forward) and the setpoints (left, right),
+            m/s.
         """
-        self._input.set(k, fraction, pose, wheel_speed_m_s, previous_m_s, window)
+        self._pose[:] = pose
+        self._wheel[:] = wheel_speed_m_s
         with self._hold():
-            result = self._solve(*self._addresses)
-        if result == STEP_ERROR:
-            raise QpSolverError(f"the generated QP step's solver failed: OSQP exit flag {self._info.error}")
-        if result != SOLVED:
-            return None
-        return self._correction.reshape(-1, 2).copy()
+            code = self._update(self._address, *self._arguments, local_time_s, on_main_path, done, *self._outputs)
+        left, right = self._command.tolist()
+        return int(code), left, right

@@ -166,11 +166,11 @@ class MpcConfig:
     ``governor_lag_start_m`` of the reference, the governed clock runs up to this much faster than time (the
     reference's speed along the path scaled alike), so a delay is made up."""
     qp_solver: QpSolver = "osqp"
-    """The LTV MPC's QP solver: OSQP through its Python package (``"osqp"``), or the QP's step in generated C, compiled
-    with the system compiler and called in the loop (``"osqp_c"``: the initial error and the blocks' writes,
-    :mod:`~agvctl.controllers.mpc.c_step`, around the solver ``agvctl codegen`` writes for the vehicle,
-    software-in-the-loop; the same answers bit for bit, :mod:`~agvctl.controllers.mpc.c_solver`), or that solver in
-    single precision (``"osqp_c_float"``, for a processor without a double-precision unit). The generated
+    """The LTV MPC's QP solver: OSQP through its Python package (``"osqp"``), or the controller's step in generated C,
+    compiled with the system compiler and called in the loop (``"osqp_c"``: the governor, the window, the rest, the
+    fallback and the shaper, :mod:`~agvctl.controllers.mpc.c_update`, around the QP's step,
+    :mod:`~agvctl.controllers.mpc.c_step`, and the solver ``agvctl codegen`` writes for the vehicle; docking decided
+    and planned in Python; software-in-the-loop, the same commands bit for bit), or that solver in single precision (``"osqp_c_float"``, for a processor without a double-precision unit). The generated
     solver keeps no time, so it takes no ``max_solve_time_s``. The NMPC solves with IPOPT."""
     max_iterations: int = number(ge=1, le=1_000_000, default=4000)
     """The solver's iteration limit per step (OSQP's own default): a tracking step needs tens, the first steps from

@@ -32,6 +32,7 @@ sparsity pattern.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Mapping
 from typing import Any
 
@@ -40,10 +41,12 @@ import osqp
 from numpy.typing import NDArray
 
 from agvctl.angles import wrap_angle
+from agvctl.controllers.base import PoseCommand, SolveStatus
 from agvctl.controllers.mpc.body_rate import BodyRate
 from agvctl.controllers.mpc.c_solver import GeneratedOsqp, QpSolverError
 from agvctl.controllers.mpc.c_step import StepParts, generate_step_c, step_tables
-from agvctl.controllers.mpc.c_step_loop import CompiledStep
+from agvctl.controllers.mpc.c_step_loop import CompiledController
+from agvctl.controllers.mpc.c_update import WHEEL_CONSTANTS, generate_update_c
 from agvctl.controllers.mpc.common import MpcStepper
 from agvctl.controllers.mpc.config import MpcConfig, check_ltv_settings
 from agvctl.controllers.mpc.error_frames import ERROR_FRAMES
@@ -74,6 +77,8 @@ __all__ = ["LtvMpcController"]
 FloatArray = NDArray[np.float64]
 
 _ACCEPTED = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
+_C_STATUS: tuple[SolveStatus, ...] = ("solved", "fallback_shifted", "fallback_feedforward")
+"""The generated controller step's codes, as statuses."""
 OSQP_SETTINGS: dict[str, Any] = {
     "polishing": False,
     "warm_starting": True,
@@ -140,6 +145,8 @@ class LtvMpcController(MpcStepper):
     @property
     def predicted_setpoints_m_s(self) -> FloatArray:
         """The last solved setpoint sequence (N×2, left/right, m/s) — for plots and tests."""
+        if self._c is not None:
+            return self._c.sequence()
         return self._fallback.sequence_m_s.copy()
 
     @property
@@ -199,6 +206,82 @@ class LtvMpcController(MpcStepper):
         super().reset(reference)
         self._solver.warm_start(x=self._zeros_z, y=self._zeros_y)
         self._solver.update_settings(rho=self._rho)
+        if self._c is not None:
+            body, end = self._body, self._rest.constants[3]
+            self._c.set(
+                max_step_m_s=self._shaper.max_step_m_s,
+                body_active=float(body.active),
+                body_mean_step=body.mean_step_m_s,
+                body_difference_step=body.difference_step_m_s,
+                body_lateral=body.lateral_m2_s2,
+                body_breakaway_share=body.breakaway_share,
+                rest_end_x=end[0],
+                rest_end_y=end[1],
+                rest_end_theta=end[2],
+            )
+            self._c.reset()
+
+    def _track(self, reference: Reference) -> HorizonReference:
+        grid = super()._track(reference)
+        if self._c is not None:
+            self._c.track()
+        return grid
+
+    def observe_pose_covariance(self, covariance: FloatArray) -> None:
+        """See :meth:`MpcStepper.observe_pose_covariance <agvctl.controllers.mpc.common.MpcStepper>`."""
+        super().observe_pose_covariance(covariance)
+        if self._c is not None:
+            self._c.observe(covariance)
+
+    def update(self, t_s: float, pose: FloatArray, wheel_speed_m_s: FloatArray) -> PoseCommand:
+        """See :meth:`MpcStepper.update <agvctl.controllers.mpc.common.MpcStepper.update>`; with ``qp_solver =
+        "osqp_c"`` the step is the generated C's (:mod:`~agvctl.controllers.mpc.c_update`), docking decided and
+        planned here."""
+        if self._c is None:
+            return super().update(t_s, pose, wheel_speed_m_s)
+        t0 = time.perf_counter()
+        if self._grid is None:
+            raise RuntimeError(f"{type(self).__name__}.update called before reset(reference)")
+        end, measured = self._end, np.asarray(wheel_speed_m_s, dtype=np.float64)
+        code, left, right = self._c.update(end.local_time_s(t_s), end.on_path, end.done, pose, measured)
+        status: SolveStatus = _C_STATUS[code]
+        if code:
+            self._failures += 1
+        self._governor.clock = clock = self._c.clock
+        if math.isfinite(float(measured[0])) and math.isfinite(float(measured[1])):
+            manoeuvre = end.after_step(t_s, clock * self.sample_period_s, pose, measured)
+            if manoeuvre is not None:
+                self._track(manoeuvre)
+        return PoseCommand(left, right, time.perf_counter() - t0, status, reference_done=end.done)
+
+    def _set_c_constants(self, c: CompiledController) -> None:
+        """The generated controller's numbers that are the controller's own (its vehicle and settings)."""
+        config = self.config
+        u_fs, i_max, left, right = self._reach.constants
+        enter, release, tolerance, _ = self._rest.constants
+        c.set(
+            sample_period_s=self.sample_period_s,
+            separation_m=self.separation_m,
+            max_speed_m_s=self.max_wheel_speed_m_s,
+            governor=float(config.reference_governor),
+            lag_start_m=config.governor_lag_start_m,
+            lag_stop_m=config.governor_lag_stop_m,
+            catch_up=config.governor_catch_up,
+            lead_factor_s=self._lead_factor_s,
+            u_fs_v=u_fs,
+            i_max_a=i_max,
+            **{f"reach_left_{name}": v for name, v in zip(WHEEL_CONSTANTS, left, strict=True)},
+            **{f"reach_right_{name}": v for name, v in zip(WHEEL_CONSTANTS, right, strict=True)},
+            rest_enabled=float(config.rest.enabled),
+            rest_max_error_m=config.rest.max_error_m,
+            rest_stopped_m_s=config.rest.stopped_m_s,
+            rest_enter=enter,
+            rest_release=release,
+            rest_tolerance_x=tolerance[0],
+            rest_tolerance_y=tolerance[1],
+            rest_tolerance_theta=tolerance[2],
+            body_shaped=float(self.keeps_body_bounds),
+        )
 
     def _retarget(self, reference: Reference) -> HorizonReference:
         """``reference``'s horizon grid, and each block's precompute for it."""
@@ -212,8 +295,8 @@ class LtvMpcController(MpcStepper):
         self._model.restart()
         a_step = self.max_wheel_accel_m_s2 * self.sample_period_s
         self._qp.retarget(QpReference(grid, self.max_wheel_speed_m_s, a_step, d, self._reach, self._lead_factor_s))
-        if self._c_step is not None:
-            self._c_step.start(self._qp, step_tables(self._qp, grid))
+        if self._c is not None:
+            self._c.start(self._qp, step_tables(self._qp, grid))
         return grid
 
     # -- problem structure --------------------------------------------------------------------------------
@@ -268,15 +351,19 @@ class LtvMpcController(MpcStepper):
     def _set_up(self, settings: dict[str, Any]) -> osqp.OSQP | GeneratedOsqp:
         """The solver set up on the QP: OSQP, or its C generated for the QP with the QP's step (``qp_solver``)."""
         qp = self._qp
-        self._c_step: CompiledStep | None = None
+        self._c: CompiledController | None = None
         if self.config.qp_solver == "osqp":
             solver = osqp.OSQP()
             solver.setup(qp.P, qp.q, qp.A, qp.lower, qp.upper, **settings)
             return solver
         try:
-            code = generate_step_c(self.step_parts, origin="an LTV MPC in the closed loop", generator="agvctl")
-            generated = GeneratedOsqp(qp, settings, single=self.config.qp_solver == "osqp_c_float", step=code)
-            self._c_step = CompiledStep(generated.solver, code)
+            origin, parts = "an LTV MPC in the closed loop", self.step_parts
+            step = generate_step_c(parts, origin=origin, generator="agvctl")
+            update = generate_update_c(parts, origin=origin, generator="agvctl")
+            single = self.config.qp_solver == "osqp_c_float"
+            generated = GeneratedOsqp(qp, settings, single=single, files={**step.files, **update.files})
+            self._c = CompiledController(generated.solver, step, update)
+            self._set_c_constants(self._c)
             return generated
         except AgvctlError as exc:  # no compiler, or another OSQP release than the generator's
             problem = f"{self.config.qp_solver!r} cannot be used here: {exc}"
@@ -311,13 +398,6 @@ class LtvMpcController(MpcStepper):
 
     def _solve(self, step: HorizonStep) -> tuple[float, float] | None:
         g, k, N = step.grid, step.k, self.config.horizon
-        if self._c_step is not None:  # the same step in the generated C
-            solved = self._c_step.solve(
-                k, step.fraction, step.pose, step.wheel_speed_m_s, step.previous_m_s, step.window
-            )
-            if solved is None:
-                return None
-            return self._fallback.store_solution(k, g.feedforward_m_s[k : k + N], solved, self.max_wheel_speed_m_s)
         x0 = self._initial_error(step)
         e = x0.tolist()
         u_l, u_r = step.previous_m_s.tolist()

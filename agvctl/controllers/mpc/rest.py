@@ -98,6 +98,14 @@ class Rest:
         self.holding = False
         """Whether the wheels are held."""
 
+    @property
+    def constants(self) -> tuple[float, float, tuple[float, float, float], tuple[float, float, float]]:
+        """The chi-square quantiles to start holding and to let go, T's diagonal (t², t², t_θ²) and the end pose (x, y,
+        θ) of the present path (what a generated controller takes)."""
+        t = self._tolerance
+        end = self._end
+        return self._enter, self._release, (t[0, 0], t[1, 1], t[2, 2]), (end[0], end[1], end[2])
+
     def reset(self, reference: Reference) -> None:
         """Start a run on ``reference``: its final pose is where to rest."""
         end = reference.final_pose
