@@ -170,8 +170,9 @@ class MpcConfig:
     compiled with the system compiler and called in the loop (``"osqp_c"``: the governor, the window, the rest, the
     fallback and the shaper, :mod:`~agvctl.controllers.mpc.c_update`, around the QP's step,
     :mod:`~agvctl.controllers.mpc.c_step`, and the solver ``agvctl codegen`` writes for the vehicle; docking decided
-    and planned in Python; software-in-the-loop, the same commands bit for bit), or that solver in single precision (``"osqp_c_float"``, for a processor without a double-precision unit). The generated
-    solver keeps no time, so it takes no ``max_solve_time_s``. The NMPC solves with IPOPT."""
+    and planned in Python; software-in-the-loop, the same commands bit for bit), or that solver in single precision
+    (``"osqp_c_float"``, for a processor without a double-precision unit). The generated solver keeps no time, so it
+    takes no ``max_solve_time_s``. The NMPC solves with IPOPT."""
     max_iterations: int = number(ge=1, le=1_000_000, default=4000)
     """The solver's iteration limit per step (OSQP's own default): a tracking step needs tens, the first steps from
     a far-off start several hundred, and a step with both wheels at their limits on a path planned with little

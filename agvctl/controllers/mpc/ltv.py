@@ -207,18 +207,7 @@ class LtvMpcController(MpcStepper):
         self._solver.warm_start(x=self._zeros_z, y=self._zeros_y)
         self._solver.update_settings(rho=self._rho)
         if self._c is not None:
-            body, end = self._body, self._rest.constants[3]
-            self._c.set(
-                max_step_m_s=self._shaper.max_step_m_s,
-                body_active=float(body.active),
-                body_mean_step=body.mean_step_m_s,
-                body_difference_step=body.difference_step_m_s,
-                body_lateral=body.lateral_m2_s2,
-                body_breakaway_share=body.breakaway_share,
-                rest_end_x=end[0],
-                rest_end_y=end[1],
-                rest_end_theta=end[2],
-            )
+            self._c.set(**self.c_settings())
             self._c.reset()
 
     def _track(self, reference: Reference) -> HorizonReference:
@@ -254,12 +243,20 @@ class LtvMpcController(MpcStepper):
                 self._track(manoeuvre)
         return PoseCommand(left, right, time.perf_counter() - t0, status, reference_done=end.done)
 
-    def _set_c_constants(self, c: CompiledController) -> None:
-        """The generated controller's numbers that are the controller's own (its vehicle and settings)."""
-        config = self.config
+    def c_settings(self) -> dict[str, float]:
+        """The numbers the controller's step in C takes (:data:`~agvctl.controllers.mpc.c_update.UPDATE_SETTINGS`):
+        its vehicle and settings, and what the present path sets (after :meth:`reset`; before, a path without
+        limits).
+
+        Returns
+        -------
+        dict of str to float
+            Every name of ``UPDATE_SETTINGS`` and its value.
+        """
+        config, body = self.config, self._body
         u_fs, i_max, left, right = self._reach.constants
-        enter, release, tolerance, _ = self._rest.constants
-        c.set(
+        enter, release, tolerance, end = self._rest.constants
+        return dict(
             sample_period_s=self.sample_period_s,
             separation_m=self.separation_m,
             max_speed_m_s=self.max_wheel_speed_m_s,
@@ -281,6 +278,15 @@ class LtvMpcController(MpcStepper):
             rest_tolerance_y=tolerance[1],
             rest_tolerance_theta=tolerance[2],
             body_shaped=float(self.keeps_body_bounds),
+            max_step_m_s=self._shaper.max_step_m_s,
+            body_active=float(body.active),
+            body_mean_step=body.mean_step_m_s,
+            body_difference_step=body.difference_step_m_s,
+            body_lateral=body.lateral_m2_s2,
+            body_breakaway_share=body.breakaway_share,
+            rest_end_x=end[0],
+            rest_end_y=end[1],
+            rest_end_theta=end[2],
         )
 
     def _retarget(self, reference: Reference) -> HorizonReference:
@@ -363,7 +369,7 @@ class LtvMpcController(MpcStepper):
             single = self.config.qp_solver == "osqp_c_float"
             generated = GeneratedOsqp(qp, settings, single=single, files={**step.files, **update.files})
             self._c = CompiledController(generated.solver, step, update)
-            self._set_c_constants(self._c)
+            self._c.set(**self.c_settings())
             return generated
         except AgvctlError as exc:  # no compiler, or another OSQP release than the generator's
             problem = f"{self.config.qp_solver!r} cannot be used here: {exc}"
