@@ -12,6 +12,7 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
+import osqp
 import pytest
 from cli_runs import line_experiment
 
@@ -20,6 +21,7 @@ from agvctl.cli import main
 from agvctl.codegen import cascade_back_to_back, generate_code
 from agvctl.controllers.baselines import LtvLqrConfig, LtvLqrController, RamseteConfig, RamseteController
 from agvctl.controllers.baselines.c_unicycle import CompiledLtvLqrController, CompiledRamseteController
+from agvctl.controllers.mpc.osqp_fixes import OSQP_VERSION
 from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS
 from agvctl.errors import AgvctlError, ConfigError
 from agvctl.fuzz.run import fuzz, fuzz_tasks
@@ -176,3 +178,40 @@ def test_without_a_compiler_the_c_law_says_so_in_one_line(vehicle, tmp_path, mon
     with pytest.raises(AgvctlError, match="the generated C of the LTV unicycle LQR cannot be compiled") as caught:
         CompiledLtvLqrController(vehicle)
     assert "\n" not in str(caught.value)
+
+
+@needs_cc
+@pytest.mark.skipif(shutil.which("make") is None, reason="no make")
+@pytest.mark.skipif(osqp.__version__ != OSQP_VERSION, reason=f"the QP's C is generated with osqp {OSQP_VERSION}")
+def test_the_mpcs_generated_cascade_builds_strictly_and_replays_the_figure_8_closed_loop(tmp_path, capsys):
+    """The LTV MPC's cascade (its QP's solver, step and tables, the controller's step with its settings, the PI
+    loops): built with warnings as errors, its one step function fed the closed loop's estimated pose and measured
+    motor speeds commands the closed loop's DA voltages, bit for bit, in every sample of the figure 8 (a run that
+    ends within tolerance, so no docking, which is not generated)."""
+    out = tmp_path / "c"
+    assert main(["codegen", "experiments/figure8.toml", "--out", str(out)]) == 0
+    assert "docking is not generated" in capsys.readouterr().out
+    built = subprocess.run(["make", "-C", str(out)], capture_output=True, text=True)
+    assert built.returncode == 0, built.stderr
+    example = subprocess.run([str(out / "example")], capture_output=True, text=True, check=True).stdout
+    assert example.count("sample ") == 3
+
+    code = generate_code("experiments/figure8.toml", measure_memory=False)
+    assert code.cascade.generated
+    sources = {name: text for name, text in code.files.items() if name.endswith((".c", ".h"))}
+    sources.pop("example_main.c")
+    lib = compiled_library(sources, "agv_cascade_replay_mpc", flags=(*STRICT_C_FLAGS, "-O3", "-fPIC", "-shared"))
+    lib.agv_cascade_state_size.restype = ctypes.c_size_t
+    state = (ctypes.c_double * -(-int(lib.agv_cascade_state_size()) // 8))()
+    lib.agv_cascade_step.restype = ctypes.c_uint
+    lib.agv_cascade_step.argtypes = [ctypes.c_void_p, ctypes.c_long, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
+    result = run_experiment(load_experiment("experiments/figure8.toml"))
+    assert result.n_samples > 700
+    log = result.log
+    lib.agv_cascade_init(state)
+    pose, motors, da = (ctypes.c_double * 3)(), (ctypes.c_double * 2)(), (ctypes.c_double * 2)()
+    for k in range(len(log)):
+        pose[:] = [float(log[f"est_{c}"][k]) for c in ("x_m", "y_m", "theta_rad")]
+        motors[:] = [float(log[f"measured_omega_motor_{s}_rad_s"][k]) for s in ("left", "right")]
+        lib.agv_cascade_step(state, k, pose, motors, da)
+        assert (da[0], da[1]) == (log["da_command_left_v"][k], log["da_command_right_v"][k]), k

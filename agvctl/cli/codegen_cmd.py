@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"  agv_cascade_step: pose, motor speeds in, DA voltages out; {code.cascade.note}")
     elif qp.code is None:
         print(f"  the pose controller's step and the MPC's QP solver: not generated ({qp.note})")
-    else:
+    if qp.code is not None:
         memory = "not measured" if qp.static_bytes is None else f"{qp.static_bytes} bytes"
         if qp.table_bytes is not None:
             memory += f" ({qp.table_bytes} of them the reference's tables)"

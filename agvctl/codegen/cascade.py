@@ -12,9 +12,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from agvctl.codegen.qp import QP_FOLDER, ExperimentQp
 from agvctl.controllers.base import PoseController
 from agvctl.controllers.baselines.c_unicycle import generated_prefix, render_unicycle_c
 from agvctl.controllers.baselines.unicycle import UnicycleTracker
+from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.pi.c_loops import PREFIX as LOOPS_PREFIX
 from agvctl.controllers.registry import pose_controllers
 from agvctl.params import SIDES
@@ -71,7 +73,9 @@ def pose_controller_of(experiment: Experiment) -> PoseController:
     return kind.make(experiment.controller_vehicle, c.pose_settings)
 
 
-def experiment_cascade(experiment: Experiment, controller: PoseController, *, generator: str) -> ExperimentCascade:
+def experiment_cascade(
+    experiment: Experiment, controller: PoseController, *, generator: str, qp: ExperimentQp | None = None
+) -> ExperimentCascade:
     """The controller cascade of ``experiment`` as C99, where its pose controller is generated.
 
     Parameters
@@ -82,6 +86,8 @@ def experiment_cascade(experiment: Experiment, controller: PoseController, *, ge
         Its pose controller (:func:`pose_controller_of`).
     generator : str
         What writes the files (``"agvctl 0.2.0"``).
+    qp : ExperimentQp or None
+        The LTV MPC's QP folder (:func:`~agvctl.codegen.qp.experiment_qp`), whose pose controller the cascade calls.
 
     Returns
     -------
@@ -89,6 +95,8 @@ def experiment_cascade(experiment: Experiment, controller: PoseController, *, ge
         The files, or why there are none.
     """
     spec, vehicle = experiment.spec, experiment.controller_vehicle
+    if isinstance(controller, LtvMpcController):
+        return _mpc_cascade(experiment, qp, generator)
     if generated_prefix(controller) is None or not isinstance(controller, UnicycleTracker):
         note = f"the pose controller {spec.controller.pose!r} has no generated step yet: it runs in agvctl"
         return ExperimentCascade({}, "", note)
@@ -103,6 +111,7 @@ def experiment_cascade(experiment: Experiment, controller: PoseController, *, ge
         "loops_prefix": LOOPS_PREFIX,
         "rim_per_motor": [vehicle.rim_per_motor_rad(side) for side in SIDES],
         "rows": controller.reference_rows.tolist(),
+        "mpc": False,
     }
     env = c_templates("agvctl.codegen")
     files = dict(pose.files)
@@ -111,3 +120,29 @@ def experiment_cascade(experiment: Experiment, controller: PoseController, *, ge
     law = "the Ramsete law" if pose.prefix == "agv_ramsete" else "the LTV unicycle LQR and its gain schedule"
     note = f"{law}; the reference: {rows} samples, {8 * 7 * rows} bytes of constant data"
     return ExperimentCascade(files, pose.prefix, note)
+
+
+MPC_POSE_PREFIX = "agv_mpc_pose"
+"""The LTV MPC pose controller's files' stem in the QP folder."""
+
+
+def _mpc_cascade(experiment: Experiment, qp: ExperimentQp | None, generator: str) -> ExperimentCascade:
+    """The cascade over the LTV MPC whose QP folder ``qp`` holds (its pose controller on the path)."""
+    spec, vehicle = experiment.spec, experiment.controller_vehicle
+    if qp is None or qp.code is None:
+        why = qp.note if qp is not None else "its QP is not generated"
+        return ExperimentCascade({}, "", f"the LTV MPC's cascade needs its QP in C: {why}")
+    values = {
+        "experiment": spec.name,
+        "generator": generator,
+        "sample_period_s": f"{vehicle.control.sample_period_s:g}",
+        "pose_prefix": MPC_POSE_PREFIX,
+        "loops_prefix": LOOPS_PREFIX,
+        "rim_per_motor": [vehicle.rim_per_motor_rad(side) for side in SIDES],
+        "mpc": True,
+    }
+    env = c_templates("agvctl.codegen")
+    files = {name: env.get_template(f"{name}.j2").render(values) for name in ("agv_cascade.h", "agv_cascade.c")}
+    docking = " (docking is not generated: at the path's end it rests or keeps tracking the end)"
+    note = f"the LTV MPC on the path's tables, its QP, step and settings in {QP_FOLDER}/{docking}"
+    return ExperimentCascade(files, MPC_POSE_PREFIX, note)

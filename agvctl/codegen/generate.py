@@ -24,6 +24,8 @@ from agvctl import __version__
 from agvctl.actuator import Actuator
 from agvctl.codegen.cascade import ExperimentCascade, experiment_cascade, pose_controller_of
 from agvctl.codegen.qp import QP_FOLDER, ExperimentQp, experiment_qp
+from agvctl.controllers.base import PoseController
+from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.pi.c_loops import (
     STRICT_C_FLAGS,
     StaticMemory,
@@ -101,6 +103,16 @@ def _qp_values(qp: ExperimentQp) -> dict[str, Any]:
     }
 
 
+def _cascade_values(cascade: ExperimentCascade, pose: PoseController) -> dict[str, Any]:
+    """What the README, the example and the Makefile say about the cascade (over the MPC's folder, or not)."""
+    return {
+        "cascade": cascade.generated,
+        "cascade_note": cascade.note,
+        "pose_prefix": cascade.pose_prefix,
+        "mpc": cascade.generated and isinstance(pose, LtvMpcController),
+    }
+
+
 def _readme_values(
     loaded: Experiment, code: WheelLoopsC, memory: StaticMemory | None, generator: str
 ) -> dict[str, str]:
@@ -171,8 +183,10 @@ def generate_code(
     Examples
     --------
     >>> code = generate_code("experiments/line.toml")
-    >>> [name for name in code.files if not name.startswith("mpc_qp/")]
+    >>> [name for name in code.files if not name.startswith("mpc_qp/")][:5]
     ['agv_wheel_loops.h', 'agv_wheel_loops.c', 'example_main.c', 'Makefile', 'README.md']
+    >>> code.cascade.generated  # the LTV MPC's: agv_cascade.{h,c} over mpc_qp/
+    True
     >>> "malloc" in code.files["agv_wheel_loops.c"], "mpc_qp/agv_mpc_qp.h" in code.files
     (False, True)
     """
@@ -194,13 +208,11 @@ def generate_code(
     memory = static_memory(code) if measure_memory and c_compiler() is not None else None
     pose = pose_controller_of(loaded)
     qp = experiment_qp(loaded, pose, generator=generator, measure_memory=measure_memory, single=single)
-    cascade = experiment_cascade(loaded, pose, generator=generator)
+    cascade = experiment_cascade(loaded, pose, generator=generator, qp=qp)
     values = {
         **_readme_values(loaded, code, memory, generator),
         **_qp_values(qp),
-        "cascade": cascade.generated,
-        "cascade_note": cascade.note,
-        "pose_prefix": cascade.pose_prefix,
+        **_cascade_values(cascade, pose),
     }
     env = c_templates("agvctl.codegen")
     files = dict(code.files)

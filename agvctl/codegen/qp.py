@@ -1,8 +1,9 @@
 """An experiment's MPC QP solver as C, for ``agvctl codegen``: the LTV MPC built as a run builds it, set up on the
 experiment's reference, and its QP generated (:func:`~agvctl.controllers.mpc.c_qp.generate_qp_c`) into the
-folder :data:`QP_FOLDER` of the output with the QP's step (:func:`~agvctl.controllers.mpc.c_step.generate_step_c`)
-and the experiment's reference as its tables (:func:`~agvctl.controllers.mpc.c_step.generate_step_tables_c`), with
-their static memory as the compiler lays it out."""
+folder :data:`QP_FOLDER` of the output with the QP's step (:func:`~agvctl.controllers.mpc.c_step.generate_step_c`),
+the experiment's reference as its tables (:func:`~agvctl.controllers.mpc.c_step.generate_step_tables_c`) and the
+controller's step on it (:func:`~agvctl.controllers.mpc.c_update.generate_update_c`,
+:func:`~agvctl.controllers.mpc.c_update.generate_pose_c`), with their static memory as the compiler lays it out."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ import osqp
 from agvctl.controllers.base import PoseController
 from agvctl.controllers.mpc.c_qp import QpC, compile_qp_c, generate_qp_c
 from agvctl.controllers.mpc.c_step import generate_step_c, generate_step_tables_c
+from agvctl.controllers.mpc.c_update import generate_pose_c, generate_update_c
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.osqp_fixes import OSQP_VERSION
 from agvctl.plant.codegen import c_compiler
@@ -125,7 +127,16 @@ def experiment_qp(
         origin=f"the reference of experiment {spec.name!r}.",
         generator=generator,
     )
-    code = dataclasses.replace(code, files={**code.files, **step.files, **tables})
+    update = generate_update_c(controller.step_parts, origin=origin, generator=generator)
+    pose = generate_pose_c(
+        update,
+        controller.c_settings(),
+        sample_period_s=controller.sample_period_s,
+        duration_s=experiment.reference.duration_s,
+        experiment=spec.name,
+        generator=generator,
+    )
+    code = dataclasses.replace(code, files={**code.files, **step.files, **tables, **update.files, **pose})
     horizon = controller.config.horizon
     precision = "single precision (float)" if single else "double precision"
     note = f"n = {code.n_variables} variables, m = {code.n_constraints} constraints, horizon N = {horizon}, {precision}"

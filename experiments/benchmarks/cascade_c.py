@@ -1,5 +1,6 @@
-"""Benchmark of a whole controller cascade's step: a unicycle law (Ramsete, or the LTV unicycle LQR) and the PI loops
-in Python against the generated C cascade (``agvctl codegen``'s ``agv_cascade_step``), in the same run.
+"""Benchmark of a whole controller cascade's step: a unicycle law (Ramsete, or the LTV unicycle LQR) or the LTV MPC
+and the PI loops in Python against the generated C cascade (``agvctl codegen``'s ``agv_cascade_step``), in the same
+run.
 
 The figure-8 path is run in closed loop with the law; the estimated poses and measured motor speeds it gave
 the controllers are recorded. Then the cascade steps through them: in Python (the law, the setpoints as motor speeds,
@@ -10,24 +11,33 @@ figure-8 closed loop's wall time and real-time factor with the cascade in Python
 back from it): the loop's own time (``wall_time_s``) and the whole run's, its log (errors against the path, the
 payload's readings) made.
 
-Run:  python experiments/benchmarks/cascade_c.py [--law ramsete|ltv_lqr] [--repeat 5]
+With ``--law mpc`` the cascade in C is the MPC's (its steps and its QP's solver, the path as tables), and in the
+closed loop the MPC in C is ``qp_solver = "osqp_c"`` (a pose controller the loop in C calls back: its step is not a
+compiled step of the loop's).
+
+Run:  python experiments/benchmarks/cascade_c.py [--law ramsete|ltv_lqr|mpc] [--repeat 5]
 """
 
 from __future__ import annotations
 
 import argparse
 import ctypes
+import dataclasses
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from agvctl.codegen import generate_code
+from agvctl.controllers.base import PoseController
 from agvctl.controllers.baselines.c_unicycle import COMPILED_LAWS
+from agvctl.controllers.mpc import MpcConfig
+from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS, CompiledPIWheelController
 from agvctl.controllers.pi.wheel_loop import PIWheelController
-from agvctl.params import SIDES
+from agvctl.params import SIDES, VehicleParams
 from agvctl.plant.codegen import compiled_library
 from agvctl.scenario.experiment import load_experiment, run_experiment
 from agvctl.sim.loop import run_closed_loop
@@ -63,9 +73,18 @@ def law_figure8(folder: Path, law: str) -> Path:
     return folder / f"figure8_{law}.toml"
 
 
+def laws(name: str, settings: MpcConfig | None) -> tuple[Callable[[VehicleParams], PoseController], ...]:
+    """The pose controller in Python and in C, by name (the MPC with the experiment's resolved ``settings``)."""
+    if name != "mpc":
+        return COMPILED_LAWS[name].python, COMPILED_LAWS[name].compiled
+    assert settings is not None
+    c_settings = dataclasses.replace(settings, qp_solver="osqp_c")
+    return (lambda v: LtvMpcController(v, settings)), (lambda v: LtvMpcController(v, c_settings))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--law", choices=sorted(COMPILED_LAWS), default="ramsete")
+    parser.add_argument("--law", choices=[*sorted(COMPILED_LAWS), "mpc"], default="ramsete")
     parser.add_argument("--repeat", type=int, default=5, help="passes over the recorded inputs")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="agvctl-bench-") as folder:
@@ -90,11 +109,12 @@ def main() -> None:
     ns_c = np.zeros(n)
     python_ns: list[int] = []
     c_ns: list[float] = []
-    python_law, c_law = COMPILED_LAWS[args.law].python, COMPILED_LAWS[args.law].compiled
+    settings = experiment.spec.controller.pose_settings
+    python_law, c_law = laws(args.law, settings if isinstance(settings, MpcConfig) else None)
     law, loops = python_law(vehicle), PIWheelController(vehicle, gains, options)
-    law.reset(experiment.reference)
     clock = time.perf_counter_ns
     for _ in range(args.repeat):
+        law.reset(experiment.reference)
         loops.reset()
         for k in range(n):
             t0 = clock()

@@ -24,7 +24,7 @@ from agvctl.controllers.mpc.body_bounds import NEAR_REST_SPEED_M_S
 from agvctl.controllers.mpc.c_step import StepParts
 from agvctl.plant.codegen import c_templates
 
-__all__ = ["UPDATE_SETTINGS", "WHEEL_CONSTANTS", "UpdateC", "generate_update_c"]
+__all__ = ["UPDATE_SETTINGS", "WHEEL_CONSTANTS", "UpdateC", "generate_pose_c", "generate_update_c"]
 
 PREFIX = "agv_mpc"
 """The controller step's stem and the prefix of the names it defines."""
@@ -140,3 +140,67 @@ def generate_update_c(
         f"{prefix}.c": env.get_template("mpc_update.c.j2").render(values),
     }
     return UpdateC(files, prefix, parts.horizon)
+
+
+def generate_pose_c(
+    update: UpdateC,
+    settings: dict[str, float],
+    *,
+    sample_period_s: float,
+    duration_s: float,
+    experiment: str,
+    generator: str,
+    prefix: str = "agv_mpc_pose",
+    step_prefix: str = "agv_mpc_step",
+    qp_prefix: str = "agv_mpc_qp",
+) -> dict[str, str]:
+    """The pose controller of one path as C99 (``<prefix>.{h,c}``): the controller's step with its settings as
+    ``static const`` data, on the path's tables, one call per sample from the sample k, the pose and the wheel speeds.
+    Docking is not generated: the path's end reached, the controller is done (its rest may hold).
+
+    Parameters
+    ----------
+    update : UpdateC
+        The controller's step.
+    settings : dict of str to float
+        Its numbers (:meth:`LtvMpcController.c_settings <agvctl.controllers.mpc.ltv.LtvMpcController.c_settings>`,
+        after the reset on the path).
+    sample_period_s : float
+        T_s, s.
+    duration_s : float
+        The path's duration, s.
+    experiment : str
+        The experiment's name, written into the files.
+    generator : str
+        What wrote them.
+    prefix : str
+        The files' stem and the names' prefix.
+    step_prefix : str
+        The QP step's prefix (its tables' too).
+    qp_prefix : str
+        The QP solver's prefix.
+
+    Returns
+    -------
+    dict of str to str
+        ``{file name: text}``.
+    """
+    values = {
+        "prefix": prefix,
+        "guard": f"{prefix.upper()}_H",
+        "update_prefix": update.prefix,
+        "update_macro": update.prefix.upper(),
+        "step_prefix": step_prefix,
+        "qp_prefix": qp_prefix,
+        "experiment": experiment,
+        "generator": generator,
+        "settings": [(name, settings[name]) for name in UPDATE_SETTINGS],
+        "sample_period": sample_period_s,
+        "sample_period_s": f"{sample_period_s:g}",
+        "duration": duration_s,
+    }
+    env = c_templates("agvctl.controllers.mpc")
+    return {
+        f"{prefix}.h": env.get_template("mpc_pose.h.j2").render(values),
+        f"{prefix}.c": env.get_template("mpc_pose.c.j2").render(values),
+    }
