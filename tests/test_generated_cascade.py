@@ -158,11 +158,16 @@ def test_the_generated_cascade_builds_strictly_holds_no_heap_or_io_and_replays_t
     sources = {name: text for name, text in code.files.items() if name.endswith((".c", ".h"))}
     sources.pop("example_main.c")
     lib = compiled_library(sources, f"agv_cascade_replay_{law}", flags=(*STRICT_C_FLAGS, "-fPIC", "-shared"))
+    _assert_replays(lib, run_experiment(load_experiment(experiment)).log)
+
+
+def _assert_replays(lib: ctypes.CDLL, log) -> None:
+    """The compiled cascade's step, fed the closed loop's estimated pose and measured motor speeds sample by sample,
+    commands the loop's DA voltages, bit for bit."""
     lib.agv_cascade_state_size.restype = ctypes.c_size_t
     state = (ctypes.c_double * -(-int(lib.agv_cascade_state_size()) // 8))()
     lib.agv_cascade_step.restype = ctypes.c_uint
     lib.agv_cascade_step.argtypes = [ctypes.c_void_p, ctypes.c_long, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
-    log = run_experiment(load_experiment(experiment)).log
     lib.agv_cascade_init(state)
     pose, motors, da = (ctypes.c_double * 3)(), (ctypes.c_double * 2)(), (ctypes.c_double * 2)()
     for k in range(len(log)):
@@ -201,17 +206,6 @@ def test_the_mpcs_generated_cascade_builds_strictly_and_replays_the_figure_8_clo
     sources = {name: text for name, text in code.files.items() if name.endswith((".c", ".h"))}
     sources.pop("example_main.c")
     lib = compiled_library(sources, "agv_cascade_replay_mpc", flags=(*STRICT_C_FLAGS, "-O3", "-fPIC", "-shared"))
-    lib.agv_cascade_state_size.restype = ctypes.c_size_t
-    state = (ctypes.c_double * -(-int(lib.agv_cascade_state_size()) // 8))()
-    lib.agv_cascade_step.restype = ctypes.c_uint
-    lib.agv_cascade_step.argtypes = [ctypes.c_void_p, ctypes.c_long, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
     result = run_experiment(load_experiment("experiments/figure8.toml"))
     assert result.n_samples > 700
-    log = result.log
-    lib.agv_cascade_init(state)
-    pose, motors, da = (ctypes.c_double * 3)(), (ctypes.c_double * 2)(), (ctypes.c_double * 2)()
-    for k in range(len(log)):
-        pose[:] = [float(log[f"est_{c}"][k]) for c in ("x_m", "y_m", "theta_rad")]
-        motors[:] = [float(log[f"measured_omega_motor_{s}_rad_s"][k]) for s in ("left", "right")]
-        lib.agv_cascade_step(state, k, pose, motors, da)
-        assert (da[0], da[1]) == (log["da_command_left_v"][k], log["da_command_right_v"][k]), k
+    _assert_replays(lib, result.log)
