@@ -12,7 +12,7 @@ import subprocess
 import numpy as np
 import osqp
 import pytest
-from test_mpc import _CappedLeftWheel
+from test_mpc import _CappedLeftWheel, _LeftWheelCap
 
 from agvctl.codegen.qp import experiment_qp
 from agvctl.controllers.mpc.c_qp import compile_qp_c
@@ -145,3 +145,50 @@ def test_the_codegen_folder_steps_the_experiments_qp_as_the_closed_loop_did(monk
         first = feedforward[args[0]] + correction[:2]
         first = np.where(v_max < first, v_max, first)
         assert tuple(np.where(-v_max > first, -v_max, first).tolist()) == expected
+
+
+class _LeftWheelCapInC(_LeftWheelCap):
+    """The left-wheel cap of ``test_mpc`` with its C: a block of one's own brings its part of the step as a template's
+    text, its tables and their names, as the package's blocks do."""
+
+    c_tables_names = ("upper",)
+    c_template = """{%- if section == "code" %}
+/* A cap on the left wheel's setpoints: the window's upper bounds. */
+static void {{ part.id }}_write({{ prefix }}_state *state, const double *const *tables, const step_data *step,
+                                const {{ prefix }}_input *input)
+{
+    const double *upper = tables[{{ part.t.upper }}] + step->k;
+    int i;
+    (void)input;
+    for (i = 0; i < {{ part.n_rows }}; ++i) {
+        state->u[{{ part.first_row }} + i] = upper[i];
+    }
+}
+{% endif %}"""
+
+    def c_tables(self) -> dict[str, np.ndarray]:
+        return {"upper": self._upper_by_point}
+
+
+class _CappedInC(LtvMpcController):
+    def _blocks(self):
+        return [*super()._blocks(), _LeftWheelCapInC(self.config.horizon)]
+
+
+def test_a_block_of_ones_own_with_its_c_template_steps_in_c_with_the_commands_of_python():
+    """The user's constraint block, given its C as a template's text: the figure 8 with the cap in C commands every
+    DA voltage as with the cap in Python, and the cap binds (its commands differ from the plain controller's)."""
+    experiment = load_experiment("experiments/figure8.toml")
+    settings, vehicle = experiment.spec.controller.pose_settings, experiment.controller_vehicle
+    runs = {
+        name: run_experiment(experiment, pose_controller=controller(vehicle, s)).log
+        for name, controller, s in (
+            ("python", _CappedInC, settings),
+            ("c", _CappedInC, dataclasses.replace(settings, qp_solver="osqp_c")),
+            ("plain", LtvMpcController, settings),
+        )
+    }
+    for side in ("left", "right"):
+        column = f"da_command_{side}_v"
+        np.testing.assert_array_equal(runs["python"][column], runs["c"][column])
+    assert not np.array_equal(runs["python"]["da_command_left_v"], runs["plain"]["da_command_left_v"])

@@ -18,6 +18,7 @@ with BLAS, whose order and fused multiply-adds are the machine's), so that C and
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -136,6 +137,9 @@ class _Part:
     has_write: bool
     has_matrices: bool
     has_start: bool
+    template: str | None = None
+    state: str = ""
+    code: str = ""
 
 
 @dataclass(frozen=True)
@@ -167,7 +171,7 @@ def _identifier(name: str) -> str:
 def _parts(parts: StepParts, macro: str) -> tuple[list[_Part], list[dict[str, str]]]:
     """The C parts in order (frame, model, the blocks in row order) and the table list after the reference's."""
     qp, tables = parts.qp, []
-    missing = [b.name for b in qp.blocks if b.c_step is None]
+    missing = [b.name for b in qp.blocks if b.c_step is None and b.c_template is None]
     if missing:
         raise AgvctlError(f"the QP step has no C for {', '.join(missing)}")
     half = 0.5 * parts.sample_period_s
@@ -195,6 +199,7 @@ def _parts(parts: StepParts, macro: str) -> tuple[list[_Part], list[dict[str, st
                 has_write,
                 has_matrices,
                 False,
+                block.c_template,
             )
         )
     return result, tables
@@ -259,11 +264,12 @@ def generate_step_c(
         "solved": int(osqp.SolverStatus.OSQP_SOLVED),
         "solved_inaccurate": int(osqp.SolverStatus.OSQP_SOLVED_INACCURATE),
     }
-    # a part has a start where its code defines one
     rendered = []
-    for part in c_parts:
-        text = env.get_template(f"step/{part.c_step}.c.j2").render({**values, "part": part, "section": "code"})
-        rendered.append(_Part(**{**part.__dict__, "has_start": f"{part.id}_start(" in text}))
+    for part in c_parts:  # each part's state fields and code; it has a start where its code defines one
+        template = env.from_string(part.template) if part.template else env.get_template(f"step/{part.c_step}.c.j2")
+        state = template.render({**values, "part": part, "section": "state"})
+        code = template.render({**values, "part": part, "section": "code"})
+        rendered.append(dataclasses.replace(part, state=state, code=code, has_start=f"{part.id}_start(" in code))
     values["parts"] = rendered
     files = {
         f"{prefix}.h": env.get_template("mpc_step.h.j2").render(values),

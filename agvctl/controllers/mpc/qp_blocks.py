@@ -136,8 +136,12 @@ class QpBlock(Generic[R, S]):
     c_step: str | None = None
     """The block's part of the QP step in C: the template ``step/<c_step>.c.j2`` beside
     :mod:`agvctl.controllers.mpc.c_step`, which renders its state (``part == "state"``) and its writes (``part ==
-    "code"``) as :meth:`write` and :meth:`write_matrices` compute them. None: the block has no C, and neither has a QP
-    that holds it."""
+    "code"``) as :meth:`write` and :meth:`write_matrices` compute them. None: the block has no C of the package's (see
+    :attr:`c_template`)."""
+    c_template: str | None = None
+    """The block's part of the QP step in C as the text of a Jinja template, rendered as a ``step/`` template is (a
+    block of your own brings its C this way); None: the template :attr:`c_step` names. A block with neither has no C,
+    and neither has a QP that holds it."""
     c_tables_names: tuple[str, ...] = ()
     """The names of the tables :meth:`c_tables` gives, in that order."""
 
