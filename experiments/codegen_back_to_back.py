@@ -17,6 +17,7 @@ each cascade in Python and as generated C (the law, ``pose = "ramsete_c"`` or ``
 ``wheel_loops = "pi_c"``), each in its own closed loop (:func:`agvctl.codegen.cascade_back_to_back`).
 
 Run:  python experiments/codegen_back_to_back.py [--part loops|qp|qp_float|cascade] [--scenarios 100] [--jobs 2]
+                                               [--seed S]
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ from agvctl.controllers.baselines.c_unicycle import COMPILED_LAWS
 from agvctl.controllers.mpc.config import QpSolver
 from agvctl.fuzz.report import FuzzTask
 from agvctl.fuzz.run import fuzz_tasks
-from agvctl.fuzz.spec import load_fuzz_config
+from agvctl.fuzz.spec import load_fuzz_config, override_fuzz_config
 
 FUZZ_FILE = Path(__file__).parent / "fuzz" / "acceptance.toml"
 SOLVERS: dict[str, QpSolver] = {"qp": "osqp_c", "qp_float": "osqp_c_float"}
@@ -94,8 +95,11 @@ def main() -> None:
     parser.add_argument("--scenarios", type=int, default=100)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--part", choices=("loops", "qp", "qp_float", "cascade"), default="loops")
+    parser.add_argument("--seed", type=int, default=None, help="the scenarios' seed (default: the file's)")
     args = parser.parse_args()
     spec = load_fuzz_config(FUZZ_FILE)
+    if args.seed is not None:
+        spec = override_fuzz_config(spec, seed=args.seed)
     if args.part != "loops":
         spec = dataclasses.replace(spec, controllers=tuple(COMPILED_LAWS) if args.part == "cascade" else ("mpc",))
     tasks = fuzz_tasks(spec, list(range(args.scenarios))).tasks
@@ -107,7 +111,8 @@ def main() -> None:
             rows = list(pool.map(functools.partial(compare_runs, part=args.part), tasks))
     wall = time.perf_counter() - t0
     print(
-        f"{len(rows)} runs ({args.scenarios} scenarios of {FUZZ_FILE.name} x {', '.join(spec.controllers)}), "
+        f"{len(rows)} runs ({args.scenarios} scenarios of {FUZZ_FILE.name}, seed {spec.seed}, x "
+        f"{', '.join(spec.controllers)}), "
         f"{wall:.1f} s on {args.jobs} jobs"
     )
     for controller in spec.controllers:
