@@ -8,9 +8,10 @@ controllers in one process, threads of one worker) never see each other's iterat
 new solver starts from the state the library had when it was loaded: a solver just set up, as the Python solver is.
 
 :class:`GeneratedOsqp` stands where the LTV MPC keeps its ``osqp.OSQP`` solver (``qp_solver = "osqp_c"``): the same
-calls (``update``, ``solve``, ``warm_start``, ``update_settings``) on the generated solver of the same QP, so the
-controller's step is unchanged and the solver's arithmetic is the generated C's, which is OSQP's own code: it gives
-the Python solver's answers bit for bit.
+calls (``update``, ``solve``, ``warm_start``, ``update_settings``) on the generated solver of the same QP, whose
+arithmetic is OSQP's own code: it gives the Python solver's answers bit for bit. The solver's library holds the
+controller's step in C as well, which solves with it (:class:`~agvctl.controllers.mpc.c_step_loop.CompiledController`,
+under :meth:`CompiledQp.held`); the controller's reset goes through the calls above.
 """
 
 from __future__ import annotations

@@ -355,7 +355,8 @@ class LtvMpcController(MpcStepper):
         # at rest the problem above is the zero problem: A's varying entries are set at reset
 
     def _set_up(self, settings: dict[str, Any]) -> osqp.OSQP | GeneratedOsqp:
-        """The solver set up on the QP: OSQP, or its C generated for the QP with the QP's step (``qp_solver``)."""
+        """The solver set up on the QP: OSQP, or its C generated for the QP, with the controller's step in C around it
+        (``qp_solver``)."""
         qp = self._qp
         self._c: CompiledController | None = None
         if self.config.qp_solver == "osqp":
