@@ -192,3 +192,44 @@ def test_a_block_of_ones_own_with_its_c_template_steps_in_c_with_the_commands_of
         column = f"da_command_{side}_v"
         np.testing.assert_array_equal(runs["python"][column], runs["c"][column])
     assert not np.array_equal(runs["python"]["da_command_left_v"], runs["plain"]["da_command_left_v"])
+
+
+def _steps(controller: LtvMpcController, reference, feed) -> list[tuple[float, float, str]]:
+    controller.reset(reference)
+    commands = [controller.update(k * 0.04, pose, wheel) for k, (pose, wheel) in enumerate(feed)]
+    return [(c.wheel_speed_left_m_s, c.wheel_speed_right_m_s, c.status) for c in commands]
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [{}, {"max_iterations": 40}, {"reference_governor": False}],
+    ids=["default", "solves that fail", "no governor"],
+)
+def test_the_step_in_c_falls_back_and_recovers_as_python_does(changes):
+    """Fed 300 samples of a run started off the figure 8, with the wheels at 1.6 m/s at the first (a reset at speed,
+    beyond the speed box) and a wheel speed not a number at three samples (a broken measurement): the C step's
+    commands, statuses and failure counts are Python's; with an iteration limit of 40 dozens of solves fail, and the
+    shifted sequence takes over as in Python."""
+    experiment = load_experiment("experiments/figure8_offpath.toml")
+    log = run_experiment(experiment).log
+    rim = np.array([experiment.controller_vehicle.rim_per_motor_rad(side) for side in ("left", "right")])
+    feed = [
+        (
+            np.array([log["est_x_m"][k], log["est_y_m"][k], log["est_theta_rad"][k]]),
+            np.array([log["measured_omega_motor_left_rad_s"][k], log["measured_omega_motor_right_rad_s"][k]]) * rim,
+        )
+        for k in range(300)
+    ]
+    feed[0] = (feed[0][0], np.array([1.6, 1.6]))
+    for k in (50, 51, 120):
+        feed[k] = (feed[k][0], np.array([np.nan, 0.1]))
+    settings = dataclasses.replace(experiment.spec.controller.pose_settings, **changes)
+    vehicle = experiment.controller_vehicle
+    python = LtvMpcController(vehicle, settings)
+    c = LtvMpcController(vehicle, dataclasses.replace(settings, qp_solver="osqp_c"))
+    steps = _steps(python, experiment.reference, feed)
+    assert steps == _steps(c, experiment.reference, feed)
+    assert python.failures == c.failures >= 3
+    assert {"solved", "fallback_shifted"} <= {status for _, _, status in steps}
+    if "max_iterations" in changes:
+        assert c.failures > 20
