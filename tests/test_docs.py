@@ -252,6 +252,10 @@ DEFINITIONS: dict[str, dict[str, str]] = {
         "0.1 %": "the simulator test's tolerance on the motor speeds",
         "10 s": "the length of the simulator test's profile (an input of the test)",
     },
+    "docs/guide/codegen.md": {
+        "5 cm": "the docking's backing step, BACKING_STEP_M of agvctl.controllers.mpc.docking (decision record 0043)",
+        "0.15 to 0.5 m": "the fewest and most backing steps, BACKING_STEPS of the same module",
+    },
     "docs/guide/ci-gate.md": {
         "0.4 m/s²": "the planning limit the doctest's example path sets (an input)",
         "1 mm": "how far a fault must move a run to harm it, defined in experiments/robustness/broken_controllers.py",

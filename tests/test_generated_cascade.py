@@ -21,11 +21,12 @@ from agvctl.cli import main
 from agvctl.codegen import cascade_back_to_back, generate_code
 from agvctl.controllers.baselines import LtvLqrConfig, LtvLqrController, RamseteConfig, RamseteController
 from agvctl.controllers.baselines.c_unicycle import CompiledLtvLqrController, CompiledRamseteController
+from agvctl.controllers.mpc.docking import EndOfPath
 from agvctl.controllers.mpc.osqp_fixes import OSQP_VERSION
 from agvctl.controllers.pi.c_loops import STRICT_C_FLAGS
 from agvctl.errors import AgvctlError, ConfigError
 from agvctl.fuzz.run import fuzz, fuzz_tasks
-from agvctl.fuzz.spec import load_fuzz_config
+from agvctl.fuzz.spec import load_fuzz_config, override_fuzz_config
 from agvctl.planning import plan_file
 from agvctl.plant.codegen import c_compiler, compiled_library
 from agvctl.scenario.experiment import load_experiment, run_experiment
@@ -195,7 +196,7 @@ def test_the_mpcs_generated_cascade_builds_strictly_and_replays_the_figure_8_clo
     ends within tolerance, so no docking, which is not generated)."""
     out = tmp_path / "c"
     assert main(["codegen", "experiments/figure8.toml", "--out", str(out)]) == 0
-    assert "docking is not generated" in capsys.readouterr().out
+    assert "docking manoeuvres" in capsys.readouterr().out
     built = subprocess.run(["make", "-C", str(out)], capture_output=True, text=True)
     assert built.returncode == 0, built.stderr
     example = subprocess.run([str(out / "example")], capture_output=True, text=True, check=True).stdout
@@ -208,4 +209,34 @@ def test_the_mpcs_generated_cascade_builds_strictly_and_replays_the_figure_8_clo
     lib = compiled_library(sources, "agv_cascade_replay_mpc", flags=(*STRICT_C_FLAGS, "-O3", "-fPIC", "-shared"))
     result = run_experiment(load_experiment("experiments/figure8.toml"))
     assert result.n_samples > 700
+    _assert_replays(lib, result.log)
+
+
+@needs_cc
+@pytest.mark.skipif(osqp.__version__ != OSQP_VERSION, reason=f"the QP's C is generated with osqp {OSQP_VERSION}")
+def test_the_mpcs_generated_cascade_docks_as_the_closed_loop_does(tmp_path, monkeypatch):
+    """A random scenario whose vehicle stops beside the path's end and docks once: the folder's cascade (the
+    manoeuvres planned ahead for each backing distance) commands the closed loop's DA voltages, bit for bit, through
+    the path, the decision to dock, the manoeuvre and the rest."""
+    manoeuvres: list[object] = []
+    after_step = EndOfPath.after_step
+
+    def counting(self, *args):
+        manoeuvre = after_step(self, *args)
+        if manoeuvre is not None:
+            manoeuvres.append(manoeuvre)
+        return manoeuvre
+
+    monkeypatch.setattr(EndOfPath, "after_step", counting)
+    spec = override_fuzz_config(load_fuzz_config("experiments/fuzz/acceptance.toml"), seed=515151)
+    task = fuzz_tasks(dataclasses.replace(spec, controllers=("mpc",)), [12]).tasks[0]
+    for name, text in task.files:
+        (tmp_path / name).write_text(text, encoding="utf-8")
+    experiment = tmp_path / task.files[-1][0]
+    code = generate_code(experiment, measure_memory=False)
+    result = run_experiment(load_experiment(experiment))
+    assert len(manoeuvres) == 1
+    sources = {name: text for name, text in code.files.items() if name.endswith((".c", ".h"))}
+    sources.pop("example_main.c")
+    lib = compiled_library(sources, "agv_cascade_replay_docking", flags=(*STRICT_C_FLAGS, "-O3", "-fPIC", "-shared"))
     _assert_replays(lib, result.log)

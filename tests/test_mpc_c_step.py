@@ -122,6 +122,7 @@ def test_the_codegen_folder_steps_the_experiments_qp_as_the_closed_loop_did(monk
     controller = LtvMpcController(vehicle, settings)
     folder = experiment_qp(experiment, controller, generator="a test", measure_memory=False)
     assert folder.code is not None
+    controller.reset(experiment.reference)  # back on the path (the folder's docking manoeuvres were tracked)
     feedforward = controller.step_tables()[REFERENCE_TABLES.index("feedforward")].reshape(-1, 2)
     v_max = controller.max_wheel_speed_m_s
     library = compile_qp_c(folder.code)

@@ -143,6 +143,5 @@ def _mpc_cascade(experiment: Experiment, qp: ExperimentQp | None, generator: str
     }
     env = c_templates("agvctl.codegen")
     files = {name: env.get_template(f"{name}.j2").render(values) for name in ("agv_cascade.h", "agv_cascade.c")}
-    docking = " (docking is not generated: at the path's end it rests or keeps tracking the end)"
-    note = f"the LTV MPC on the path's tables, its QP, step and settings in {QP_FOLDER}/{docking}"
+    note = f"the LTV MPC on the path's tables and its docking manoeuvres', its QP, step and settings in {QP_FOLDER}/"
     return ExperimentCascade(files, MPC_POSE_PREFIX, note)

@@ -18,6 +18,7 @@ from agvctl.controllers.base import PoseController
 from agvctl.controllers.mpc.c_qp import QpC, compile_qp_c, generate_qp_c
 from agvctl.controllers.mpc.c_step import generate_step_c, generate_step_tables_c
 from agvctl.controllers.mpc.c_update import generate_pose_c, generate_update_c
+from agvctl.controllers.mpc.docking import BACKING_STEPS
 from agvctl.controllers.mpc.ltv import LtvMpcController
 from agvctl.controllers.mpc.osqp_fixes import OSQP_VERSION
 from agvctl.plant.codegen import c_compiler
@@ -118,21 +119,26 @@ def experiment_qp(
     origin = f"The QP of the LTV MPC of experiment {spec.name!r}."
     code = generate_qp_c(controller.qp, controller.osqp_settings, origin=origin, generator=generator, single=single)
     step = generate_step_c(controller.step_parts, origin=origin, generator=generator)
+    update = generate_update_c(controller.step_parts, origin=origin, generator=generator)
+    path_tables, path_last_start, settings = controller.step_tables(), controller.last_start, controller.c_settings()
+    docking, manoeuvres = controller.c_docking()  # last: it tracks each manoeuvre
     tables = generate_step_tables_c(
         step,
         controller.qp,
-        controller.step_tables(),
-        controller.last_start,
+        path_tables,
+        path_last_start,
         rho=float(controller.osqp_settings["rho"]),
         origin=f"the reference of experiment {spec.name!r}.",
         generator=generator,
+        manoeuvres=manoeuvres,
+        first_steps=BACKING_STEPS[0],
     )
-    update = generate_update_c(controller.step_parts, origin=origin, generator=generator)
     pose = generate_pose_c(
         update,
-        controller.c_settings(),
+        settings,
         sample_period_s=controller.sample_period_s,
         duration_s=experiment.reference.duration_s,
+        docking=docking,
         experiment=spec.name,
         generator=generator,
     )

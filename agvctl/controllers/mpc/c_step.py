@@ -304,6 +304,18 @@ def step_tables(qp: BlockQp[Any, Any], grid: HorizonReference) -> list[FloatArra
     return [np.ascontiguousarray(t, dtype=np.float64).ravel() for t in tables]
 
 
+def _table_values(code: StepC, tables: Sequence[FloatArray]) -> list[dict[str, Any]]:
+    """One reference's tables as the tables' template takes them (their names and values), checked."""
+    if len(tables) != len(code.table_names):
+        raise AgvctlError(f"the QP step reads {len(code.table_names)} tables, given {len(tables)}")
+    values = []
+    for name, table in zip(code.table_names, tables, strict=True):
+        if not np.all(np.isfinite(table) | np.isinf(table)):
+            raise AgvctlError(f"the QP step's table {name!r} holds NaN")
+        values.append({"doc": name, "data": [float(v) for v in table]})
+    return values
+
+
 def generate_step_tables_c(
     code: StepC,
     qp: BlockQp[Any, Any],
@@ -314,6 +326,8 @@ def generate_step_tables_c(
     origin: str,
     generator: str,
     qp_prefix: str = "agv_mpc_qp",
+    manoeuvres: Sequence[tuple[Sequence[FloatArray], float] | None] = (),
+    first_steps: int = 0,
 ) -> dict[str, str]:
     """One reference's tables as static C data beside a step (``<prefix>_tables.{h,c}``): the arrays, the array of
     their addresses the step reads, and a start of the reference as the controller's reset (the QP's vectors and
@@ -337,6 +351,11 @@ def generate_step_tables_c(
         What wrote them.
     qp_prefix : str
         The prefix of the QP's generated solver.
+    manoeuvres : sequence of (sequence of ndarray, float) or None
+        The docking manoeuvres' tables and durations (s), by the steps they back up from ``first_steps`` on (None: no
+        manoeuvre for those steps); none: no docking.
+    first_steps : int
+        The steps the first manoeuvre backs up.
 
     Returns
     -------
@@ -348,19 +367,8 @@ def generate_step_tables_c(
     AgvctlError
         The tables are not the step's, or hold a NaN.
     """
-    if len(tables) != len(code.table_names):
-        raise AgvctlError(f"the QP step reads {len(code.table_names)} tables, given {len(tables)}")
-    for name, table in zip(code.table_names, tables, strict=True):
-        if not np.all(np.isfinite(table) | np.isinf(table)):
-            raise AgvctlError(f"the QP step's table {name!r} holds NaN")
     macro = code.prefix.upper()
-    start = [
-        ("q", qp.q),
-        ("l", qp.lower),
-        ("u", qp.upper),
-        ("p", qp.p_data[qp.p_varying]),
-        ("a", qp.a_data[qp.a_varying]),
-    ]
+    start = {"q": qp.q, "l": qp.lower, "u": qp.upper, "p": qp.p_data[qp.p_varying], "a": qp.a_data[qp.a_varying]}
     values = {
         "prefix": code.prefix,
         "macro": macro,
@@ -372,11 +380,13 @@ def generate_step_tables_c(
         "qp_prefix": qp_prefix,
         "n": qp.layout.n_variables,
         "m": qp.n_rows,
-        "tables": [
-            {"doc": name, "data": [float(v) for v in table]}
-            for name, table in zip(code.table_names, tables, strict=True)
+        "tables": _table_values(code, tables),
+        "start": [(name, [float(v) for v in vector]) for name, vector in start.items()],
+        "first_steps": first_steps,
+        "manoeuvres": [
+            None if m is None else {"steps": first_steps + i, "duration": m[1], "tables": _table_values(code, m[0])}
+            for i, m in enumerate(manoeuvres)
         ],
-        "start": [(name, [float(v) for v in vector]) for name, vector in start],
     }
     env = c_templates("agvctl.controllers.mpc")
     return {

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 from agvctl.controllers.mpc.body_bounds import NEAR_REST_SPEED_M_S
 from agvctl.controllers.mpc.c_step import StepParts
+from agvctl.controllers.mpc.docking import BACKING_STEP_M
 from agvctl.plant.codegen import c_templates
 
 __all__ = ["UPDATE_SETTINGS", "WHEEL_CONSTANTS", "UpdateC", "generate_pose_c", "generate_update_c"]
@@ -148,6 +149,7 @@ def generate_pose_c(
     *,
     sample_period_s: float,
     duration_s: float,
+    docking: dict[str, float] | None,
     experiment: str,
     generator: str,
     prefix: str = "agv_mpc_pose",
@@ -155,8 +157,10 @@ def generate_pose_c(
     qp_prefix: str = "agv_mpc_qp",
 ) -> dict[str, str]:
     """The pose controller of one path as C99 (``<prefix>.{h,c}``): the controller's step with its settings as
-    ``static const`` data, on the path's tables, one call per sample from the sample k, the pose and the wheel speeds.
-    Docking is not generated: the path's end reached, the controller is done (its rest may hold).
+    ``static const`` data, on the path's tables, one call per sample from the sample k, the pose and the wheel speeds,
+    and at the path's end what :class:`~agvctl.controllers.mpc.docking.EndOfPath` decides: done, or a docking
+    manoeuvre among those planned ahead (the step's docking tables, :func:`~agvctl.controllers.mpc.c_step.
+    generate_step_tables_c`).
 
     Parameters
     ----------
@@ -169,6 +173,9 @@ def generate_pose_c(
         T_s, s.
     duration_s : float
         The path's duration, s.
+    docking : dict of str to float or None
+        What deciding on a manoeuvre takes (:attr:`Docking.constants
+        <agvctl.controllers.mpc.docking.Docking.constants>`); None: no docking.
     experiment : str
         The experiment's name, written into the files.
     generator : str
@@ -198,6 +205,10 @@ def generate_pose_c(
         "sample_period": sample_period_s,
         "sample_period_s": f"{sample_period_s:g}",
         "duration": duration_s,
+        "docking": docking,
+        "attempts": int(docking["docking_attempts"]) if docking is not None else 0,
+        "step_m": BACKING_STEP_M,
+        "pi": math.pi,
     }
     env = c_templates("agvctl.controllers.mpc")
     return {

@@ -37,7 +37,32 @@ from agvctl.planning import BodyLimits, PathLimits, PathSpec, StartPose, plan
 from agvctl.planning.reference import Reference
 from agvctl.planning.spec import LineSegment, Segment, TurnSegment
 
-__all__ = ["Docking", "DockingConfig", "EndOfPath"]
+__all__ = ["BACKING_STEP_M", "BACKING_STEPS", "Docking", "DockingConfig", "EndOfPath", "backing_steps"]
+
+BACKING_STEP_M = 0.05
+"""The backing distance comes in steps of 5 cm, so that each path has a finite set of manoeuvres, which a controller
+without an online planner (the generated C) plans ahead (``docs/decisions/0043-the-mpc-qp-in-c.md``)."""
+BACKING_STEPS = (3, 10)
+"""The fewest and the most steps: 0.15 m and 0.5 m."""
+
+
+def backing_steps(lateral_m: float) -> int:
+    """How many :data:`BACKING_STEP_M` to back up for an error ``lateral_m`` across the last drive: twenty times the
+    error (a heading change of about 2·e/L suffices), rounded up to a step, within :data:`BACKING_STEPS`.
+
+    Parameters
+    ----------
+    lateral_m : float
+        The error's size, m (finite, at least 0).
+
+    Returns
+    -------
+    int
+        The steps.
+    """
+    fewest, most = BACKING_STEPS
+    steps = math.ceil(20.0 * lateral_m / BACKING_STEP_M - 1e-9)
+    return most if most < steps else (fewest if fewest > steps else steps)
 
 
 @document_fields
@@ -139,6 +164,23 @@ class Docking:
         self._last_length_m = float(s.path_length_m[1] - s.path_length_m[0])
         self._curvature_1_m = float(s.curvature_1_m[2])
 
+    @property
+    def constants(self) -> dict[str, float]:
+        """What deciding on a manoeuvre takes for the present path (what a generated controller takes): whether it
+        is enabled, the attempts, the tolerance and the sigmas counted, the path's end pose, its last drive's
+        heading, and the heading the turns after it leave (rad)."""
+        c = self.config
+        return {
+            "docking_enabled": float(c.enabled),
+            "docking_attempts": float(self._left),
+            "docking_tolerance_m": c.tolerance_m,
+            "docking_sigmas": c.uncertainty_sigmas,
+            "docking_end_x": float(self._end[0]),
+            "docking_end_y": float(self._end[1]),
+            "docking_heading": self._drive_heading_rad,
+            "docking_turned": self._turned_rad(),
+        }
+
     def lateral_error_m(self, pose: NDArray[np.float64]) -> float:
         """The pose's offset across the heading of the path's last drive at its end (m, positive to the left)."""
         x, y, theta = self._end[0], self._end[1], self._drive_heading_rad
@@ -175,11 +217,20 @@ class Docking:
         if not self.needed(pose):
             return None
         self._left -= 1
-        c = self.config
-        lateral = abs(self.lateral_error_m(pose))
-        distance = min(max(20.0 * lateral, 0.15), 0.5, 0.8 * self._last_length_m)  # back along the last drive
+        return self.manoeuvre(backing_steps(abs(self.lateral_error_m(pose))))
+
+    def distance_m(self, steps: int) -> float:
+        """The distance to back up along the last drive for ``steps`` of :data:`BACKING_STEP_M`, within 0.8 of the
+        drive's length and, where the path ends on a curve, within ``max_deviation_m`` of its arc, m."""
+        distance = min(steps * BACKING_STEP_M, 0.8 * self._last_length_m)
         if abs(self._curvature_1_m) > 1e-9:
-            distance = min(distance, math.sqrt(2.0 * c.max_deviation_m / abs(self._curvature_1_m)))
+            distance = min(distance, math.sqrt(2.0 * self.config.max_deviation_m / abs(self._curvature_1_m)))
+        return distance
+
+    def manoeuvre(self, steps: int) -> Reference | None:
+        """The manoeuvre that backs up ``steps`` of :data:`BACKING_STEP_M` (:meth:`distance_m`), or None where that
+        is under 5 cm (it cannot help)."""
+        c, distance = self.config, self.distance_m(steps)
         if distance < 0.05:
             return None
         x, y, theta = self._end

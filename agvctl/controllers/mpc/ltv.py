@@ -49,6 +49,7 @@ from agvctl.controllers.mpc.c_step_loop import CompiledController
 from agvctl.controllers.mpc.c_update import WHEEL_CONSTANTS, generate_update_c
 from agvctl.controllers.mpc.common import MpcStepper
 from agvctl.controllers.mpc.config import MpcConfig, check_ltv_settings
+from agvctl.controllers.mpc.docking import BACKING_STEPS
 from agvctl.controllers.mpc.error_frames import ERROR_FRAMES
 from agvctl.controllers.mpc.fallback import clamp
 from agvctl.controllers.mpc.horizon import HorizonReference
@@ -160,16 +161,8 @@ class LtvMpcController(MpcStepper):
     def step_parts(self) -> StepParts:
         """What the QP's step in C is generated from (:func:`~agvctl.controllers.mpc.c_step.generate_step_c`): the QP,
         the error frame, the prediction model and the constants the step uses."""
-        c = self.config
-        return StepParts(
-            self._qp,
-            self._frame,
-            self._model,
-            c.horizon,
-            self.sample_period_s,
-            self.max_wheel_speed_m_s,
-            RELINEARISE_RAD,
-        )
+        c, v_max = self.config, self.max_wheel_speed_m_s
+        return StepParts(self._qp, self._frame, self._model, c.horizon, self.sample_period_s, v_max, RELINEARISE_RAD)
 
     def step_tables(self) -> list[FloatArray]:
         """The present reference's tables as the QP's step in C reads them
@@ -242,6 +235,31 @@ class LtvMpcController(MpcStepper):
             if manoeuvre is not None:
                 self._track(manoeuvre)
         return PoseCommand(left, right, time.perf_counter() - t0, status, reference_done=end.done)
+
+    def c_docking(self) -> tuple[dict[str, float] | None, list[tuple[list[FloatArray], float] | None]]:
+        """Docking for the generated C, planned ahead on the present path (after :meth:`reset`): what deciding takes
+        (None with docking off) and, for each backing distance of :data:`~agvctl.controllers.mpc.docking.BACKING_STEPS`,
+        the manoeuvre's tables and duration (s), or None where it backs up under 5 cm. Tracks each manoeuvre in turn:
+        reset again before stepping.
+
+        Returns
+        -------
+        tuple
+            The constants, and the manoeuvres by steps from the fewest.
+        """
+        docking = self._end.docking
+        if not docking.config.enabled:
+            return None, []
+        manoeuvres: list[tuple[list[FloatArray], float] | None] = []
+        fewest, most = BACKING_STEPS
+        for steps in range(fewest, most + 1):
+            reference = docking.manoeuvre(steps)
+            if reference is None:
+                manoeuvres.append(None)
+                continue
+            grid = self._track(reference)
+            manoeuvres.append((step_tables(self._qp, grid), reference.duration_s))
+        return docking.constants, manoeuvres
 
     def c_settings(self) -> dict[str, float]:
         """The numbers the controller's step in C takes (:data:`~agvctl.controllers.mpc.c_update.UPDATE_SETTINGS`):
