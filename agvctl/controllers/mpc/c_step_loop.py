@@ -132,7 +132,7 @@ class CompiledController:
             int(self.settings.ctypes.data),
             ctypes.addressof(self._tables),
         )
-        self._outputs = (
+        self._buffers = (
             int(self._pose.ctypes.data),
             int(self._wheel.ctypes.data),
             int(self._command.ctypes.data),
@@ -226,6 +226,6 @@ class CompiledController:
         self._pose[:] = pose
         self._wheel[:] = wheel_speed_m_s
         with self._hold():
-            code = self._update(self._address, *self._arguments, local_time_s, on_main_path, done, *self._outputs)
+            code = self._update(self._address, *self._arguments, local_time_s, on_main_path, done, *self._buffers)
         left, right = self._command.tolist()
         return int(code), left, right

@@ -8,7 +8,8 @@ reference: once the vehicle has (nearly) stopped at the end with an error across
 along it together), a straight line back along that drive's final heading and the same line forwards again, slowly
 (``speed_m_s``, ``accel_m_s2``), ending at the path's end pose (where the path ends with turns in place, the heading
 they leave is undone first, the short way round, and turned again after); the controller tracks it like any reference
-and removes the error while moving. The distance grows with the error (a heading change of about 2·e/L suffices) and
+and removes the error while moving. The distance grows with the error (a heading change of about 2·e/L suffices), in
+steps of 5 cm (:func:`backing_steps`: a finite set of manoeuvres per path, which the generated C plans ahead), and
 shrinks where the path ends on a curve, so that backing straight up stays within ``max_deviation_m`` of the path's arc
 (``L ≤ √(2δ/|κ|)``), and never reaches back beyond the path's last motion. It is tried at most ``attempts`` times, and
 never on a path that only turns in place.
