@@ -34,6 +34,7 @@ from agvctl.plant.codegen import c_templates
 
 __all__ = [
     "REFERENCE_TABLES",
+    "MpcPartC",
     "StepC",
     "StepParts",
     "generate_step_c",
@@ -143,8 +144,8 @@ class _Part:
 
 
 @dataclass(frozen=True)
-class StepC:
-    """The generated C of one QP's step.
+class MpcPartC:
+    """The generated C of one part of the MPC's step (the QP's step, the controller's around it).
 
     Parameters
     ----------
@@ -152,16 +153,26 @@ class StepC:
         ``<prefix>.h`` and ``<prefix>.c``.
     prefix : str
         The stem and the names' prefix.
-    table_names : tuple of str
-        The tables in the order the step reads them: the reference's, then ``<block>.<name>`` for each block's.
     horizon : int
         N.
     """
 
     files: dict[str, str]
     prefix: str
-    table_names: tuple[str, ...]
     horizon: int
+
+
+@dataclass(frozen=True)
+class StepC(MpcPartC):
+    """The generated C of one QP's step (:class:`MpcPartC`), and the tables it reads.
+
+    Parameters
+    ----------
+    table_names : tuple of str
+        The tables in the order the step reads them: the reference's, then ``<block>.<name>`` for each block's.
+    """
+
+    table_names: tuple[str, ...] = ()
 
 
 def _identifier(name: str) -> str:
@@ -276,7 +287,7 @@ def generate_step_c(
         f"{prefix}.c": env.get_template("mpc_step.c.j2").render(values),
     }
     names = (*REFERENCE_TABLES, *(f"{b.name}.{n}" for b in qp.blocks for n in b.c_tables_names))
-    return StepC(files, prefix, names, parts.horizon)
+    return StepC(files, prefix, parts.horizon, names)
 
 
 def step_tables(qp: BlockQp[Any, Any], grid: HorizonReference) -> list[FloatArray]:
@@ -293,7 +304,7 @@ def step_tables(qp: BlockQp[Any, Any], grid: HorizonReference) -> list[FloatArra
     Returns
     -------
     list of ndarray
-        One-dimensional arrays of double.
+        The reference's own (:func:`reference_tables`), then each block's (``QpBlock.c_tables``).
     """
     tables = reference_tables(grid)
     for block in qp.blocks:

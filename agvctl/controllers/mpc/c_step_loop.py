@@ -18,8 +18,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.mpc.c_solver import CompiledQp, QpInfo
-from agvctl.controllers.mpc.c_step import StepC
-from agvctl.controllers.mpc.c_update import UPDATE_SETTINGS, UpdateC
+from agvctl.controllers.mpc.c_step import MpcPartC, StepC
+from agvctl.controllers.mpc.c_update import UPDATE_SETTINGS
 from agvctl.controllers.mpc.qp_blocks import BlockQp
 from agvctl.errors import AgvctlError
 
@@ -95,11 +95,11 @@ class CompiledController:
         The QP's generated solver, compiled with the step and the controller's step.
     step : StepC
         The QP step's C.
-    update : UpdateC
+    update : MpcPartC
         The controller step's C.
     """
 
-    def __init__(self, solver: CompiledQp, step: StepC, update: UpdateC) -> None:
+    def __init__(self, solver: CompiledQp, step: StepC, update: MpcPartC) -> None:
         library, p = solver.library, update.prefix
         self._hold = solver.held
         self.horizon = update.horizon

@@ -18,14 +18,13 @@ controller; the template's indices come from the same names.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from agvctl.controllers.mpc.body_bounds import NEAR_REST_SPEED_M_S
-from agvctl.controllers.mpc.c_step import StepParts
+from agvctl.controllers.mpc.c_step import MpcPartC, StepParts
 from agvctl.controllers.mpc.docking import BACKING_STEP_M
 from agvctl.plant.codegen import c_templates
 
-__all__ = ["UPDATE_SETTINGS", "WHEEL_CONSTANTS", "UpdateC", "generate_pose_c", "generate_update_c"]
+__all__ = ["UPDATE_SETTINGS", "WHEEL_CONSTANTS", "generate_pose_c", "generate_update_c"]
 
 PREFIX = "agv_mpc"
 """The controller step's stem and the prefix of the names it defines."""
@@ -70,25 +69,6 @@ UPDATE_SETTINGS = (
 reach, the rest), then what each path sets (a_lim·T_s, the body's bounds, the end pose to rest at)."""
 
 
-@dataclass(frozen=True)
-class UpdateC:
-    """The generated C of a controller's step.
-
-    Parameters
-    ----------
-    files : dict of str to str
-        ``<prefix>.h`` and ``<prefix>.c``.
-    prefix : str
-        The stem and the names' prefix.
-    horizon : int
-        N.
-    """
-
-    files: dict[str, str]
-    prefix: str
-    horizon: int
-
-
 def generate_update_c(
     parts: StepParts,
     *,
@@ -97,7 +77,7 @@ def generate_update_c(
     prefix: str = PREFIX,
     step_prefix: str = "agv_mpc_step",
     qp_prefix: str = "agv_mpc_qp",
-) -> UpdateC:
+) -> MpcPartC:
     """The C99 of the controller's step around the QP's step (see the module's description).
 
     Parameters
@@ -117,7 +97,7 @@ def generate_update_c(
 
     Returns
     -------
-    UpdateC
+    MpcPartC
         The files.
     """
     macro = prefix.upper()
@@ -140,11 +120,11 @@ def generate_update_c(
         f"{prefix}.h": env.get_template("mpc_update.h.j2").render(values),
         f"{prefix}.c": env.get_template("mpc_update.c.j2").render(values),
     }
-    return UpdateC(files, prefix, parts.horizon)
+    return MpcPartC(files, prefix, parts.horizon)
 
 
 def generate_pose_c(
-    update: UpdateC,
+    update: MpcPartC,
     settings: dict[str, float],
     *,
     sample_period_s: float,
@@ -164,7 +144,7 @@ def generate_pose_c(
 
     Parameters
     ----------
-    update : UpdateC
+    update : MpcPartC
         The controller's step.
     settings : dict of str to float
         Its numbers (:meth:`LtvMpcController.c_settings <agvctl.controllers.mpc.ltv.LtvMpcController.c_settings>`,
