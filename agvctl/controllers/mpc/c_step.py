@@ -168,6 +168,12 @@ class StepC(MpcPartC):
 
     Parameters
     ----------
+    files : dict of str to str
+        ``<prefix>.h`` and ``<prefix>.c``.
+    prefix : str
+        The stem and the names' prefix.
+    horizon : int
+        N.
     table_names : tuple of str
         The tables in the order the step reads them: the reference's, then ``<block>.<name>`` for each block's.
     """
