@@ -208,7 +208,8 @@ def c_double(value: float) -> str:
 def c_templates(package: str) -> Any:
     """The Jinja environment of the C templates in ``package``'s ``templates`` folder: an undefined name refused,
     the text rendered as written (no escaping, the last newline kept), and the filter ``c`` writing a double as a
-    C literal of the same bits (:func:`c_double`).
+    C literal of the same bits (:func:`c_double`). The shared templates of ``agvctl.plant`` can be included from any
+    package's (``python_float.c.j2``: Python's and numpy's float arithmetic in C).
 
     Parameters
     ----------
@@ -223,7 +224,9 @@ def c_templates(package: str) -> Any:
     import jinja2
 
     env = jinja2.Environment(
-        loader=jinja2.PackageLoader(package, "templates"),
+        loader=jinja2.ChoiceLoader(
+            [jinja2.PackageLoader(package, "templates"), jinja2.PackageLoader("agvctl.plant", "templates")]
+        ),
         undefined=jinja2.StrictUndefined,
         keep_trailing_newline=True,
         autoescape=False,
