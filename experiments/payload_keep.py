@@ -7,9 +7,10 @@ the planner plans within. A run keeps them when the accelerometer's peaks (``pea
 them, and passes the default gate when it passes every default limit, the body's included. ``--on-path`` starts
 every run on its path on the nominal plant, to separate the start-up corrections and the plant's spread from the
 rest; ``--plan-share`` sets the paths' ``limits.body_plan_share`` (1.0: the plan uses the whole limits, as a
-controller that ignores them would). It also counts the runs that keep the limits judged away from a held wheel
-(slower than 1 cm/s, or within 0.1 A of the current limit) and the 0.4 s after it, the criterion record 0041
-proposes. Figures in decision record 0041.
+controller that ignores them would). It also counts the runs that keep the limits judged away from held wheels
+(the signal ``wheel_held`` of :mod:`agvctl.evaluation.payload`: a wheel slower than 1 cm/s or held back by its
+loop's current window or the amplifier's limit, and the 0.4 s after), the criterion record 0041 proposes.
+Figures in decision record 0041.
 
 Run: python experiments/payload_keep.py --seed 4242 --runs 40 [--on-path] [--controller mpc] [--plan-share 0.7]
                                         [--controller-set body_breakaway_share=1.0]
@@ -27,6 +28,7 @@ import numpy as np
 import tomli_w
 
 from agvctl.evaluation.limits import judge_run
+from agvctl.evaluation.payload import HELD_WHEEL_SPEED_M_S, RECOVERY_S, wheel_held
 from agvctl.fuzz import generate_scenario, load_fuzz_config
 from agvctl.fuzz.generate import scenario_files
 from agvctl.fuzz.spec import override_fuzz_config
@@ -44,26 +46,14 @@ READINGS = {
     "lateral": "body_lateral_accel_m_s2",
     "angular": "body_angular_accel_rad_s2",
 }
-HELD_SPEED_M_S = 0.01
-"""A wheel slower than this is held (by stiction, at a start or a stop)."""
-HELD_CURRENT_MARGIN_A = 0.1
-"""A wheel within this of the current limit is held by it."""
-RECOVERY_S = 0.4
-"""How long after a held wheel's last sample the recovery lasts."""
 
 
-def away_from_held_wheels(log: Any, limits: dict[str, float], current_limit_a: float, ts: float) -> tuple[float, float]:
+def away_from_held_wheels(log: Any, limits: dict[str, float], ts: float) -> tuple[float, float]:
     """(the largest reading over its limit, judged away from held wheels and their recoveries; the share of the
     run's samples left out): the criterion proposed in decision record 0041."""
-    c = log.columns
-    speed = np.minimum(np.abs(c["wheel_speed_left_m_s"]), np.abs(c["wheel_speed_right_m_s"]))
-    current = np.maximum(np.abs(c["current_left_a"]), np.abs(c["current_right_a"]))
-    held = (speed < HELD_SPEED_M_S) | (current >= current_limit_a - HELD_CURRENT_MARGIN_A)
-    left_out, after = held.copy(), int(round(RECOVERY_S / ts))
-    for k in np.nonzero(held)[0]:
-        left_out[k : k + after + 1] = True
+    left_out = wheel_held(log, ts) > 0
     worst = max(
-        np.max(np.abs(np.asarray(c[READINGS[what]])[~left_out]), initial=0.0) / limits[key]
+        np.max(np.abs(np.asarray(log[READINGS[what]])[~left_out]), initial=0.0) / limits[key]
         for what, (_, key) in PEAKS.items()
     )
     return float(worst), float(left_out.mean())
@@ -102,10 +92,7 @@ def gentle_runs(
             row = {what: verdict.metrics[metric] / limits[key] for what, (metric, key) in PEAKS.items()}
             row["gate"] = float(all(r.passed for r in verdict.limits))
             row["gate_else"] = float(all(r.passed for r in verdict.limits if not r.limit.startswith("peak_body_")))
-            current_limit_a = loaded.plant_vehicle.amplifier.current_limit_a
-            row["away"], row["left_out"] = away_from_held_wheels(
-                result.log, limits, current_limit_a, result.sample_period_s
-            )
+            row["away"], row["left_out"] = away_from_held_wheels(result.log, limits, result.sample_period_s)
             rows.append(row)
     return rows
 
@@ -132,8 +119,8 @@ def main() -> None:
     print(f"  passed the default gate: {int(sum(r['gate'] for r in rows))}")
     away, left_out = np.array([r["away"] for r in rows]), np.array([r["left_out"] for r in rows])
     print(
-        f"  kept away from held wheels (below {HELD_SPEED_M_S * 100:g} cm/s or within {HELD_CURRENT_MARGIN_A:g} A of "
-        f"the current limit, and {RECOVERY_S:g} s after): {int(np.sum(away <= 1.0))}; samples left out: median "
+        f"  kept away from held wheels (below {HELD_WHEEL_SPEED_M_S * 100:g} cm/s or held back by a limit, and "
+        f"{RECOVERY_S:g} s after): {int(np.sum(away <= 1.0))}; samples left out: median "
         f"{np.median(left_out):.0%}, largest {left_out.max():.0%}"
     )
     print(

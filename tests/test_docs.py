@@ -257,6 +257,7 @@ DEFINITIONS: dict[str, dict[str, str]] = {
         "0.15 to 0.5 m": "the fewest and most backing steps, BACKING_STEPS of the same module",
     },
     "docs/guide/ci-gate.md": {
+        "0.4 s": "a held wheel's recovery, RECOVERY_S of agvctl.evaluation.payload (decision record 0041)",
         "0.4 m/s²": "the planning limit the doctest's example path sets (an input)",
         "1 mm": "how far a fault must move a run to harm it, defined in experiments/robustness/broken_controllers.py",
         "0.5°": "how far a fault must turn a run to harm it, a definition of the same script",

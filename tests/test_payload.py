@@ -12,11 +12,14 @@ import pytest
 from cli_runs import one_line, run
 
 from agvctl.errors import ConfigError
+from agvctl.evaluation.formula import parse_formula
 from agvctl.evaluation.limits import LimitsSpec, judge_run
-from agvctl.evaluation.metrics import closed_loop_metrics
-from agvctl.evaluation.payload import PAYLOAD_LOG_COLUMNS, PayloadAccelerometer
+from agvctl.evaluation.metrics import closed_loop_metrics, signal_values
+from agvctl.evaluation.payload import HELD_WHEEL_SPEED_M_S, PAYLOAD_LOG_COLUMNS, RECOVERY_S, PayloadAccelerometer
+from agvctl.evaluation.requirements import evaluate_requirement
 from agvctl.fuzz import generate_scenario, load_fuzz_config
 from agvctl.fuzz.generate import scenario_files
+from agvctl.log import SimLog
 from agvctl.params import load_vehicle
 from agvctl.plots import render_run_panel
 from agvctl.plots.closed_loop import draw_body_accel
@@ -113,6 +116,65 @@ def test_a_requirement_names_the_payloads_readings(tmp_path: Path):
         encoding="utf-8",
     )
     assert load_experiment(exp).spec.requirements[0].name == "gentle"
+
+
+def _wheels_log(
+    left_m_s: list[float], right_m_s: list[float], limited_right: list[int], loop_limited_left: list[int] | None = None
+) -> SimLog:
+    n = len(left_m_s)
+    return SimLog(
+        {
+            "t_s": np.arange(n) * TS,
+            "wheel_speed_left_m_s": np.array(left_m_s),
+            "wheel_speed_right_m_s": np.array(right_m_s),
+            "current_limited_left": np.zeros(n),
+            "current_limited_right": np.array(limited_right, dtype=np.float64),
+            "wheel_loop_limited_left": np.array(loop_limited_left or [0] * n, dtype=np.float64),
+            "wheel_loop_limited_right": np.zeros(n),
+        }
+    )
+
+
+def test_a_wheel_is_held_below_a_centimetre_a_second_or_by_a_limit_and_recovers_for_0_4_s():
+    recovery = round(RECOVERY_S / TS)  # 10 samples
+    n = 40
+    moving = [0.2] * n
+    slow = [0.2] * n
+    slow[3] = -0.5 * HELD_WHEEL_SPEED_M_S  # held by stiction, either direction
+    held = signal_values(_wheels_log(slow, moving, [0] * n), "wheel_held", TS)
+    assert held.tolist() == [0.0] * 3 + [1.0] * (1 + recovery) + [0.0] * (n - 4 - recovery)
+    limited = [0] * n
+    limited[20] = 1  # the right wheel's current limit acted in the interval
+    held = signal_values(_wheels_log(moving, moving, limited), "wheel_held", TS)
+    assert held.tolist() == [0.0] * 20 + [1.0] * (1 + recovery) + [0.0] * (n - 21 - recovery)
+    held = signal_values(_wheels_log(moving, moving, [0] * n, limited), "wheel_held", TS)  # its loop clamped
+    assert held.tolist() == [0.0] * 20 + [1.0] * (1 + recovery) + [0.0] * (n - 21 - recovery)
+    assert not signal_values(_wheels_log(moving, [HELD_WHEEL_SPEED_M_S] * n, [0] * n), "wheel_held", TS).any()
+
+
+def test_a_requirement_judges_the_payload_away_from_a_break_away():
+    """A wheel held by stiction breaks away with a jolt (0.45 m/s² against 0.25 m/s² while moving): judged away from
+    held wheels, a 0.3 m/s² bound is kept with the moving samples' margin; judged everywhere, it is not."""
+    n = 40
+    left = [0.0] * 5 + [0.2] * (n - 5)  # held at rest, then moving
+    log = _wheels_log(left, [0.2] * n, [0] * n)
+    reading = np.full(n, 0.25)
+    reading[6] = 0.45  # the break-away, within the recovery
+    log.columns["body_linear_accel_m_s2"] = reading
+    away = parse_formula("always (not wheel_held -> abs(body_linear_accel_m_s2) <= 0.3)")
+    everywhere = parse_formula("always abs(body_linear_accel_m_s2) <= 0.3")
+    assert evaluate_requirement(away, log, TS, None).margin == pytest.approx(0.05)
+    assert evaluate_requirement(everywhere, log, TS, None).margin == pytest.approx(-0.15)
+
+
+def test_on_the_shipped_line_the_wheels_are_held_at_rest_and_free_while_they_drive():
+    result = run_experiment(load_experiment(EXPERIMENTS / "line.toml"))
+    held = signal_values(result.log, "wheel_held", result.sample_period_s)
+    speed = np.abs(np.asarray(result.log["speed_m_s"]))
+    t = np.asarray(result.log["t_s"])
+    assert held[0] == 1.0 and held[-1] == 1.0
+    cruising = (speed > 0.1) & (t > t[0] + RECOVERY_S + 0.5)
+    assert cruising.any() and not held[cruising].any()
 
 
 def test_the_api_refuses_an_accelerometer_that_is_not_one():

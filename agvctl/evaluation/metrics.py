@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 from agvctl.angles import wrap_angle
 from agvctl.errors import ConfigError
 from agvctl.evaluation.end_of_path import arrival_index, dock_offset_m, late_s, reference_end_index, rest_current_a
-from agvctl.evaluation.payload import PAYLOAD_METRICS
+from agvctl.evaluation.payload import PAYLOAD_METRICS, wheel_held
 from agvctl.evaluation.signals import Metric, Reduction, Signal
 from agvctl.log import SimLog
 
@@ -243,6 +243,7 @@ SIGNALS: dict[str, Signal] = {
     "wheel_speed_error_m_s": wheel_speed_error_m_s,
     "wheel_speed_error_left_m_s": _wheel_speed_error("left"),
     "wheel_speed_error_right_m_s": _wheel_speed_error("right"),
+    "wheel_held": wheel_held,
     "motor_current_peak_a": lambda log, ts: _either(log, "current_peak_{}_a"),
     "da_clipped": _clipped,
     "current_limited_share": _current_limited,
@@ -260,7 +261,8 @@ compares. ``heading_error_deg`` and ``path_heading_error_deg`` are signed (the l
 and ``motor_current_peak_a`` the larger magnitude of the two wheels'; ``wheel_speed_error_m_s`` the windowed error
 where the loop has authority (:func:`wheel_speed_error_m_s`), ``wheel_speed_error_left_m_s`` and
 ``wheel_speed_error_right_m_s`` each wheel's signed ``v(t_k) − v_sp(t_k−1)``; ``da_clipped``, ``deadline_missed``,
-``solver_failed`` and ``non_finite_command`` are flags (1 or 0); ``current_limited_share`` is the larger share of
+``solver_failed``, ``non_finite_command`` and ``wheel_held`` (a wheel held or recovering,
+:func:`~agvctl.evaluation.payload.wheel_held`) are flags (1 or 0); ``current_limited_share`` is the larger share of
 either wheel's hold interval at the current limit."""
 
 

@@ -21,6 +21,12 @@ The angular acceleration is ω̇ through the same filter; the jerk is the change
 over each sample. The columns (:data:`PAYLOAD_LOG_COLUMNS`) are part of every closed-loop log; an experiment's
 ``[payload]`` table places the accelerometer (:class:`PayloadAccelerometer`), and its ``[limits]`` and
 ``[[requirements]]`` judge the readings (``peak_body_linear_accel_m_s2``, …).
+
+A wheel held by stiction (at a start, a stop or a reversal) breaks away with the jolt of the friction's jump, and a
+wheel held back by its current limit catches up with setpoints that moved on meanwhile: the accelerometer reads
+both on top of what the controller commands. :func:`wheel_held` marks those samples (the signal ``wheel_held`` of
+a requirement), so that a requirement can judge the payload's limits where the wheels move freely, and say so:
+``always (not wheel_held -> abs(body_linear_accel_m_s2) <= 0.3)``.
 """
 
 from __future__ import annotations
@@ -33,8 +39,16 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.signal import lfilter
 
 from agvctl.config import check_fields, document_fields, number
+from agvctl.log import SimLog
 
-__all__ = ["PAYLOAD_LOG_COLUMNS", "PAYLOAD_METRICS", "PayloadAccelerometer"]
+__all__ = [
+    "HELD_WHEEL_SPEED_M_S",
+    "PAYLOAD_LOG_COLUMNS",
+    "PAYLOAD_METRICS",
+    "PayloadAccelerometer",
+    "RECOVERY_S",
+    "wheel_held",
+]
 
 PAYLOAD_LOG_COLUMNS = (
     "body_linear_accel_m_s2",
@@ -122,3 +136,42 @@ class PayloadAccelerometer:
         pole = math.exp(-sample_period_s / self.time_constant_s)
         once = lfilter([1.0 - pole], [1.0, -pole], values)
         return np.asarray(lfilter([1.0 - pole], [1.0, -pole], once), dtype=np.float64)
+
+
+HELD_WHEEL_SPEED_M_S = 0.01
+"""A wheel whose rim is slower than this (m/s) is held: by stiction at a start, a stop or a reversal."""
+RECOVERY_S = 0.4
+"""How long a held wheel's recovery lasts after its last held sample, s: the break-away and the catch-up (decision
+record 0041 found every excess of the payload's limits it traced within 0.4 s of a held wheel)."""
+
+
+def wheel_held(log: SimLog, sample_period_s: float) -> NDArray[np.float64]:
+    """1 at each sample where a wheel is held or recovering, else 0.
+
+    A wheel is held at a sample where its rim is slower than :data:`HELD_WHEEL_SPEED_M_S` (stiction), or where it is
+    held back by a limit: its wheel loop's output was clamped to its window (``wheel_loop_limited_*``: the current
+    limit, the DA range) or the amplifier's current limit acted (``current_limited_*``). It recovers for
+    :data:`RECOVERY_S` after its last held sample.
+
+    Parameters
+    ----------
+    log : SimLog
+        The run's log: the wheels' rim speeds, and the limits' flags it has.
+    sample_period_s : float
+        T_s, s.
+
+    Returns
+    -------
+    ndarray
+        1.0 or 0.0 at each sample.
+    """
+    speed = np.minimum(np.abs(log["wheel_speed_left_m_s"]), np.abs(log["wheel_speed_right_m_s"]))
+    held = speed < HELD_WHEEL_SPEED_M_S
+    for column in ("current_limited_{}", "wheel_loop_limited_{}"):
+        for side in ("left", "right"):
+            if column.format(side) in log:
+                held |= np.asarray(log[column.format(side)]) > 0
+    index = np.arange(len(held))
+    last_held = np.maximum.accumulate(np.where(held, index, -(10**12)))
+    after = round(RECOVERY_S / sample_period_s)
+    return (index - last_held <= after).astype(np.float64)
