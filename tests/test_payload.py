@@ -167,6 +167,29 @@ def test_a_requirement_judges_the_payload_away_from_a_break_away():
     assert evaluate_requirement(everywhere, log, TS, None).margin == pytest.approx(-0.15)
 
 
+def test_a_broken_payload_limit_says_how_the_run_fares_where_the_wheels_move_freely(tmp_path: Path):
+    """A sticky plant (break-away torque 0.11 N m over 0.045 N m of Coulomb friction) jolts the load as a wheel
+    breaks away at the start: the default gate breaks the path's 0.3 m/s², and its verdict says the run kept it
+    where the wheels move freely."""
+    path = tmp_path / "gentle.toml"
+    path.write_text(
+        'name = "gentle"\n[limits]\nlinear_accel_m_s2 = 0.3\n[[segments]]\ntype = "line"\nlength_m = 1.0\n',
+        encoding="utf-8",
+    )
+    exp = tmp_path / "sticky.toml"
+    exp.write_text(
+        f'name = "sticky"\ntrajectory = "{path.as_posix()}"\n[plant]\n'
+        'set = { "motor.coulomb_friction_n_m" = 0.045, "motor.stiction_n_m" = 0.11 }\n',
+        encoding="utf-8",
+    )
+    experiment = load_experiment(exp)
+    verdict = judge_run(run_experiment(experiment), experiment.spec.limits, experiment.controller_vehicle)
+    judged = {r.limit: r for r in verdict.limits}["peak_body_linear_accel_m_s2"]
+    assert not judged.passed and judged.worst_time_s is not None and judged.worst_time_s < RECOVERY_S + 0.2
+    assert "where the wheels move freely (not wheel_held) kept" in judged.note and judged.note in judged.message
+    assert all(not r.note for r in verdict.limits if r.passed)
+
+
 def test_on_the_shipped_line_the_wheels_are_held_at_rest_and_free_while_they_drive():
     result = run_experiment(load_experiment(EXPERIMENTS / "line.toml"))
     held = signal_values(result.log, "wheel_held", result.sample_period_s)

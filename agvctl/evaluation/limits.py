@@ -50,9 +50,9 @@ from agvctl.evaluation.default_bounds import (
     DefaultLimit,
     default_bounds,
 )
-from agvctl.evaluation.formula import Comparison, Formula, Temporal
+from agvctl.evaluation.formula import Comparison, Formula, Temporal, parse_formula
 from agvctl.evaluation.metrics import METRICS, RunRecord, closed_loop_metrics
-from agvctl.evaluation.payload import PAYLOAD_METRICS
+from agvctl.evaluation.payload import PAYLOAD_LOG_COLUMNS, PAYLOAD_METRICS
 from agvctl.evaluation.requirements import PathParts, RequirementSpec, evaluate_requirement
 from agvctl.evaluation.signals import Metric, Reduction
 from agvctl.evaluation.verdicts import (
@@ -276,6 +276,7 @@ def _limit_result(
     else:
         text, margin, window = "", bound - value, run_window
     passed = bool(margin >= -abs(bound) * 1e-12) and not math.isnan(value)
+    note = "" if passed else _held_wheel_note(key, bound, log, sample_period_s)
     return LimitResult(
         key,
         bound,
@@ -289,7 +290,23 @@ def _limit_result(
         window_s=window,
         formula=text,
         unit=LIMITS[key].unit,
+        note=note,
     )
+
+
+def _held_wheel_note(key: str, bound: float, log: SimLog, sample_period_s: float) -> str:
+    """For a broken limit on what the payload's accelerometer reads, how the run fares where the wheels move freely
+    (``wheel_held``, :func:`~agvctl.evaluation.payload.wheel_held`): a break-away's jolt or a held wheel's catch-up
+    told apart from what the controller commands. Empty for any other limit."""
+    signal = LIMITS[key].metric.signal_name
+    if signal not in PAYLOAD_LOG_COLUMNS:
+        return ""
+    formula = parse_formula(f"always (not wheel_held -> abs({signal}) <= {float(bound)!r})")
+    free = evaluate_requirement(formula, log, sample_period_s, None).margin
+    if not math.isfinite(free):
+        return "a wheel was held or recovering at every sample (wheel_held)"
+    kept = "kept" if free >= 0.0 else "broken"
+    return f"where the wheels move freely (not wheel_held) {kept}, margin {free:+.3g}{LIMITS[key].unit}"
 
 
 def evaluate_limits(

@@ -201,7 +201,8 @@ class LimitResult:
     unit: str = ""
     """The margin's unit as printed (``" m"``)."""
     note: str = ""
-    """Why a requirement's margin is infinite or missing; empty otherwise."""
+    """Why a requirement's margin is infinite or missing; for a broken limit on the payload's readings, how the run
+    fares where the wheels move freely (``wheel_held``); empty otherwise."""
 
     @property
     def normalised_margin(self) -> float:
@@ -232,7 +233,8 @@ class LimitResult:
             self.margin,
             self.window_s,
         )
-        return f"{text} (default: {self.reason})" if self.default else text
+        text = f"{text} (default: {self.reason})" if self.default else text
+        return f"{text}; {self.note}" if self.note else text
 
     def as_dict(self) -> dict[str, object]:
         d = asdict(self)
