@@ -22,8 +22,8 @@ from agvctl.fuzz.generate import scenario_files
 from agvctl.log import SimLog
 from agvctl.params import load_vehicle
 from agvctl.plots import render_run_panel
-from agvctl.plots.closed_loop import draw_body_accel
 from agvctl.plots.figures import subplots
+from agvctl.plots.payload import draw_body_accel
 from agvctl.scenario.experiment import load_experiment, run_experiment
 
 EXPERIMENTS = Path(__file__).resolve().parent.parent / "experiments"
@@ -207,13 +207,15 @@ def test_the_api_refuses_an_accelerometer_that_is_not_one():
         PayloadAccelerometer(x_m=math.inf)
 
 
-def test_the_run_panel_draws_the_payloads_readings_against_a_load_bound():
+def test_the_run_panel_draws_the_payloads_readings_against_a_load_bound_and_shades_the_held_wheels():
     result = run_experiment(load_experiment(EXPERIMENTS / "line.toml"))
     _, ax = subplots(figsize=(4, 3))
     draw_body_accel(ax, result.log, {"peak_body_linear_accel_m_s2": 0.5})
     labels = [line.get_label() for line in ax.lines]
     assert "payload: body_linear_accel_m_s2" in labels and "peak_body_linear_accel_m_s2 0.5" in labels
     assert not any("lateral" in label for label in labels)  # only the bounds the experiment sets
+    shaded = [c.get_label() for c in ax.collections]
+    assert shaded == ["a wheel held or recovering (wheel_held)"]  # the line starts and ends at rest
     assert not ax.figure.axes[1:]  # no angular bound, no second axis
     angular = draw_body_accel(ax, result.log, {"peak_body_angular_accel_rad_s2": 1.0})
     labels = [line.get_label() for line in angular.lines]

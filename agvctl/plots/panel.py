@@ -13,7 +13,6 @@ from agvctl.log import SimLog
 from agvctl.params import VehicleParams
 from agvctl.plots.closed_loop import (
     MM_PER_M,
-    draw_body_accel,
     draw_both_sides,
     draw_errors,
     draw_path,
@@ -21,6 +20,7 @@ from agvctl.plots.closed_loop import (
     draw_wheel_speed,
 )
 from agvctl.plots.figures import png_bytes, subplots
+from agvctl.plots.payload import draw_body_accel
 
 __all__ = ["PANEL_DPI", "render_run_panel"]
 
