@@ -167,7 +167,7 @@ def test_a_requirement_judges_the_payload_away_from_a_break_away():
     assert evaluate_requirement(everywhere, log, TS, None).margin == pytest.approx(-0.15)
 
 
-def test_a_broken_payload_limit_says_how_the_run_fares_where_the_wheels_move_freely(tmp_path: Path):
+def test_a_broken_payload_limit_says_how_the_run_fares_where_the_wheels_move_freely(tmp_path: Path, capsys):
     """A sticky plant (break-away torque 0.11 N m over 0.045 N m of Coulomb friction) jolts the load as a wheel
     breaks away at the start: the default gate breaks the path's 0.3 m/s², and its verdict says the run kept it
     where the wheels move freely."""
@@ -188,6 +188,8 @@ def test_a_broken_payload_limit_says_how_the_run_fares_where_the_wheels_move_fre
     assert not judged.passed and judged.worst_time_s is not None and judged.worst_time_s < RECOVERY_S + 0.2
     assert "where the wheels move freely (not wheel_held) kept" in judged.note and judged.note in judged.message
     assert all(not r.note for r in verdict.limits if r.passed)
+    code, out, _ = run(capsys, "check", exp, "--jobs", "1")  # the gate's line says it too
+    assert code == 1 and judged.note in next(line for line in out.splitlines() if "peak_body_linear_accel" in line)
 
 
 def test_on_the_shipped_line_the_wheels_are_held_at_rest_and_free_while_they_drive():

@@ -19,13 +19,8 @@ from typing import Any, Literal
 import numpy as np
 
 from agvctl.config import document_fields
-from agvctl.evaluation.limits import (
-    LimitResult,
-    format_limit_message,
-    format_requirement_message,
-    margin_scale,
-    smallest_normalised_margin,
-)
+from agvctl.evaluation.limits import LimitResult, margin_scale, smallest_normalised_margin
+from agvctl.evaluation.verdicts import verdict_message
 from agvctl.fileio import json_safe
 from agvctl.scenario.experiment import Experiment
 
@@ -123,7 +118,8 @@ class LimitVerdict:
     unit: str = ""
     """The margin's unit as printed."""
     note: str = ""
-    """Why a requirement's margin is infinite or missing."""
+    """Why a requirement's margin is infinite or missing; for a broken limit on the payload's readings, how the run
+    fares where the wheels move freely."""
 
     @property
     def normalised_margin(self) -> float:
@@ -134,30 +130,7 @@ class LimitVerdict:
     def message(self) -> str:
         """The limit's or requirement's message with its margin (and a default's reason); when violated on a Monte
         Carlo sample, that sample and its parameters too."""
-        if self.kind == "requirement":
-            text = format_requirement_message(
-                self.limit,
-                self.formula,
-                self.passed,
-                self.margin,
-                self.unit,
-                self.worst_time_s,
-                self.window_s,
-                self.note,
-            )
-        else:
-            text = format_limit_message(
-                self.limit,
-                self.value,
-                self.bound,
-                self.passed,
-                self.worst_time_s,
-                self.first_time_s,
-                self.margin,
-                self.window_s,
-            )
-        if self.default:
-            text += f" (default: {self.reason})"
+        text = verdict_message(self)
         if self.passed:
             return text
         if self.sample is not None:

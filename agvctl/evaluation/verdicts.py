@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
-from typing import Literal
+from typing import Literal, Protocol
 
 from agvctl.config import document_fields
 from agvctl.evaluation.metrics import METRICS
@@ -25,6 +25,7 @@ __all__ = [
     "format_requirement_message",
     "margin_scale",
     "smallest_normalised_margin",
+    "verdict_message",
 ]
 
 
@@ -167,6 +168,67 @@ def format_requirement_message(
     return text + (f" ({note})" if note else "")
 
 
+class Verdict(Protocol):
+    """What a verdict's line reads: a run's (:class:`LimitResult`) or the worst of an experiment's runs
+    (``agvctl.checks.report.LimitVerdict``)."""
+
+    @property
+    def limit(self) -> str: ...
+    @property
+    def value(self) -> float: ...
+    @property
+    def bound(self) -> float: ...
+    @property
+    def passed(self) -> bool: ...
+    @property
+    def worst_time_s(self) -> float | None: ...
+    @property
+    def first_time_s(self) -> float | None: ...
+    @property
+    def default(self) -> bool: ...
+    @property
+    def reason(self) -> str: ...
+    @property
+    def margin(self) -> float: ...
+    @property
+    def window_s(self) -> tuple[float, float] | None: ...
+    @property
+    def kind(self) -> Literal["limit", "requirement"]: ...
+    @property
+    def formula(self) -> str: ...
+    @property
+    def unit(self) -> str: ...
+    @property
+    def note(self) -> str: ...
+
+
+def verdict_message(verdict: Verdict) -> str:
+    """A limit's or a requirement's verdict as the one line ``run``, ``check`` and ``fuzz`` print: the limit's
+    (:func:`format_limit_message`) with a default's reason and its note, or the requirement's
+    (:func:`format_requirement_message`).
+
+    Parameters
+    ----------
+    verdict : Verdict
+        The verdict.
+
+    Returns
+    -------
+    str
+        The line.
+    """
+    v = verdict
+    if v.kind == "requirement":
+        return format_requirement_message(
+            v.limit, v.formula, v.passed, v.margin, v.unit, v.worst_time_s, v.window_s, v.note
+        )
+    text = format_limit_message(
+        v.limit, v.value, v.bound, v.passed, v.worst_time_s, v.first_time_s, v.margin, v.window_s
+    )
+    text = f"{text} (default: {v.reason})" if v.default else text
+    return f"{text}; {v.note}" if v.note else text
+
+
 @document_fields
 @dataclass(frozen=True)
 class LimitResult:
@@ -212,29 +274,8 @@ class LimitResult:
 
     @property
     def message(self) -> str:
-        if self.kind == "requirement":
-            return format_requirement_message(
-                self.limit,
-                self.formula,
-                self.passed,
-                self.margin,
-                self.unit,
-                self.worst_time_s,
-                self.window_s,
-                self.note,
-            )
-        text = format_limit_message(
-            self.limit,
-            self.value,
-            self.bound,
-            self.passed,
-            self.worst_time_s,
-            self.first_time_s,
-            self.margin,
-            self.window_s,
-        )
-        text = f"{text} (default: {self.reason})" if self.default else text
-        return f"{text}; {self.note}" if self.note else text
+        """The verdict as one line (:func:`verdict_message`)."""
+        return verdict_message(self)
 
     def as_dict(self) -> dict[str, object]:
         d = asdict(self)
