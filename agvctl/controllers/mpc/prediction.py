@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvctl.controllers.mpc.config import MpcConfig, wheel_loop_time_constant_s
+from agvctl.controllers.mpc.horizon import WheelFeedforward
 from agvctl.controllers.mpc.ltv_qp import SpeedBox, StepBlock
 from agvctl.controllers.mpc.reach import Reach
 
@@ -36,8 +37,9 @@ point mispredicts a lateral motion of at most 0.01·δU·t (under 0.1 mm over th
 an unchanged matrix spares OSQP its refactorisation, about a third of a step."""
 
 
-class PredictionModel(Protocol):
-    """What drives the kinematics (see the module notes)."""
+class PredictionModel(WheelFeedforward, Protocol):
+    """What drives the kinematics (see the module notes); and, as every prediction model, the feed-forward it needs
+    (:class:`~agvctl.controllers.mpc.horizon.WheelFeedforward`)."""
 
     n_states: int
     """nx, the error states per sample: the pose's 3, and the model's own."""
@@ -80,23 +82,6 @@ class PredictionModel(Protocol):
         -------
         list of ndarray
             Its states' rows (each of N values), none for a model of the pose alone.
-        """
-        ...
-
-    def feedforward_m_s(self, wheel_m_s: FloatArray, mid_wheel_m_s: FloatArray) -> FloatArray:
-        """The setpoints over each interval that make the model's wheels follow the reference.
-
-        Parameters
-        ----------
-        wheel_m_s : ndarray
-            The reference's wheel speeds at the grid points (n × 2: left, right), m/s.
-        mid_wheel_m_s : ndarray
-            Its wheel speeds at the intervals' midpoints ((n − 1) × 2), m/s.
-
-        Returns
-        -------
-        ndarray
-            (n − 1) × 2, m/s.
         """
         ...
 
