@@ -303,7 +303,9 @@ def _held_wheel_note(key: str, bound: float, log: SimLog, sample_period_s: float
         return ""
     formula = parse_formula(f"always (not wheel_held -> abs({signal}) <= {float(bound)!r})")
     free = evaluate_requirement(formula, log, sample_period_s, None).margin
-    if not math.isfinite(free):
+    if math.isnan(free):  # a run that diverged: the limit's own line says so
+        return ""
+    if math.isinf(free):
         return "a wheel was held or recovering at every sample (wheel_held)"
     kept = "kept" if free >= 0.0 else "broken"
     return f"where the wheels move freely (not wheel_held) {kept}, margin {free:+.3g}{LIMITS[key].unit}"

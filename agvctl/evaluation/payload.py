@@ -171,7 +171,7 @@ def wheel_held(log: SimLog, sample_period_s: float) -> NDArray[np.float64]:
         for side in ("left", "right"):
             if column.format(side) in log:
                 held |= np.asarray(log[column.format(side)]) > 0
-    index = np.arange(len(held))
-    last_held = np.maximum.accumulate(np.where(held, index, -(10**12)))
     after = round(RECOVERY_S / sample_period_s)
+    index = np.arange(len(held))
+    last_held = np.maximum.accumulate(np.where(held, index, -after - 1))  # before any held sample: too long ago
     return (index - last_held <= after).astype(np.float64)

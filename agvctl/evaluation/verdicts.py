@@ -25,6 +25,7 @@ __all__ = [
     "format_requirement_message",
     "margin_scale",
     "smallest_normalised_margin",
+    "Verdict",
     "verdict_message",
 ]
 
