@@ -222,6 +222,9 @@ def test_the_run_panel_draws_the_payloads_readings_against_a_load_bound_and_shad
     angular = draw_body_accel(ax, result.log, {"peak_body_angular_accel_rad_s2": 1.0})
     labels = [line.get_label() for line in angular.lines]
     assert "payload: body_angular_accel_rad_s2 (right axis)" in labels and "peak_body_angular_accel_rad_s2 1" in labels
+    _, alone = subplots(figsize=(4, 3))
+    draw_body_accel(alone, result.log, {"peak_body_angular_accel_rad_s2": 1.0})  # the shading is in a legend too
+    assert [t.get_text() for t in alone.get_legend().get_texts()] == ["a wheel held or recovering (wheel_held)"]
 
 
 def test_the_panel_of_a_run_with_a_paths_body_limits_draws_them_and_the_next_panel_starts_clean():

@@ -44,6 +44,7 @@ def draw_body_accel(ax: Any, log: SimLog, bounds: Mapping[str, float]) -> Any:
     """
     if any(key in bounds for key in (*BODY_ACCEL_LIMITS, "peak_body_angular_accel_rad_s2")):
         _shade_held_wheels(ax, log)
+        ax.legend(loc="best", fontsize=8)
     for key, (column, colour) in BODY_ACCEL_LIMITS.items():
         if key in bounds and column in log:
             ax.plot(log["t_s"], log[column], color=colour, lw=1.2, label=f"payload: {column}")
